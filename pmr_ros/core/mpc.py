@@ -1,0 +1,193 @@
+"""Linear constrained MPC on OSQP with offset-free output-bias correction.
+
+The controller predicts with its model ``Ghat`` (the state-space realization of
+the FOPTD matrix, delays as shift registers), penalizes tracking error and
+input moves, and respects input magnitude and rate limits.  The QP is posed in
+the condensed form over the input moves ``dU`` of the control horizon:
+
+    min  (Yfree + Theta dU - Rtarget)' Q (...) + dU' R dU
+    s.t. u_min <= u_prev + L dU <= u_max,  |dU| <= du_max
+
+so its Hessian and constraint matrix never change: OSQP factors them once and
+each step only the linear term and the bounds are updated (warm-started).
+Offset-free tracking uses the DMC/IMC output-disturbance bias
+``d = y_measured - yhat`` held constant over the horizon.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+from .foptd import FoptdMatrix
+
+
+@dataclass(frozen=True)
+class MpcTuning:
+    """MPC tuning.
+
+    Attributes
+    ----------
+    prediction_horizon : int
+        Np [samples]; must cover the largest delay plus the settling of interest.
+    control_horizon : int
+        Nc [samples] of free moves; the input is held after it.
+    output_weight : ndarray, shape (n_outputs,)
+        Q, per output, on squared tracking error [1/output unit^2].
+    move_weight : ndarray, shape (n_inputs,)
+        R, per input, on squared moves [1/input unit^2].
+    u_min, u_max : ndarray, shape (n_inputs,)
+        Input magnitude limits [input unit], in deviation from nominal.
+    du_max : ndarray, shape (n_inputs,)
+        Largest move per sample [input unit].
+    """
+
+    prediction_horizon: int
+    control_horizon: int
+    output_weight: np.ndarray
+    move_weight: np.ndarray
+    u_min: np.ndarray
+    u_max: np.ndarray
+    du_max: np.ndarray
+
+
+@dataclass
+class MpcStatistics:
+    """Counters of the QP solves, for benchmarks and health reporting."""
+
+    solves: int = 0
+    failures: int = 0
+    solve_time_s: list[float] | None = None
+
+
+class LinearMpc:
+    """Constrained MPC for a FOPTD matrix model.
+
+    Parameters
+    ----------
+    model : FoptdMatrix
+        The controller's model ``Ghat`` (deviation variables).
+    tuning : MpcTuning
+    record_solve_times : bool
+        Keep each solve's wall time in ``statistics.solve_time_s``.
+    """
+
+    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False) -> None:
+        self.model = model
+        self.tuning = tuning
+        ss = model.state_space()
+        self._A, self._B, self._C = ss.A, ss.B, ss.C
+        n_out, n_in = model.n_outputs, model.n_inputs
+        Np, Nc = tuning.prediction_horizon, tuning.control_horizon
+        if Nc > Np:
+            raise ValueError("control_horizon must not exceed prediction_horizon")
+
+        # Step-response-style prediction matrices.
+        nx = self._A.shape[0]
+        Phi = np.zeros((Np * n_out, nx))  # effect of the current state
+        Psi = np.zeros((Np * n_out, n_in))  # effect of holding u_prev
+        markov = []  # C A^j B, j = 0..Np-1
+        Apow = np.eye(nx)
+        for _ in range(Np):
+            markov.append(self._C @ Apow @ self._B)
+            Apow = self._A @ Apow
+            # Apow is now A^(j+1)
+        Apow = np.eye(nx)
+        acc = np.zeros((n_out, n_in))
+        for j in range(Np):
+            Apow = self._A @ Apow
+            Phi[j * n_out:(j + 1) * n_out] = self._C @ Apow
+            acc = acc + markov[j]
+            Psi[j * n_out:(j + 1) * n_out] = acc
+        # Theta[j, l]: effect on y(k+1+j) of the move at k+l (l < Nc): step response S_(j-l).
+        step = np.cumsum(np.stack(markov), axis=0)  # step[j] = sum_{t<=j} C A^t B
+        Theta = np.zeros((Np * n_out, Nc * n_in))
+        for j in range(Np):
+            for m in range(min(j + 1, Nc)):
+                Theta[j * n_out:(j + 1) * n_out, m * n_in:(m + 1) * n_in] = step[j - m]
+        self._Phi, self._Psi, self._Theta = Phi, Psi, Theta
+
+        Q = np.tile(np.asarray(tuning.output_weight, dtype=float), Np)
+        R = np.tile(np.asarray(tuning.move_weight, dtype=float), Nc)
+        self._QTheta_T = (Theta * Q[:, None]).T  # Theta' Q
+        H = self._QTheta_T @ Theta + np.diag(R)
+        H = 0.5 * (H + H.T)
+        cumulative = np.kron(np.tril(np.ones((Nc, Nc))), np.eye(n_in))
+        A_con = sp.vstack([sp.csc_matrix(cumulative), sp.identity(Nc * n_in, format="csc")], format="csc")
+        self._du_bound = np.tile(np.asarray(tuning.du_max, dtype=float), Nc)
+        self._u_min = np.tile(np.asarray(tuning.u_min, dtype=float), Nc)
+        self._u_max = np.tile(np.asarray(tuning.u_max, dtype=float), Nc)
+        self._solver = osqp.OSQP()
+        self._solver.setup(
+            sp.triu(sp.csc_matrix(H), format="csc"),
+            np.zeros(Nc * n_in),
+            A_con,
+            np.concatenate([self._u_min, -self._du_bound]),
+            np.concatenate([self._u_max, self._du_bound]),
+            verbose=False,
+            warm_starting=True,
+            eps_abs=1e-7,
+            eps_rel=1e-7,
+            max_iter=10000,
+            polishing=False,
+        )
+        self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the model state and past input (plant at rest)."""
+        self._x = np.zeros(self._A.shape[0])
+        self._u_prev = np.zeros(self.model.n_inputs)
+
+    @property
+    def model_output(self) -> np.ndarray:
+        """The model's prediction ``yhat(k)`` of the current output [output unit]."""
+        return self._C @ self._x
+
+    def step(self, y_measured, setpoint) -> np.ndarray:
+        """Compute ``u(k)`` from ``y(k)`` and ``r(k)``; advance the internal model.
+
+        Parameters
+        ----------
+        y_measured : array_like, shape (n_outputs,)
+            Measured outputs [output unit].
+        setpoint : array_like, shape (n_outputs,)
+            Setpoints [output unit], held over the horizon.
+
+        Returns
+        -------
+        ndarray, shape (n_inputs,)
+            The input to apply over the next sample [input unit].
+        """
+        y_measured = np.asarray(y_measured, dtype=float)
+        bias = y_measured - self._C @ self._x
+        target = np.tile(np.asarray(setpoint, dtype=float) - bias, self.tuning.prediction_horizon)
+        free = self._Phi @ self._x + self._Psi @ self._u_prev
+        q = -self._QTheta_T @ (target - free)
+        u_rep = np.tile(self._u_prev, self.tuning.control_horizon)
+        lower = np.concatenate([self._u_min - u_rep, -self._du_bound])
+        upper = np.concatenate([self._u_max - u_rep, self._du_bound])
+        self._solver.update(q=q, l=lower, u=upper)
+        t0 = time.perf_counter()
+        result = self._solver.solve()
+        elapsed = time.perf_counter() - t0
+        stats = self.statistics
+        stats.solves += 1
+        if stats.solve_time_s is not None:
+            stats.solve_time_s.append(elapsed)
+        n_in = self.model.n_inputs
+        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
+            move = result.x[:n_in]
+        else:
+            # Holding the input is the safe fallback of industrial MPC on a failed solve.
+            stats.failures += 1
+            move = np.zeros(n_in)
+        du_max = np.asarray(self.tuning.du_max, dtype=float)
+        u = np.clip(self._u_prev + np.clip(move, -du_max, du_max), self.tuning.u_min, self.tuning.u_max)
+        self._x = self._A @ self._x + self._B @ u
+        self._u_prev = u
+        return u

@@ -1,0 +1,51 @@
+"""Discrete MIMO FOPTD plant with additive white Gaussian measurement noise."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .foptd import FoptdMatrix
+
+
+def noise_generator(seed: int) -> np.random.Generator:
+    """The measurement-noise stream of run ``seed`` (shared by batch and ROS runs)."""
+    return np.random.default_rng([int(seed), 0])
+
+
+class FoptdPlant:
+    """The true plant ``G``, stepped one sample at a time.
+
+    The sample convention is that of a sampled-data loop: ``measure()`` returns
+    ``y(k)``, which depends on inputs up to ``u(k-1)``; ``advance(u)`` applies
+    ``u(k)`` over the next sample.
+
+    Parameters
+    ----------
+    model : FoptdMatrix
+        The plant (deviation variables, starting at rest).
+    noise_std : array_like, shape (n_outputs,)
+        Standard deviation of the additive white Gaussian measurement noise
+        [output unit].
+    seed : int
+        Seed of the noise stream.
+    """
+
+    def __init__(self, model: FoptdMatrix, noise_std, seed: int) -> None:
+        self.model = model
+        ss = model.state_space()
+        self._A, self._B, self._C = ss.A, ss.B, ss.C
+        self._noise_std = np.broadcast_to(np.asarray(noise_std, dtype=float), (model.n_outputs,)).copy()
+        self._rng = noise_generator(seed)
+        self._x = np.zeros(self._A.shape[0])
+
+    def output(self) -> np.ndarray:
+        """Noise-free output ``y(k)`` [output unit]."""
+        return self._C @ self._x
+
+    def measure(self) -> np.ndarray:
+        """Measured output ``y(k)`` with noise; draws one noise sample per call."""
+        return self.output() + self._noise_std * self._rng.standard_normal(self.model.n_outputs)
+
+    def advance(self, u) -> None:
+        """Hold ``u(k)`` [input unit] for one sample."""
+        self._x = self._A @ self._x + self._B @ np.asarray(u, dtype=float)

@@ -1,0 +1,148 @@
+"""Maximal-length pseudo-random binary sequences (PRBS) for setpoint excitation.
+
+Each channel is the m-sequence of a *different* primitive polynomial of the
+same degree.  Shifted copies of one m-sequence would look uncorrelated at a
+single lag but are fully coherent in the frequency domain (one is a delayed
+copy of the other), which would make the implicit PMR regression singular.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+
+def _gf2_mulmod(a: int, b: int, poly: int, degree: int) -> int:
+    result = 0
+    top = 1 << degree
+    while b:
+        if b & 1:
+            result ^= a
+        b >>= 1
+        a <<= 1
+        if a & top:
+            a ^= poly
+    return result
+
+
+def _gf2_powmod(base: int, exponent: int, poly: int, degree: int) -> int:
+    result = 1
+    while exponent:
+        if exponent & 1:
+            result = _gf2_mulmod(result, base, poly, degree)
+        base = _gf2_mulmod(base, base, poly, degree)
+        exponent >>= 1
+    return result
+
+
+def _prime_factors(n: int) -> list[int]:
+    factors, p = [], 2
+    while p * p <= n:
+        if n % p == 0:
+            factors.append(p)
+            while n % p == 0:
+                n //= p
+        p += 1
+    if n > 1:
+        factors.append(n)
+    return factors
+
+
+def is_primitive(poly: int, degree: int) -> bool:
+    """Whether the GF(2) polynomial ``poly`` (bit i = coefficient of x^i) is primitive.
+
+    x has order exactly 2^degree - 1 modulo ``poly`` iff ``poly`` is primitive.
+    """
+    if poly >> degree != 1 or not poly & 1:
+        return False
+    order = (1 << degree) - 1
+    if _gf2_powmod(2, order, poly, degree) != 1:
+        return False
+    return all(_gf2_powmod(2, order // q, poly, degree) != 1 for q in _prime_factors(order))
+
+
+@lru_cache(maxsize=None)
+def primitive_polynomials(degree: int, count: int) -> tuple[int, ...]:
+    """The first ``count`` primitive polynomials of ``degree``, in increasing order."""
+    found = []
+    for poly in range((1 << degree) + 1, 1 << (degree + 1), 2):
+        if is_primitive(poly, degree):
+            found.append(poly)
+            if len(found) == count:
+                return tuple(found)
+    raise ValueError(f"there are fewer than {count} primitive polynomials of degree {degree}")
+
+
+@lru_cache(maxsize=64)
+def m_sequence(poly: int, degree: int) -> np.ndarray:
+    """One period (2^degree - 1 bits, values 0/1) of the LFSR sequence of ``poly``."""
+    period = (1 << degree) - 1
+    taps = poly & period  # feedback taps, without the x^degree term
+    state = 1
+    bits = np.empty(period, dtype=np.int8)
+    for n in range(period):
+        bits[n] = state & 1
+        feedback = bin(state & taps).count("1") & 1
+        state = (state >> 1) | (feedback << (degree - 1))
+    return bits
+
+
+@dataclass(frozen=True)
+class PrbsSettings:
+    """PRBS setpoint excitation.
+
+    Attributes
+    ----------
+    register_length : int
+        LFSR length n; the sequence repeats every ``2^n - 1`` bits.
+    clock_period : int
+        Samples each bit is held.  Its power falls to half near
+        ``omega = 2.78 / clock_period`` rad/sample, so it sets the excitation band.
+    amplitude : ndarray, shape (n_channels,)
+        Half the peak-to-peak swing [output unit].
+    nominal : ndarray, shape (n_channels,)
+        Setpoint around which the PRBS switches [output unit].
+    """
+
+    register_length: int
+    clock_period: int
+    amplitude: np.ndarray
+    nominal: np.ndarray
+
+
+class PrbsGenerator:
+    """Multichannel PRBS setpoints ``r(k) = nominal +/- amplitude``.
+
+    Stateless in ``k``: ``value(k)`` can be asked in any order, so a node and a
+    batch run produce the same sequence.  ``seed`` picks each channel's phase.
+    """
+
+    def __init__(self, settings: PrbsSettings, seed: int) -> None:
+        self.settings = settings
+        n_channels = len(settings.amplitude)
+        degree = settings.register_length
+        polys = primitive_polynomials(degree, n_channels)
+        self._bits = np.stack([2.0 * m_sequence(p, degree) - 1.0 for p in polys])
+        self.period_bits = (1 << degree) - 1
+        rng = np.random.default_rng([int(seed), 1])
+        self._phase = rng.integers(0, self.period_bits, size=n_channels)
+        self._rows = np.arange(n_channels)
+
+    @property
+    def period_samples(self) -> int:
+        """Samples in one period of the sequence."""
+        return self.period_bits * self.settings.clock_period
+
+    def value(self, k: int) -> np.ndarray:
+        """Setpoints at sample ``k`` [output unit]."""
+        col = (self._phase + k // self.settings.clock_period) % self.period_bits
+        return self.settings.nominal + self.settings.amplitude * self._bits[self._rows, col]
+
+    def sequence(self, samples: int) -> np.ndarray:
+        """Setpoints for samples ``0 .. samples-1``, shape (samples, n_channels)."""
+        k = np.arange(samples) // self.settings.clock_period
+        cols = (self._phase[:, None] + k[None, :]) % self.period_bits
+        levels = np.take_along_axis(self._bits, cols, axis=1).T
+        return self.settings.nominal + self.settings.amplitude * levels

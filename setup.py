@@ -1,0 +1,44 @@
+"""ament_python package setup for pmr_ros (also installs with plain pip)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "pmr_ros"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/msg_defs", glob("msg_defs/*")),
+    ],
+    python_requires=">=3.10",
+    install_requires=[
+        "numpy>=1.24,<3",
+        "scipy>=1.10,<2",
+        "osqp>=1.0,<2",
+        "control>=0.10,<0.11",
+        "rosbags>=0.10,<0.12",
+        "PyYAML>=6,<7",
+    ],
+    extras_require={
+        # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
+        "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
+        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7"],
+    },
+    zip_safe=True,
+    maintainer="pmr_ros developers",
+    maintainer_email="dev@pmr-ros.invalid",
+    description="Model-plant mismatch diagnosis for MPC with the plant-model ratio, as ROS 2 nodes.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "pmr-ros = pmr_ros.cli:main",
+        ],
+    },
+)
