@@ -10,6 +10,9 @@ the condensed form over the input moves ``dU`` of the control horizon:
 
 so its Hessian and constraint matrix never change: OSQP factors them once and
 each step only the linear term and the bounds are updated (warm-started).
+When the unconstrained minimizer ``-H^-1 q`` satisfies every constraint it is
+the QP's solution, so it is used directly and OSQP runs only when a limit
+would bind; ``statistics`` counts how often.
 Offset-free tracking uses the DMC/IMC output-disturbance bias
 ``d = y_measured - yhat`` held constant over the horizon.
 """
@@ -59,6 +62,7 @@ class MpcTuning:
 class MpcStatistics:
     """Counters of the QP solves, for benchmarks and health reporting."""
 
+    steps: int = 0
     solves: int = 0
     failures: int = 0
     solve_time_s: list[float] | None = None
@@ -73,11 +77,15 @@ class LinearMpc:
         The controller's model ``Ghat`` (deviation variables).
     tuning : MpcTuning
     record_solve_times : bool
-        Keep each solve's wall time in ``statistics.solve_time_s``.
+        Keep each OSQP solve's wall time in ``statistics.solve_time_s``.
+    always_solve_qp : bool
+        Call OSQP every step, even when no constraint binds (for benchmarks
+        and for checking the unconstrained shortcut).
     """
 
-    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False) -> None:
+    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False, always_solve_qp: bool = False) -> None:
         self.model = model
+        self.always_solve_qp = always_solve_qp
         self.tuning = tuning
         ss = model.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C
@@ -121,6 +129,8 @@ class LinearMpc:
         self._du_bound = np.tile(np.asarray(tuning.du_max, dtype=float), Nc)
         self._u_min = np.tile(np.asarray(tuning.u_min, dtype=float), Nc)
         self._u_max = np.tile(np.asarray(tuning.u_max, dtype=float), Nc)
+        self._unconstrained = -np.linalg.solve(H, np.eye(H.shape[0]))  # dU* = this @ q
+        self._cumulative = cumulative
         self._solver = osqp.OSQP()
         self._solver.setup(
             sp.triu(sp.csc_matrix(H), format="csc"),
@@ -169,8 +179,24 @@ class LinearMpc:
         free = self._Phi @ self._x + self._Psi @ self._u_prev
         q = -self._QTheta_T @ (target - free)
         u_rep = np.tile(self._u_prev, self.tuning.control_horizon)
-        lower = np.concatenate([self._u_min - u_rep, -self._du_bound])
-        upper = np.concatenate([self._u_max - u_rep, self._du_bound])
+        stats = self.statistics
+        stats.steps += 1
+        moves = self._unconstrained @ q
+        u_path = u_rep + self._cumulative @ moves
+        feasible = np.all(np.abs(moves) <= self._du_bound) and np.all((u_path >= self._u_min) & (u_path <= self._u_max))
+        if feasible and not self.always_solve_qp:
+            move = moves[: self.model.n_inputs]
+        else:
+            lower = np.concatenate([self._u_min - u_rep, -self._du_bound])
+            upper = np.concatenate([self._u_max - u_rep, self._du_bound])
+            move = self._solve_constrained(q, lower, upper)
+        n_in = self.model.n_inputs
+        u = np.clip(self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]), self.tuning.u_min, self.tuning.u_max)
+        self._x = self._A @ self._x + self._B @ u
+        self._u_prev = u
+        return u
+
+    def _solve_constrained(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
         self._solver.update(q=q, l=lower, u=upper)
         t0 = time.perf_counter()
         result = self._solver.solve()
@@ -181,13 +207,7 @@ class LinearMpc:
             stats.solve_time_s.append(elapsed)
         n_in = self.model.n_inputs
         if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
-            move = result.x[:n_in]
-        else:
-            # Holding the input is the safe fallback of industrial MPC on a failed solve.
-            stats.failures += 1
-            move = np.zeros(n_in)
-        du_max = np.asarray(self.tuning.du_max, dtype=float)
-        u = np.clip(self._u_prev + np.clip(move, -du_max, du_max), self.tuning.u_min, self.tuning.u_max)
-        self._x = self._A @ self._x + self._B @ u
-        self._u_prev = u
-        return u
+            return result.x[:n_in]
+        # Holding the input is the safe fallback of industrial MPC on a failed solve.
+        stats.failures += 1
+        return np.zeros(n_in)

@@ -1,0 +1,60 @@
+"""Sub-commands of ``pmr-ros``: each module has ``register(subparsers)``."""
+
+from __future__ import annotations
+
+import argparse
+
+
+class CommandError(Exception):
+    """A user-facing failure: printed as ``pmr-ros: error: ...``, exit code attached."""
+
+    def __init__(self, message: str, code: int = 2) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+EXIT_USAGE = 2
+EXIT_INSUFFICIENT = 3
+EXIT_INTERRUPTED = 130
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number > 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{value} must be > 0")
+    return value
+
+
+def nonnegative_int(text: str) -> int:
+    """argparse type: a whole number >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} must be >= 0")
+    return value
+
+
+def add_system_arguments(parser: argparse.ArgumentParser) -> None:
+    """--config/--scenario/--samples/--seed, shared by commands that simulate."""
+    from ..core.foptd import SCENARIOS
+
+    parser.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
+    parser.add_argument("--scenario", choices=SCENARIOS, help="which part of the configured mismatch the plant gets (default: run.scenario)")
+    parser.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples (default: run.samples)")
+    parser.add_argument("--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)")
+
+
+def run_overrides(args: argparse.Namespace) -> dict:
+    """Config overrides from the options of :func:`add_system_arguments`."""
+    run = {}
+    for name in ("samples", "seed", "scenario"):
+        value = getattr(args, name, None)
+        if value is not None:
+            run[name] = value
+    return {"run": run} if run else {}
