@@ -9,7 +9,7 @@ copy of the other), which would make the implicit PMR regression singular.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -63,7 +63,7 @@ def is_primitive(poly: int, degree: int) -> bool:
     return all(_gf2_powmod(2, order // q, poly, degree) != 1 for q in _prime_factors(order))
 
 
-@lru_cache(maxsize=None)
+@cache
 def primitive_polynomials(degree: int, count: int) -> tuple[int, ...]:
     """The first ``count`` primitive polynomials of ``degree``, in increasing order."""
     found = []

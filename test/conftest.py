@@ -1,0 +1,13 @@
+"""Shared fixtures of the pmr_ros test suite."""
+
+from __future__ import annotations
+
+import pytest
+
+from pmr_ros.core.config import load_config
+
+
+@pytest.fixture(scope="session")
+def wood_berry():
+    """The shipped Wood-Berry configuration."""
+    return load_config()
