@@ -299,7 +299,10 @@ def parse_config(params: dict, source: str | Path) -> PmrConfig:
         gain_tolerance=rd.number("pmr.gain_tolerance", positive=True),
         tau_index_threshold=rd.number("pmr.tau_index_threshold", positive=True),
         max_delay_samples=rd.number("pmr.max_delay_samples", integer=True, positive=True),
+        coherence_min=rd.number("pmr.coherence_min", positive=True),
     )
+    if pmr.coherence_min >= 1.0:
+        raise rd.error("pmr.coherence_min", pmr.coherence_min, "must be < 1")
     if pmr.overlap >= 1.0:
         raise rd.error("pmr.overlap", pmr.overlap, "must be < 1")
     if pmr.tau_band > math.pi:

@@ -43,6 +43,29 @@ def minimum_phase(omega: np.ndarray, log_magnitude: np.ndarray) -> np.ndarray:
     return -(np.asarray(log_magnitude) * weights) @ kernel.T / (2.0 * B)
 
 
+def informative_band(omega: np.ndarray, coherence: np.ndarray, coherence_min: float) -> np.ndarray:
+    """The band B of eqs. (8)-(9): from the first nonzero bin up to where the coherence first drops.
+
+    Parameters
+    ----------
+    omega : ndarray, shape (F,)
+        Frequencies 0 .. pi [rad/sample].
+    coherence : ndarray, shape (F,)
+        Squared coherence behind the estimate.
+    coherence_min : float
+        The band ends at the first bin whose coherence is below this.
+
+    Returns
+    -------
+    ndarray of bool, shape (F,)
+    """
+    low = np.flatnonzero((omega > 0) & (coherence < coherence_min))
+    end = low[0] if low.size else omega.size
+    band = np.zeros(omega.size, dtype=bool)
+    band[1:end] = True
+    return band
+
+
 def hamon_hannan_delay(
     omega: np.ndarray,
     response: np.ndarray,
@@ -63,7 +86,11 @@ def hamon_hannan_delay(
     max_delay_samples : int
         Candidates are ``-max .. +max`` samples.
     band : ndarray of bool, shape (F,), optional
-        Frequencies that enter the cost (default: all but 0).
+        The informative band B (default: all but 0).  Beyond it the estimate
+        is noise, which the global Hilbert transform would smear into the
+        band, so the log magnitude is held at its median over the top quarter
+        of B there (a FOPTD ratio's magnitude is flat at high frequency; a
+        single edge bin is too noisy to hold) and only B enters the cost.
 
     Returns
     -------
@@ -72,14 +99,18 @@ def hamon_hannan_delay(
     cost : ndarray, shape (2 * max + 1,)
         The normalized cost of each candidate, best = largest.
     """
-    magnitude = np.maximum(np.abs(response), 1e-12)
-    delay_free = minimum_phase(omega, np.log(magnitude))
-    residual = np.angle(response) - delay_free
-    kappa2 = np.clip(coherence, 0.0, 0.999)
-    weight = kappa2 / (1.0 - kappa2)
     if band is None:
         band = omega > 0
-    weight = np.where(band, weight, 0.0)
+    log_magnitude = np.log(np.maximum(np.abs(response), 1e-12))
+    inside = np.flatnonzero(band)
+    if inside.size and inside[-1] < omega.size - 1:
+        top = inside[-max(3, inside.size // 4):]
+        log_magnitude = log_magnitude.copy()
+        log_magnitude[inside[-1] + 1:] = np.median(log_magnitude[top])
+    delay_free = minimum_phase(omega, log_magnitude)
+    residual = np.angle(response) - delay_free
+    kappa2 = np.clip(coherence, 0.0, 0.999)
+    weight = np.where(band, kappa2 / (1.0 - kappa2), 0.0)
     candidates = np.arange(-max_delay_samples, max_delay_samples + 1)
     cost = np.cos(residual[None, :] + candidates[:, None] * omega[None, :]) @ weight
     cost = cost / max(weight.sum(), 1e-300)

@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .delay import hamon_hannan_delay
+from .delay import hamon_hannan_delay, informative_band
 from .foptd import FoptdMatrix
 from .spectra import WelchSettings, cross_spectra
 
@@ -47,6 +47,9 @@ class PmrSettings:
         ``|tau index|`` above this is a time-constant mismatch.
     max_delay_samples : int
         Delay mismatches searched over ``-max .. +max`` samples.
+    coherence_min : float
+        The delay search uses the band from 0 up to where the row's squared
+        coherence with the setpoints first falls below this.
     """
 
     window: str = "hann"
@@ -56,6 +59,7 @@ class PmrSettings:
     gain_tolerance: float = 0.05
     tau_index_threshold: float = 5.0
     max_delay_samples: int = 10
+    coherence_min: float = 0.5
 
     @property
     def welch(self) -> WelchSettings:
@@ -257,7 +261,8 @@ def diagnose(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, se
             magnitude = np.abs(response)
             slope = np.polyfit(omega[band], magnitude[band] / abs(gain_ratio), 1)[0]
             tau_index = float(-100.0 * slope)
-            delay, _ = hamon_hannan_delay(omega, response, estimate.coherence[:, i], settings.max_delay_samples)
+            delay_band = informative_band(omega, estimate.coherence[:, i], settings.coherence_min)
+            delay, _ = hamon_hannan_delay(omega, response, estimate.coherence[:, i], settings.max_delay_samples, delay_band)
             elements[name] = ElementDiagnosis(
                 element=name,
                 gain_ratio=gain_ratio,
