@@ -17,7 +17,7 @@ from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .core.config import ConfigError
 
-COMMANDS = ["run"]
+COMMANDS = ["run", "sweep"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 

@@ -58,6 +58,45 @@ class MpcTuning:
     du_max: np.ndarray
 
 
+@dataclass(frozen=True)
+class MpcMatrices:
+    """Read-only view of the matrices a :class:`LinearMpc` computes with.
+
+    For code that evaluates the same controller for many runs at once (the
+    lockstep batch simulator) or analyses the closed loop.  Shapes use
+    ``nx`` model states, ``Np`` prediction and ``Nc`` control horizon.
+
+    Attributes
+    ----------
+    A, B, C : ndarray
+        The model's realization ``x+ = A x + B u``, ``yhat = C x``.
+    free_state : ndarray, shape (Np*n_out, nx)
+        ``Phi``: the predicted outputs' dependence on the model state.
+    free_input : ndarray, shape (Np*n_out, n_in)
+        ``Psi``: their dependence on holding the previous input.
+    weighted_dynamic : ndarray, shape (Nc*n_in, Np*n_out)
+        ``Theta' Q``: the QP's linear term is ``q = -Theta' Q (target - free)``.
+    unconstrained_gain : ndarray, shape (Nc*n_in, Nc*n_in)
+        ``-H^-1``: the unconstrained optimum is ``dU* = unconstrained_gain @ q``.
+    cumulative : ndarray, shape (Nc*n_in, Nc*n_in)
+        Moves to input path: ``u_path = tile(u_prev) + cumulative @ dU``.
+    du_bound, u_min_path, u_max_path : ndarray, shape (Nc*n_in,)
+        Move and magnitude limits tiled over the control horizon.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    free_state: np.ndarray
+    free_input: np.ndarray
+    weighted_dynamic: np.ndarray
+    unconstrained_gain: np.ndarray
+    cumulative: np.ndarray
+    du_bound: np.ndarray
+    u_min_path: np.ndarray
+    u_max_path: np.ndarray
+
+
 @dataclass
 class MpcStatistics:
     """Counters of the QP solves, for benchmarks and health reporting."""
@@ -154,6 +193,29 @@ class LinearMpc:
         self._u_prev = np.zeros(self.model.n_inputs)
 
     @property
+    def matrices(self) -> MpcMatrices:
+        """The controller's matrices as read-only copies (see :class:`MpcMatrices`)."""
+
+        def frozen(a: np.ndarray) -> np.ndarray:
+            out = np.array(a, dtype=float, copy=True)
+            out.flags.writeable = False
+            return out
+
+        return MpcMatrices(
+            A=frozen(self._A),
+            B=frozen(self._B),
+            C=frozen(self._C),
+            free_state=frozen(self._Phi),
+            free_input=frozen(self._Psi),
+            weighted_dynamic=frozen(self._QTheta_T),
+            unconstrained_gain=frozen(self._unconstrained),
+            cumulative=frozen(self._cumulative),
+            du_bound=frozen(self._du_bound),
+            u_min_path=frozen(self._u_min),
+            u_max_path=frozen(self._u_max),
+        )
+
+    @property
     def model_output(self) -> np.ndarray:
         """The model's prediction ``yhat(k)`` of the current output [output unit]."""
         return self._C @ self._x
@@ -199,7 +261,7 @@ class LinearMpc:
     def _solve_constrained(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
         self._solver.update(q=q, l=lower, u=upper)
         t0 = time.perf_counter()
-        result = self._solver.solve()
+        result = self._solver.solve(raise_error=False)
         elapsed = time.perf_counter() - t0
         stats = self.statistics
         stats.solves += 1

@@ -1,0 +1,174 @@
+"""``pmr-ros sweep``: the paper's time-constant study (sections 3.4-3.6, Figs. 2-7)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import CommandError, nonnegative_int, positive_int
+
+DEFAULT_OUT = "out/sweep"
+
+
+def _positive_float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="sweep a time constant (paper's Figs. 2-7): CSV of every estimate, figures, report",
+        description=(
+            "Multiply an element's time constant by nu in both the plant and the controller's model "
+            "(the mismatch of the paper's eq. 15 stays on the plant only), run the five scenarios of "
+            "Table 2 for several seeds at each nu, diagnose every run, and write results.csv, figures "
+            "and a markdown report.  Default: the paper's two sweeps, tau11 = 16.7 nu (eq. 18) and "
+            "tau21 = 10.9 nu (eq. 19; the paper's figures call it G12), nu = 1, 1.25, ..., 10, 5 seeds."
+        ),
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
+    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help="folder of results.csv, sweep.json and, by default, the report")
+    grid = p.add_argument_group("nu grid (--nu or a range)")
+    grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
+    grid.add_argument("--nu-start", type=_positive_float, default=1.0, metavar="X", help="first nu")
+    grid.add_argument("--nu-stop", type=_positive_float, default=10.0, metavar="X", help="last nu (included)")
+    grid.add_argument("--nu-step", type=_positive_float, default=0.25, metavar="X", help="nu step")
+    p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each")
+    p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario)")
+    p.add_argument("--first-seed", type=nonnegative_int, metavar="S", help="seeds are S, S+1, ... (default: run.seed of the config)")
+    p.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples per run (default: run.samples of the config)")
+    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes")
+    p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --out: skip the runs already in results.csv")
+    p.add_argument("--report", metavar="FILE", help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)")
+    p.add_argument("--no-report", action="store_true", help="only write results.csv")
+    p.add_argument("--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=handle)
+
+
+def _plan(args: argparse.Namespace, config):
+    from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
+
+    try:
+        nu = parse_nu_list(args.nu) if args.nu is not None else nu_grid(args.nu_start, args.nu_stop, args.nu_step)
+        elements = tuple(e.strip() for e in args.elements.split(",") if e.strip())
+        if not elements:
+            raise PlanError("--elements: name at least one element to sweep")
+        if len(set(elements)) != len(elements):
+            raise PlanError(f"--elements: {args.elements!r} names an element twice")
+        for element in elements:
+            element_index(config.model, element)
+    except PlanError as exc:
+        raise CommandError(str(exc)) from None
+    first = config.run.seed if args.first_seed is None else args.first_seed
+    samples = config.run.samples if args.samples is None else args.samples
+    return SweepPlan(elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples)
+
+
+def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None:
+    from ..sweep import store
+
+    if out.exists() and not out.is_dir():
+        raise CommandError(f"--out {out}: exists and is not a folder")
+    has_sweep = out.is_dir() and any(out.iterdir())
+    if args.force and args.resume:
+        raise CommandError("--force and --resume contradict each other: choose one")
+    if has_sweep and not (args.force or args.resume):
+        raise CommandError(f"--out {out}: folder exists and is not empty; use --force to start afresh or --resume to continue")
+    if args.force:
+        for name in (store.RESULTS_FILE, store.MANIFEST_FILE):
+            (out / name).unlink(missing_ok=True)
+    if args.resume:
+        old = store.read_manifest(out)
+        if old is not None:
+            for key in ("config_fingerprint", "samples"):
+                if old.get(key) != manifest[key]:
+                    raise CommandError(
+                        f"--resume: {out} holds a sweep with a different {key.replace('_', ' ')} "
+                        f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
+                    )
+            manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CommandError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
+
+
+def handle(args: argparse.Namespace) -> int:
+    from ..core.config import load_config
+    from ..sweep import store
+    from ..sweep.execute import execute, plan_tasks
+
+    config = load_config(args.config)
+    out = Path(args.out)
+    report_path = Path(args.report) if args.report else out / "reproduction.md"
+    results = out / store.RESULTS_FILE
+    if args.report_only:
+        if not results.is_file():
+            raise CommandError(f"--report-only: {results} does not exist; run the sweep first")
+        _write_report(results, report_path, config, store.read_manifest(out) or {})
+        return 0
+
+    plan = _plan(args, config)
+    manifest = {
+        "config": config.source,
+        "config_fingerprint": store.config_fingerprint(config.parameters),
+        "samples": plan.samples,
+        "wall_time_s": 0.0,
+    }
+    _prepare_folder(args, out, manifest)
+    done: set[tuple] = set()
+    n_elements = config.model.n_outputs * config.model.n_inputs
+    if results.is_file():
+        try:
+            rows = store.complete_rows(store.read_rows(results), n_elements)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        store.rewrite(results, rows)
+        done = {store.run_key(r) for r in rows}
+    tasks = plan_tasks(config, plan, done)
+    manifest.update(
+        elements=list(plan.elements), nu=list(plan.nu), seeds=list(plan.seeds), scenarios=list(plan.scenarios),
+        methods=list(plan.methods), jobs=args.jobs, cpu_count=os.cpu_count(),
+    )
+    store.write_manifest(out, manifest)
+    todo = sum(len(t.runs) for t in tasks)
+    if not args.quiet:
+        print(f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
+              f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)", file=sys.stderr)
+    t0 = time.perf_counter()
+    try:
+        execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet)
+    finally:
+        manifest["wall_time_s"] = round(manifest["wall_time_s"] + time.perf_counter() - t0, 2)
+        store.write_manifest(out, manifest)
+    if not args.quiet:
+        print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
+    if not args.no_report:
+        _write_report(results, report_path, config, manifest)
+    return 0
+
+
+def _write_report(results: Path, report_path: Path, config, manifest: dict) -> None:
+    from ..sweep import store
+    from ..sweep.report import write_report
+
+    try:
+        rows = store.read_rows(results)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    if not rows:
+        raise CommandError(f"{results}: no results to report")
+    try:
+        written = write_report(rows, report_path, config, manifest)
+    except OSError as exc:
+        raise CommandError(f"--report {report_path}: cannot write: {exc.strerror or exc}") from None
+    print(f"pmr-ros sweep: report {report_path} ({len(written)} figures)", file=sys.stderr)

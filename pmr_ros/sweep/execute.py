@@ -1,0 +1,204 @@
+"""Run a sweep: one lockstep batch per point, points spread over processes.
+
+Each point (an element's time constant at one nu) rebuilds the controller's
+model and the plants, picks a stable MPC tuning, simulates every (scenario,
+seed) run of the point in lockstep and diagnoses each run with every method.
+The main process appends each finished point's rows to the CSV at once, so an
+interrupted sweep keeps them and ``resume`` skips the runs already there.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..core.batch import run_lockstep
+from ..core.closed_loop import RunRecord
+from ..core.config import PmrConfig
+from ..core.foptd import FoptdMatrix
+from ..core.pmr import diagnose
+from . import store
+from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
+from .progress import ProgressBar
+from .tuning import stable_tuning
+
+
+def classic_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
+    """The classic (Table 1) diagnosis of one run: status and per-element numbers and flags."""
+    diagnosis = diagnose(record.r, record.u, record.y, model, config.pmr)
+    elements = {
+        name: {
+            "gain_ratio": e.gain_ratio,
+            "tau_index": e.tau_index,
+            "delay_mismatch_samples": e.delay_mismatch_samples,
+            "gain_mismatch": e.gain_mismatch,
+            "tau_mismatch": e.tau_mismatch,
+            "delay_mismatch": e.delay_mismatch,
+        }
+        for name, e in diagnosis.elements.items()
+    }
+    return diagnosis.status, elements
+
+
+METHODS: dict[str, Callable[[RunRecord, FoptdMatrix, PmrConfig], tuple[str, dict[str, dict]]]] = {"classic": classic_method}
+"""Diagnosis methods by name: ``(record, model, config) -> (status, {element: fields})``.
+
+Another method (e.g. a parametric fit) registers here and fills the same fields.
+"""
+
+
+@dataclass(frozen=True)
+class PointTask:
+    """The runs of one sweep point still to do."""
+
+    point: SweepPoint
+    runs: tuple[tuple[str, int], ...]
+    methods: tuple[str, ...]
+    samples: int
+
+
+def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
+    """Simulate and diagnose the runs of one sweep point; the CSV rows.
+
+    The swept time constant changes in the controller's model and (through
+    ``config.plant``) in every plant; the mismatch applies to the plants only.
+    """
+    point = task.point
+    model = point.model(config.model)
+    base = replace(config, model=model)
+    chosen = stable_tuning(model, [base.plant(s) for s in sorted({s for s, _ in task.runs})], config.mpc)
+    point_config = replace(base, mpc=chosen.tuning)
+    result = run_lockstep(point_config, task.runs, task.samples)
+    names = model.element_names()
+    n_in = model.n_inputs
+    ratio = row_time_constant_ratio(model, point.row, point.column)
+    rows = []
+    for (scenario, seed), record, stats in zip(task.runs, result.records, result.statistics, strict=True):
+        truth = config.mismatch.for_scenario(scenario)
+        common = {
+            "sweep": point.sweep,
+            "element_swept": point.element,
+            "nu": point.nu,
+            "time_constant_swept": point.time_constant,
+            "row_time_constant_ratio": ratio,
+            "scenario": scenario,
+            "seed": seed,
+            "samples": task.samples,
+            "prediction_horizon": chosen.tuning.prediction_horizon,
+            "control_horizon": chosen.tuning.control_horizon,
+            "loop_spectral_radius": chosen.spectral_radius,
+            "mpc_solves": stats.solves,
+            "mpc_failures": stats.failures,
+            "tracking_rms": float(np.sqrt(np.mean((record.y - record.r) ** 2))),
+        }
+        for method in task.methods:
+            status, numbers = METHODS[method](record, model, point_config)
+            for j, name in enumerate(names):
+                i, k = divmod(j, n_in)
+                rows.append({
+                    **common,
+                    "method": method,
+                    "element": name,
+                    "true_gain_ratio": float(truth.gain_ratio[i, k]),
+                    "true_time_constant_pct": float(truth.time_constant_pct[i, k]),
+                    "true_delay_samples": int(truth.delay_samples[i, k]),
+                    "status": status,
+                    **numbers[name],
+                })
+    return rows
+
+
+def plan_tasks(config: PmrConfig, plan: SweepPlan, done: set[tuple]) -> list[PointTask]:
+    """The points with runs not yet in ``done`` (keys of :func:`store.run_key`)."""
+    tasks = []
+    for point in plan.points(config.model):
+        missing = tuple(
+            run for run in plan.runs()
+            if any((m, point.sweep, round(point.nu, 9), run[0], run[1]) not in done for m in plan.methods)
+        )
+        if missing:
+            tasks.append(PointTask(point, missing, plan.methods, plan.samples))
+    return tasks
+
+
+_WORKER_CONFIG: PmrConfig | None = None
+
+
+def _init_worker(config: PmrConfig) -> None:
+    # Ctrl-C goes to the whole process group; only the main process handles it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    global _WORKER_CONFIG
+    _WORKER_CONFIG = config
+
+
+def _work(task: PointTask) -> tuple[PointTask, list[dict], float]:
+    t0 = time.perf_counter()
+    rows = run_point(_WORKER_CONFIG, task)
+    return task, rows, time.perf_counter() - t0
+
+
+@dataclass
+class SweepOutcome:
+    """What :func:`execute` did."""
+
+    points_run: int
+    runs_run: int
+    wall_time_s: float
+    interrupted: bool = False
+
+
+def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True) -> SweepOutcome:
+    """Run ``tasks`` on ``jobs`` processes, appending each point's rows to ``results``.
+
+    ``jobs = 1`` runs in this process (no pool).  On Ctrl-C the pool is
+    terminated, the finished points stay in the CSV and KeyboardInterrupt is
+    raised again.
+    """
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
+    bar = ProgressBar(sum(len(t.runs) for t in tasks), stream=sys.stderr) if progress else None
+    # The slowest points (largest nu: longest horizons) go first, so no process idles at the end.
+    ordered = sorted(tasks, key=lambda t: -t.point.nu)
+    start = time.perf_counter()
+    points = runs = 0
+
+    def record(task: PointTask, rows: list[dict]) -> None:
+        nonlocal points, runs
+        store.append_rows(results, rows)
+        points += 1
+        runs += len(task.runs)
+        if bar:
+            bar.update(len(task.runs))
+
+    try:
+        if jobs == 1:
+            global _WORKER_CONFIG
+            _WORKER_CONFIG = config
+            for task in ordered:
+                record(task, run_point(config, task))
+        else:
+            pool = multiprocessing.get_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
+            try:
+                for task, rows, _ in pool.imap_unordered(_work, ordered):
+                    record(task, rows)
+                pool.close()
+            except BaseException:
+                pool.terminate()
+                raise
+            finally:
+                pool.join()
+    except KeyboardInterrupt:
+        if bar:
+            bar.close()
+        print(f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with --resume", file=sys.stderr)
+        raise
+    if bar:
+        bar.close()
+    return SweepOutcome(points, runs, time.perf_counter() - start)

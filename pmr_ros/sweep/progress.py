@@ -1,0 +1,71 @@
+"""A small text progress bar with an ETA, on stderr."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+
+def format_duration(seconds: float) -> str:
+    """``75`` -> ``1m15s``; ``3700`` -> ``1h01m``."""
+    seconds = max(0, int(round(seconds)))
+    if seconds < 60:
+        return f"{seconds}s"
+    if seconds < 3600:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds // 3600}h{(seconds % 3600) // 60:02d}m"
+
+
+class ProgressBar:
+    """``label [#####.....] 12/40 runs  30% 0m20s elapsed, ETA 0m46s``.
+
+    Redrawn in place on a terminal; elsewhere (logs, pipes) one line per
+    10 % so a log stays short.
+
+    Parameters
+    ----------
+    total : int
+        Units of work (closed-loop runs).
+    label : str
+    stream : text stream, default ``sys.stderr``
+    width : int
+        Characters of the bar.
+    """
+
+    def __init__(self, total: int, label: str = "sweep", stream: TextIO | None = None, width: int = 30) -> None:
+        self.total, self.label, self.width = max(int(total), 0), label, width
+        self.stream = stream if stream is not None else sys.stderr
+        self.done = 0
+        self.start = time.monotonic()
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._last_decile = -1
+
+    def line(self) -> str:
+        """The bar's current text."""
+        frac = self.done / self.total if self.total else 1.0
+        filled = int(round(frac * self.width))
+        elapsed = time.monotonic() - self.start
+        eta = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
+        eta_text = format_duration(eta) if self.done else "?"
+        return (f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} runs "
+                f"{100 * frac:3.0f}% {format_duration(elapsed)} elapsed, ETA {eta_text}")
+
+    def update(self, advance: int) -> None:
+        """Count ``advance`` more units done and redraw."""
+        self.done = min(self.total, self.done + int(advance))
+        if self._tty:
+            self.stream.write("\r" + self.line())
+        else:
+            decile = int(10 * self.done / self.total) if self.total else 10
+            if decile == self._last_decile:
+                return
+            self._last_decile = decile
+            self.stream.write(self.line() + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """End the bar's line."""
+        if self._tty:
+            self.stream.write("\n")
+            self.stream.flush()

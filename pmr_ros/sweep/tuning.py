@@ -1,0 +1,120 @@
+"""Keep the MPC stable while a time constant grows.
+
+The configured Wood-Berry MPC (Np = 40, Nc = 8) is stable up to about
+nu = 3 of the G11 sweep; beyond, its unconstrained loop has a pole outside the
+unit circle even without mismatch (the horizon no longer covers the slow
+element's response) and the constrained loop ends in a saturated limit cycle.
+So for each nu the prediction horizon is lengthened, in steps, until the loop
+of every scenario is stable with margin; the weights and the control horizon
+stay as configured.  At nu = 1 the configured tuning is kept, so the baseline
+equals a plain ``pmr-ros run``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..core.foptd import FoptdMatrix
+from ..core.mpc import LinearMpc, MpcTuning
+
+STABILITY_LIMIT = 0.995
+"""Largest accepted closed-loop spectral radius: slowest mode decays within ~200 samples."""
+
+HORIZON_STEP = 10
+"""Samples added to the prediction horizon per search step."""
+
+
+def loop_spectral_radius(model: FoptdMatrix, plant: FoptdMatrix, tuning: MpcTuning, controller: LinearMpc | None = None) -> float:
+    """Spectral radius of the unconstrained closed loop of the MPC on ``model`` and ``plant``.
+
+    With no limit active the MPC is linear in (plant state, model state,
+    previous input): ``u = u_prev + K (T (r - C_p x_p + C_m x_m) - Phi x_m - Psi u_prev)``
+    with ``K`` the first block row of ``-H^-1 Theta' Q`` and ``T`` stacking the
+    identity over the horizon.  The loop is stable iff every eigenvalue of the
+    joint state matrix is inside the unit circle.
+
+    Parameters
+    ----------
+    model : FoptdMatrix
+        The controller's model ``Ghat``.
+    plant : FoptdMatrix
+        The true plant ``G``.
+    tuning : MpcTuning
+    controller : LinearMpc, optional
+        A controller already built for ``model`` and ``tuning`` (saves the build).
+
+    Returns
+    -------
+    float
+        Largest eigenvalue magnitude [-]; < 1 means stable.
+    """
+    controller = controller or LinearMpc(model, tuning)
+    m = controller.matrices
+    n_out, n_in = model.n_outputs, model.n_inputs
+    Np = tuning.prediction_horizon
+    K = (m.unconstrained_gain @ -m.weighted_dynamic)[:n_in]  # first move = K (target - free)
+    T = np.tile(np.eye(n_out), (Np, 1))
+    p = plant.state_space()
+    npx, nmx = p.A.shape[0], m.A.shape[0]
+    feedback = np.hstack([-K @ T @ p.C, K @ T @ m.C - K @ m.free_state, np.eye(n_in) - K @ m.free_input])
+    n = npx + nmx + n_in
+    M = np.zeros((n, n))
+    M[:npx, :npx] = p.A
+    M[npx:npx + nmx, npx:npx + nmx] = m.A
+    M[:npx] += p.B @ feedback
+    M[npx:npx + nmx] += m.B @ feedback
+    M[npx + nmx:] = feedback
+    return float(np.abs(np.linalg.eigvals(M)).max())
+
+
+@dataclass(frozen=True)
+class StableTuning:
+    """The tuning chosen for one sweep point.
+
+    Attributes
+    ----------
+    tuning : MpcTuning
+    spectral_radius : float
+        Worst (over the plants) unconstrained closed-loop spectral radius.
+    stable : bool
+        ``spectral_radius < STABILITY_LIMIT``; False when no horizon up to the
+        search limit reached it (the least unstable one is returned).
+    """
+
+    tuning: MpcTuning
+    spectral_radius: float
+    stable: bool
+
+
+def stable_tuning(model: FoptdMatrix, plants: list[FoptdMatrix], tuning: MpcTuning, limit: float = STABILITY_LIMIT) -> StableTuning:
+    """The configured tuning with the shortest prediction horizon that keeps every loop stable.
+
+    Tries ``Np, Np + 10, Np + 20, ...`` up to about four times the slowest
+    time constant plus the largest delay (a step response's settling time).
+
+    Parameters
+    ----------
+    model : FoptdMatrix
+        The controller's model.
+    plants : list of FoptdMatrix
+        The plants the controller must stabilise (one per mismatch scenario).
+    tuning : MpcTuning
+        The configured tuning; only ``prediction_horizon`` changes.
+    limit : float
+        Largest accepted spectral radius.
+    """
+    settle = int(math.ceil(4.0 * float(model.time_constant.max()) / model.sample_time)) + int(model.delay_samples.max())
+    best: StableTuning | None = None
+    horizon = tuning.prediction_horizon
+    while True:
+        candidate = replace(tuning, prediction_horizon=horizon)
+        controller = LinearMpc(model, candidate)
+        radius = max(loop_spectral_radius(model, plant, candidate, controller) for plant in plants)
+        if best is None or radius < best.spectral_radius:
+            best = StableTuning(candidate, radius, radius < limit)
+        if radius < limit or horizon >= max(settle, tuning.prediction_horizon):
+            return best if radius >= limit else StableTuning(candidate, radius, True)
+        horizon += HORIZON_STEP
