@@ -1,0 +1,74 @@
+"""``mpc_controller``: constrained MPC on the model Ghat; u(k) from y(k) and r(k).
+
+The controller answers sample k once both y(k) and r(k) have arrived (in
+either order), steps :class:`~pmr_ros.core.mpc.LinearMpc` once per sample in
+index order and publishes u(k) with the same stamp.  In real-time mode a late
+setpoint is replaced by the newest earlier one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.mpc import LinearMpc
+from ..ros.alignment import check_signal, sample_index
+from ..ros.base import ConfiguredNode, run_node
+from ..ros.contract import topic
+from ..ros.convert import read_signal, signal_message
+
+NODE_NAME = "mpc_controller"
+
+
+class MpcControllerNode(ConfiguredNode):
+    """MPC in the loop over topics."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), sim_time=True, **kwargs)
+        self.model = self.config.model
+        self.controller = LinearMpc(self.model, self.config.mpc)
+        self.sample_time = self.model.sample_time
+        self.next_sample = 0
+        self._r: dict[int, np.ndarray] = {}
+        self._y: dict[int, np.ndarray] = {}
+        self._latest_r: np.ndarray | None = None
+        self._labels = {"r": f"r on {topic('setpoint').name}", "y": f"y on {topic('measured_output').name}"}
+        self._pub = self.contract_publisher("manipulated_input")
+        self._r_sub = self.contract_subscription("setpoint", lambda msg: self._on_signal("r", msg))
+        self._y_sub = self.contract_subscription("measured_output", lambda msg: self._on_signal("y", msg))
+
+    def _on_signal(self, signal: str, msg) -> None:
+        stamp, names, values = read_signal(msg)
+        problem = check_signal(self._labels[signal], names, values, self.model.output_names)
+        if problem:
+            self.get_logger().warning(problem)
+            return
+        k, _ = sample_index(stamp, self.sample_time)
+        if k < self.next_sample:
+            return  # already answered (a duplicate or a late message)
+        (self._r if signal == "r" else self._y)[k] = values
+        if signal == "r":
+            self._latest_r = values
+        self._answer()
+
+    def _answer(self) -> None:
+        ready = sorted(k for k in self._y if k in self._r)
+        if not ready and not self.settings.lockstep and self._y and self._latest_r is not None:
+            k = min(self._y)
+            self._r[k] = self._latest_r  # real time: a late setpoint is held
+            ready = [k]
+        for k in ready:
+            if k < self.next_sample:
+                continue
+            if k > self.next_sample:
+                self.get_logger().warning(f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}")
+            u = self.controller.step(self._y.pop(k), self._r.pop(k))
+            self.next_sample = k + 1
+            self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))
+        for store in (self._r, self._y):
+            for old in [j for j in store if j < self.next_sample]:
+                del store[old]
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``mpc_controller``."""
+    return run_node(MpcControllerNode, NODE_NAME, args)

@@ -1,0 +1,173 @@
+"""``pmr_diagnostician``: PMR verdicts per element on /diagnostics from r, u and y alone.
+
+It subscribes to the setpoints, inputs and outputs and to nothing else, holds
+the controller's model Ghat as parameters (so it can watch any controller),
+aligns the three signals by their sample stamps, keeps a rolling window of the
+newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnose`
+every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
+per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
+reason and no numbers when the data do not support a verdict); the numbers
+also go to the estimates topic when there is a verdict.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.clock import Clock, ClockType
+
+from ..core.pmr import diagnose
+from ..ros.alignment import SIGNALS, SampleAligner
+from ..ros.base import ConfiguredNode, run_node
+from ..ros.contract import topic
+from ..ros.convert import diagnostic_array, estimates_message, no_verdict_statuses, read_signal, verdict_statuses
+
+NODE_NAME = "pmr_diagnostician"
+TOPIC_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
+"""The only topics the diagnostician subscribes to, by signal."""
+
+
+class PmrDiagnosticianNode(ConfiguredNode):
+    """Rolling-window PMR diagnosis of any controller from its r, u and y.
+
+    Attributes
+    ----------
+    aligner : SampleAligner
+        The aligned samples and the bookkeeping of rejected messages.
+    warnings : collections.deque of str
+        The newest warnings (also logged), for tests and introspection.
+    last_published : DiagnosticArray or None
+    """
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), live_parameters=True, **kwargs)
+        self.warnings: deque[str] = deque(maxlen=1000)
+        self.last_published = None
+        self._labels = {s: f"{s} on {topic(TOPIC_KEYS[s]).name}" for s in SIGNALS}
+        self.aligner = self._new_aligner()
+        self._last_arrival = {s: None for s in SIGNALS}
+        self._created = time.monotonic()
+        self._stale_reported: float | None = None
+        self._diag_pub = self.contract_publisher("diagnostics")
+        self._estimates_pub = self.contract_publisher("estimates")
+        self._subs = [self.contract_subscription(TOPIC_KEYS[s], self._callback(s)) for s in SIGNALS]
+        wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=wall)
+
+    # -- set-up --------------------------------------------------------------
+    def _new_aligner(self) -> SampleAligner:
+        model = self.config.model
+        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        return SampleAligner(model.sample_time, names, self._labels, self.settings.window_samples, self.settings.max_lag_samples)
+
+    def _stale_check_period(self) -> float:
+        return min(1.0, self.settings.stale_timeout_s / 4)
+
+    def on_configuration_changed(self, names: list[str]) -> None:
+        """A new model or window applies from the next update; a new system restarts the window."""
+        model = self.config.model
+        al = self.aligner
+        if al.sample_time_s != model.sample_time or al.channel_names != {"r": model.output_names, "u": model.input_names, "y": model.output_names}:
+            self.aligner = self._new_aligner()
+            self._warn("system channels or sample time changed: the window restarts")
+        else:
+            al.resize(self.settings.window_samples)
+            al.max_lag_samples = self.settings.max_lag_samples
+        self._stale_timer.cancel()
+        self.destroy_timer(self._stale_timer)
+        self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(f"parameters changed: {', '.join(names)}")
+
+    # -- input ---------------------------------------------------------------
+    def _callback(self, signal: str):
+        def on_message(msg) -> None:
+            self._on_signal(signal, msg)
+
+        return on_message
+
+    def _warn(self, text: str) -> None:
+        self.warnings.append(text)
+        self.get_logger().warning(text)
+
+    def _on_signal(self, signal: str, msg) -> None:
+        self._last_arrival[signal] = time.monotonic()
+        stamp, names, values = read_signal(msg)
+        was_lagging = self.aligner.lagging()
+        result = self.aligner.add(signal, stamp, names, values)
+        for text in result.warnings:
+            self._warn(text)
+        lagging = self.aligner.lagging()
+        if lagging and not was_lagging:
+            self._warn(lagging)
+            self.publish_diagnostics()
+        period = self.settings.update_period_samples
+        if any((k + 1) % period == 0 for k in result.completed):
+            self.publish_diagnostics()
+        elif lagging and result.accepted:
+            k = self.aligner.newest[signal]
+            if (k + 1) % period == 0:
+                self.publish_diagnostics()
+
+    def _check_silence(self) -> None:
+        now = time.monotonic()
+        limit = self.settings.stale_timeout_s
+        silent = [s for s in SIGNALS if (now - (self._last_arrival[s] or self._created)) > limit]
+        if not silent:
+            self._stale_reported = None
+            return
+        if self._stale_reported is not None and now - self._stale_reported < limit:
+            return
+        self._stale_reported = now
+        never = [s for s in silent if self._last_arrival[s] is None]
+        parts = [f"no {self._labels[s]} for {now - (self._last_arrival[s] or self._created):.1f} s" for s in silent]
+        reason = "; ".join(parts) if len(never) < len(SIGNALS) else f"no data received in {now - self._created:.1f} s"
+        if len(never) < len(SIGNALS):
+            self._warn(reason)
+        self._publish_statuses(no_verdict_statuses(self.config.model.element_names(), DiagnosticStatus.STALE, reason, self.get_name(), self.config.model.name, self._window_info()))
+
+    # -- output --------------------------------------------------------------
+    def _window_info(self, samples: int | None = None, first: int | None = None) -> dict:
+        al = self.aligner
+        if al.stretch_last is None:
+            return {"window_samples": 0}
+        if samples is None:
+            samples = min(al.stretch_length, self.settings.window_samples)
+            first = al.stretch_last - samples + 1
+        return {"window_samples": samples, "first_sample": first, "last_sample": al.stretch_last}
+
+    def _publish_statuses(self, statuses: list) -> None:
+        al = self.aligner
+        newest = al.stretch_last if al.stretch_last is not None else 0
+        msg = diagnostic_array(statuses, newest * al.sample_time_s)
+        self.last_published = msg
+        self._diag_pub.publish(msg)
+
+    def publish_diagnostics(self) -> None:
+        """Diagnose the current window (or say why not) and publish the statuses."""
+        model, al = self.config.model, self.aligner
+        names, node, system = model.element_names(), self.get_name(), model.name
+        stale = al.lagging()
+        if stale:
+            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.STALE, stale, node, system, self._window_info()))
+            return
+        if al.stretch_length < self.settings.min_samples:
+            reason = f"insufficient data: {al.stretch_length} unbroken samples, need {self.settings.min_samples}"
+            if al.gaps:
+                reason += f" (the window restarted after a gap {al.gaps} time(s))"
+            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, reason, node, system, self._window_info()))
+            return
+        r, u, y, first = al.window(self.settings.window_samples)
+        diagnosis = diagnose(r, u, y, model, self.config.pmr)
+        window = self._window_info(r.shape[0], first)
+        if diagnosis.status != "ok":
+            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, f"insufficient data: {diagnosis.reason}", node, system, window))
+            return
+        self._publish_statuses(verdict_statuses(diagnosis, node, system, window))
+        self._estimates_pub.publish(estimates_message(diagnosis, al.stretch_last * al.sample_time_s, system))
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``pmr_diagnostician``."""
+    return run_node(PmrDiagnosticianNode, NODE_NAME, args)

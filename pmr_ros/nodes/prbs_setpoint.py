@@ -1,0 +1,41 @@
+"""``prbs_setpoint``: publishes the PRBS setpoints r(k) on every new sample of /clock.
+
+The setpoint of sample k is a pure function of k (and the seed), so the node
+needs no state but the last sample published: r(k) goes out as soon as the
+plant's /clock reaches k Ts.
+"""
+
+from __future__ import annotations
+
+from ..core.prbs import PrbsGenerator
+from ..ros.alignment import sample_index
+from ..ros.base import ConfiguredNode, run_node
+from ..ros.convert import seconds_from_stamp, signal_message
+
+NODE_NAME = "prbs_setpoint"
+
+
+class PrbsSetpointNode(ConfiguredNode):
+    """Setpoint generator keyed on the plant's /clock."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), sim_time=True, **kwargs)
+        self.generator = PrbsGenerator(self.config.prbs, self.config.run.seed)
+        self.names = self.config.model.output_names
+        self.sample_time = self.config.model.sample_time
+        self.sample = -1
+        self._pub = self.contract_publisher("setpoint")
+        self._clock_sub = self.contract_subscription("clock", self._on_clock)
+
+    def _on_clock(self, msg) -> None:
+        stamp = seconds_from_stamp(msg.clock)
+        k, _ = sample_index(stamp, self.sample_time)
+        if k <= self.sample:
+            return  # time stood still or went back (a restarted plant): nothing new to publish
+        self.sample = k
+        self._pub.publish(signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name))
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``prbs_setpoint``."""
+    return run_node(PrbsSetpointNode, NODE_NAME, args)

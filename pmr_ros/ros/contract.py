@@ -1,0 +1,146 @@
+"""The topic contract of ``msg_defs/topics.yaml``: names, message types, QoS, field meanings.
+
+Nodes and tests take topic names, types and QoS from here, never from literals.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+import yaml
+
+CONTRACT_FILE = "topics.yaml"
+RELIABILITIES = ("reliable", "best_effort")
+DURABILITIES = ("transient_local", "volatile")
+
+
+class ContractError(ValueError):
+    """``msg_defs/topics.yaml`` is malformed; the message names the topic and field."""
+
+
+def msg_defs_dir() -> Path:
+    """The folder with the topic contract.
+
+    The source tree's ``msg_defs/`` in an editable install, else the installed
+    ``share/pmr_ros/msg_defs`` (found like :func:`pmr_ros.core.config.config_dir`).
+    """
+    here = Path(__file__).resolve().parents[2] / "msg_defs"
+    if (here / CONTRACT_FILE).is_file():
+        return here
+    for prefix in (sys.prefix, sys.base_prefix):
+        candidate = Path(prefix) / "share" / "pmr_ros" / "msg_defs"
+        if (candidate / CONTRACT_FILE).is_file():
+            return candidate
+    raise FileNotFoundError("cannot find pmr_ros's msg_defs/ folder (topics.yaml)")
+
+
+@dataclass(frozen=True)
+class TopicQos:
+    """QoS of a topic as written in the contract."""
+
+    reliability: str
+    durability: str
+    depth: int
+
+    def profile(self):
+        """The rclpy ``QoSProfile`` (keep-last history of ``depth``)."""
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=self.depth,
+            reliability=ReliabilityPolicy.RELIABLE if self.reliability == "reliable" else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if self.durability == "transient_local" else DurabilityPolicy.VOLATILE,
+        )
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One topic of the contract.
+
+    Attributes
+    ----------
+    key : str
+        The contract's key (``setpoint``, ``measured_output``, ...).
+    name : str
+        The ROS topic name (``/pmr/setpoint``).
+    type : str
+        The interface, ``package/msg/Type``.
+    qos : TopicQos
+    description : str
+    fields : dict
+        Field path to its meaning and unit.
+    """
+
+    key: str
+    name: str
+    type: str
+    qos: TopicQos
+    description: str
+    fields: dict
+
+    def message_class(self):
+        """The Python message class of :attr:`type` (imports the interface package)."""
+        package, _, cls = self.type.split("/")
+        return getattr(importlib.import_module(f"{package}.msg"), cls)
+
+
+def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
+    """Validate a contract document into topics by key.
+
+    Raises
+    ------
+    ContractError
+        Naming the topic and the field that is wrong.
+    """
+    if not isinstance(doc, dict) or not isinstance(doc.get("topics"), dict):
+        raise ContractError(f"{source}: expected a mapping with a 'topics' mapping")
+    topics = {}
+    for key, entry in doc["topics"].items():
+        where = f"{source}: topics.{key}"
+        if not isinstance(entry, dict):
+            raise ContractError(f"{where}: must be a mapping")
+        for field in ("name", "type", "qos", "description", "fields"):
+            if field not in entry:
+                raise ContractError(f"{where}.{field}: missing")
+        name, type_name, qos = entry["name"], entry["type"], entry["qos"]
+        if not isinstance(name, str) or not name.startswith("/"):
+            raise ContractError(f"{where}.name = {name!r}: must be an absolute topic name")
+        if not isinstance(type_name, str) or type_name.count("/") != 2 or type_name.split("/")[1] != "msg":
+            raise ContractError(f"{where}.type = {type_name!r}: must be 'package/msg/Type'")
+        if not isinstance(qos, dict):
+            raise ContractError(f"{where}.qos: must be a mapping")
+        if qos.get("reliability") not in RELIABILITIES:
+            raise ContractError(f"{where}.qos.reliability = {qos.get('reliability')!r}: must be one of {', '.join(RELIABILITIES)}")
+        if qos.get("durability") not in DURABILITIES:
+            raise ContractError(f"{where}.qos.durability = {qos.get('durability')!r}: must be one of {', '.join(DURABILITIES)}")
+        depth = qos.get("depth")
+        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
+            raise ContractError(f"{where}.qos.depth = {depth!r}: must be a whole number >= 1")
+        if not isinstance(entry["fields"], dict) or not entry["fields"]:
+            raise ContractError(f"{where}.fields: must document every field")
+        topics[key] = Topic(key, name, type_name, TopicQos(qos["reliability"], qos["durability"], depth), str(entry["description"]), dict(entry["fields"]))
+    return topics
+
+
+@cache
+def load_contract(path: str | None = None) -> dict[str, Topic]:
+    """The topics of ``msg_defs/topics.yaml`` (or ``path``), by key."""
+    path = Path(path) if path else msg_defs_dir() / CONTRACT_FILE
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ContractError(f"{path}: cannot read the topic contract: {exc}") from None
+    return parse_contract(doc, str(path))
+
+
+def topic(key: str) -> Topic:
+    """One topic of the shipped contract by its key (``setpoint``, ``diagnostics``, ...)."""
+    topics = load_contract()
+    if key not in topics:
+        raise ContractError(f"no topic {key!r} in the contract; known: {', '.join(topics)}")
+    return topics[key]

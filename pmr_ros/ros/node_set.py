@@ -1,0 +1,231 @@
+"""The four nodes in one process over real topics: the default path of ``pmr-ros run``.
+
+The plant, setpoint generator, controller and diagnostician are ordinary nodes
+of one rclpy Context and talk only over DDS topics; one executor spins them.
+A listener node reads the diagnostician's verdicts from /diagnostics (and, on
+request, records r, u and y from the wire).  Lockstep makes the run as fast as
+the round trips allow and gives exactly the batch core's data.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+from ..core.closed_loop import RunRecord
+from ..core.config import PmrConfig, flatten_parameters, load_config
+from ..core.pmr import Diagnosis
+from .contract import topic
+from .convert import diagnosis_from_array, read_estimates, read_signal
+from .parameters import parameter_overrides
+
+
+class NodeSetError(RuntimeError):
+    """The node set did not finish (stalled or timed out); the message says where."""
+
+
+@dataclass
+class NodeSetRun:
+    """Outcome of an in-process node-set run.
+
+    Attributes
+    ----------
+    config : PmrConfig
+    diagnosis : Diagnosis
+        Rebuilt from the final /diagnostics message.
+    info : dict
+        Levels and messages per element and the diagnosed window.
+    estimates : dict or None
+        The final estimates topic message (element -> quantity -> value).
+    record : RunRecord or None
+        r, u, y as received from the topics (``record=True``).
+    wall_time_s : float
+        From the first published sample to the final verdicts.
+    warnings : list of str
+        What the diagnostician warned about.
+    """
+
+    config: PmrConfig
+    diagnosis: Diagnosis
+    info: dict
+    estimates: dict | None
+    record: RunRecord | None
+    wall_time_s: float
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def samples_per_second(self) -> float:
+        return self.config.run.samples / self.wall_time_s if self.wall_time_s > 0 else float("inf")
+
+
+class _Listener(Node):
+    """Reads /diagnostics and /pmr/estimates; records r, u, y by sample on request."""
+
+    def __init__(self, context: Context, config: PmrConfig, record: bool) -> None:
+        super().__init__("pmr_run_listener", context=context, start_parameter_services=False)
+        self.sample_time = config.model.sample_time
+        self.final_sample = config.run.samples - 1
+        self.final = None
+        self.estimates = None
+        self.arrays: dict[str, np.ndarray] = {}
+        self.counts: dict[str, int] = {}
+        for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
+            t = topic(key)
+            self.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+        if record:
+            n = config.run.samples
+            widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
+            for signal, key in (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output")):
+                self.arrays[signal] = np.full((n, widths[signal]), np.nan)
+                self.counts[signal] = 0
+                t = topic(key)
+                self.create_subscription(t.message_class(), t.name, self._recorder(signal), t.qos.profile())
+
+    def _recorder(self, signal: str):
+        def on_message(msg) -> None:
+            stamp, _, values = read_signal(msg)
+            k = int(round(stamp / self.sample_time))
+            if 0 <= k < self.arrays[signal].shape[0]:
+                self.arrays[signal][k] = values
+                self.counts[signal] += 1
+
+        return on_message
+
+    def _on_diagnostics(self, msg) -> None:
+        _, info = diagnosis_from_array(msg)
+        if info.get("last_sample") == self.final_sample:
+            self.final = msg
+
+    def _on_estimates(self, msg) -> None:
+        self.estimates = msg
+
+    @property
+    def done(self) -> bool:
+        recorded = all(c >= self.final_sample + 1 for c in self.counts.values())
+        return self.final is not None and recorded
+
+
+def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) -> list[Node]:
+    """The four nodes on ``context``, all with the full parameter set of ``config``.
+
+    ``extra`` holds dotted parameter values laid over the configuration.
+    """
+    from ..nodes.mpc_controller import MpcControllerNode
+    from ..nodes.pmr_diagnostician import PmrDiagnosticianNode
+    from ..nodes.prbs_setpoint import PrbsSetpointNode
+    from ..nodes.wood_berry_plant import PlantNode
+
+    flat = flatten_parameters(config.parameters)
+    flat.update(extra or {})
+    params = parameter_overrides(flat)
+    nodes: list[Node] = []
+    try:
+        for cls in (PmrDiagnosticianNode, MpcControllerNode, PrbsSetpointNode, PlantNode):
+            nodes.append(cls(context=context, parameter_overrides=params))
+    except Exception:
+        for node in nodes:
+            node.destroy_node()
+        raise
+    return nodes
+
+
+def run_node_set(
+    config: PmrConfig | None = None,
+    *,
+    domain_id: int | None = None,
+    record: bool = False,
+    diagnose_once: bool = True,
+    stall_timeout_s: float = 30.0,
+    extra_parameters: dict | None = None,
+    executor_kind: str = "events",
+) -> NodeSetRun:
+    """Run the four nodes in this process for ``config.run.samples`` samples in lockstep.
+
+    Parameters
+    ----------
+    config : PmrConfig, optional
+        Default: the shipped Wood-Berry configuration.
+    domain_id : int, optional
+        ROS domain of the private Context (default: ``ROS_DOMAIN_ID`` or 0).
+    record : bool
+        Also record r, u and y from the topics.
+    diagnose_once : bool
+        Set the diagnostician's window, update period and minimum to the run
+        length, so it diagnoses once, the whole run, like the batch path.
+    stall_timeout_s : float
+        Give up when no sample goes by for this long [s].
+    extra_parameters : dict, optional
+        Dotted parameter values for every node (after ``diagnose_once``).
+    executor_kind : str
+        One of :data:`EXECUTORS`.
+
+    Raises
+    ------
+    NodeSetError
+        When the loop stalls.
+    """
+    config = config or load_config()
+    n = config.run.samples
+    extra = {}
+    if diagnose_once:
+        extra.update({"diagnostician.window_samples": n, "diagnostician.update_period_samples": n, "diagnostician.min_samples": n})
+    extra.update(extra_parameters or {})
+    context = Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    nodes: list[Node] = []
+    executor = None
+    try:
+        nodes = build_nodes(config, context, extra)
+        diagnostician, plant = nodes[0], nodes[-1]
+        listener = _Listener(context, config, record)
+        nodes.append(listener)
+        executor = make_executor(executor_kind, context)
+        for node in nodes:
+            executor.add_node(node)
+        started = None
+        last_progress, last_sample = time.monotonic(), plant.sample
+        while not listener.done:
+            executor.spin_once(timeout_sec=0.05)
+            now = time.monotonic()
+            if plant.sample != last_sample:
+                if started is None:
+                    started = now
+                last_progress, last_sample = now, plant.sample
+            elif now - last_progress > stall_timeout_s and not plant.finished:
+                raise NodeSetError(f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)")
+            elif plant.finished and now - last_progress > stall_timeout_s:
+                raise NodeSetError(f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample")
+        wall = time.monotonic() - (started or time.monotonic())
+        diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
+        record_out = None
+        if record:
+            record_out = RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"])
+        estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
+        return NodeSetRun(config, diagnosis, info, estimates, record_out, wall, list(diagnostician.warnings))
+    finally:
+        if executor is not None:
+            executor.shutdown(timeout_sec=1.0)
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+EXECUTORS = ("events", "single")
+"""``events``: rclpy's EventsExecutor (about 3x faster here); ``single``: SingleThreadedExecutor."""
+
+
+def make_executor(kind: str, context: Context):
+    """An executor of ``kind`` (see :data:`EXECUTORS`) on ``context``."""
+    if kind == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor(context=context)
+    if kind == "single":
+        return SingleThreadedExecutor(context=context)
+    raise ValueError(f"executor {kind!r}: must be one of {', '.join(EXECUTORS)}")
