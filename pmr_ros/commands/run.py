@@ -1,4 +1,10 @@
-"""``pmr-ros run``: run the closed loop and print the per-element verdicts."""
+"""``pmr-ros run``: run the closed loop and print the per-element verdicts.
+
+By default the four ROS 2 nodes (plant, PRBS setpoint, MPC, diagnostician) run
+in this process over real topics in lockstep, and the verdicts are the
+diagnostician's final ones read from /diagnostics.  ``--batch`` runs the pure
+core instead (no ROS); both give the same data and verdicts for a seed.
+"""
 
 from __future__ import annotations
 
@@ -12,23 +18,62 @@ def register(sub) -> None:
     p = sub.add_parser(
         "run",
         help="run the closed loop (PRBS setpoints, MPC, plant) and diagnose it",
-        description="Run the closed loop for N samples on a configured system and print the per-element PMR verdicts.",
+        description=(
+            "Run the closed loop for N samples on a configured system and print the per-element PMR verdicts. "
+            "Default: the four ROS 2 nodes in this process over real topics, verdicts from /diagnostics; --batch: the pure core."
+        ),
     )
     add_system_arguments(p)
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    p.add_argument("--batch", action="store_true", help="run the pure numerical core instead of the ROS 2 node set")
+    p.add_argument(
+        "--visible",
+        action="store_true",
+        help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); default: private to this process",
+    )
     p.set_defaults(handler=handle)
 
 
+def _node_set_report(config):
+    """Run the node set; the core diagnosis from /diagnostics and the extras the node path knows."""
+    try:
+        from ..ros.node_set import NodeSetError, run_node_set
+    except ImportError as exc:
+        raise CommandError(f"the ROS 2 node set needs rclpy ({exc}); install pmr_ros[ros] or use --batch") from None
+    return run_node_set, NodeSetError
+
+
 def handle(args: argparse.Namespace) -> int:
-    from ..core.closed_loop import simulate
     from ..core.config import load_config
-    from ..core.pmr import diagnose
     from ..core.report import build_report, format_table
 
     config = load_config(args.config, run_overrides(args))
-    record = simulate(config)
-    diagnosis = diagnose(record.r, record.u, record.y, config.model, config.pmr)
-    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    if args.batch:
+        from ..core.closed_loop import simulate
+        from ..core.pmr import diagnose
+
+        record = simulate(config)
+        diagnosis = diagnose(record.r, record.u, record.y, config.model, config.pmr)
+        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+        report["path"] = "batch"
+    else:
+        run_node_set, NodeSetError = _node_set_report(config)
+        try:
+            result = run_node_set(config, private=not args.visible)
+        except NodeSetError as exc:
+            raise CommandError(str(exc), code=1) from None
+        diagnosis = result.diagnosis
+        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+        report["path"] = "nodes"
+        report["node_set"] = {
+            "levels": result.info["levels"],
+            "messages": result.info["messages"],
+            "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
+            "estimates": result.estimates,
+            "wall_time_s": result.wall_time_s,
+            "samples_per_second": result.samples_per_second,
+            "diagnostician_warnings": result.warnings,
+        }
     sys.stdout.write(format_table(report))
     if args.json:
         try:

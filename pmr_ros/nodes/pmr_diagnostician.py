@@ -153,7 +153,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.STALE, stale, node, system, self._window_info()))
             return
         if al.stretch_length < self.settings.min_samples:
-            reason = f"insufficient data: {al.stretch_length} unbroken samples, need {self.settings.min_samples}"
+            reason = f"{al.stretch_length} unbroken samples, need {self.settings.min_samples}"
             if al.gaps:
                 reason += f" (the window restarted after a gap {al.gaps} time(s))"
             self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, reason, node, system, self._window_info()))
@@ -162,7 +162,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         diagnosis = diagnose(r, u, y, model, self.config.pmr)
         window = self._window_info(r.shape[0], first)
         if diagnosis.status != "ok":
-            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, f"insufficient data: {diagnosis.reason}", node, system, window))
+            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, diagnosis.reason, node, system, window))
             return
         self._publish_statuses(verdict_statuses(diagnosis, node, system, window))
         self._estimates_pub.publish(estimates_message(diagnosis, al.stretch_last * al.sample_time_s, system))

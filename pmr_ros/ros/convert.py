@@ -103,10 +103,15 @@ def verdict_statuses(diagnosis: Diagnosis, node_name: str, hardware_id: str, win
 
 
 def no_verdict_statuses(element_names: Sequence[str], level: bytes, reason: str, node_name: str, hardware_id: str, window: dict) -> list[DiagnosticStatus]:
-    """Statuses without numbers, for insufficient (WARN) or stale (STALE) data, with the reason."""
+    """Statuses without numbers, for insufficient (WARN) or stale (STALE) data, with the reason.
+
+    The message is ``insufficient data: <reason>`` or ``stale: <reason>``; the
+    ``reason`` KeyValue holds the reason alone.
+    """
     status = "stale" if level == DiagnosticStatus.STALE else "insufficient_data"
+    message = f"{'stale' if status == 'stale' else 'insufficient data'}: {reason}"
     pairs = {"verdict": "insufficient_data", "status": status, "reason": reason, **window}
-    return [DiagnosticStatus(level=level, name=f"{node_name}: {name}", message=reason, hardware_id=hardware_id, values=_values(pairs)) for name in element_names]
+    return [DiagnosticStatus(level=level, name=f"{node_name}: {name}", message=message, hardware_id=hardware_id, values=_values(pairs)) for name in element_names]
 
 
 def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> DiagnosticArray:

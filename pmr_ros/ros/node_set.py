@@ -9,6 +9,7 @@ the round trips allow and gives exactly the batch core's data.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -24,6 +25,8 @@ from ..core.pmr import Diagnosis
 from .contract import topic
 from .convert import diagnosis_from_array, read_estimates, read_signal
 from .parameters import parameter_overrides
+
+DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 
 class NodeSetError(RuntimeError):
@@ -144,6 +147,7 @@ def run_node_set(
     stall_timeout_s: float = 30.0,
     extra_parameters: dict | None = None,
     executor_kind: str = "events",
+    private: bool = False,
 ) -> NodeSetRun:
     """Run the four nodes in this process for ``config.run.samples`` samples in lockstep.
 
@@ -164,6 +168,9 @@ def run_node_set(
         Dotted parameter values for every node (after ``diagnose_once``).
     executor_kind : str
         One of :data:`EXECUTORS`.
+    private : bool
+        Discovery off: the nodes see only each other, no other process sees
+        them (and concurrent runs cannot disturb each other).
 
     Raises
     ------
@@ -177,7 +184,7 @@ def run_node_set(
         extra.update({"diagnostician.window_samples": n, "diagnostician.update_period_samples": n, "diagnostician.min_samples": n})
     extra.update(extra_parameters or {})
     context = Context()
-    rclpy.init(context=context, domain_id=domain_id)
+    _init_context(context, domain_id, private)
     nodes: list[Node] = []
     executor = None
     try:
@@ -214,6 +221,26 @@ def run_node_set(
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def _init_context(context: Context, domain_id: int | None, private: bool) -> None:
+    """``rclpy.init`` of ``context``; ``private`` turns discovery off for this Context only.
+
+    rcl reads ``ROS_AUTOMATIC_DISCOVERY_RANGE`` when a context starts, so the
+    variable is set just around the call.
+    """
+    if not private:
+        rclpy.init(context=context, domain_id=domain_id)
+        return
+    before = os.environ.get(DISCOVERY_VARIABLE)
+    os.environ[DISCOVERY_VARIABLE] = "OFF"
+    try:
+        rclpy.init(context=context, domain_id=domain_id)
+    finally:
+        if before is None:
+            del os.environ[DISCOVERY_VARIABLE]
+        else:
+            os.environ[DISCOVERY_VARIABLE] = before
 
 
 EXECUTORS = ("events", "single")
