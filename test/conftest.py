@@ -11,3 +11,7 @@ from pmr_ros.core.config import load_config
 def wood_berry():
     """The shipped Wood-Berry configuration."""
     return load_config()
+
+
+# ROS 2 isolation fixtures (a private rclpy Context and ROS domain per test): test/ros_fixtures.py
+from ros_fixtures import ros_context, ros_domain  # noqa: E402,F401

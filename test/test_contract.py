@@ -1,0 +1,68 @@
+"""The topic contract of msg_defs/: names, types, QoS and field documentation."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from pmr_ros.ros.contract import ContractError, load_contract, msg_defs_dir, parse_contract, topic  # noqa: E402
+
+KEYS = ("setpoint", "measured_output", "manipulated_input", "clock", "diagnostics", "estimates")
+
+
+def test_msg_defs_dir_is_the_source_tree():
+    assert (msg_defs_dir() / "topics.yaml").is_file()
+    assert (msg_defs_dir() / "README.md").is_file()
+
+
+def test_contract_lists_every_topic_with_type_qos_and_fields():
+    topics = load_contract()
+    assert set(KEYS) <= set(topics)
+    assert topic("diagnostics").name == "/diagnostics"
+    assert topic("clock").name == "/clock"
+    for key in KEYS:
+        t = topics[key]
+        cls = t.message_class()
+        assert cls.__name__ == t.type.split("/")[-1]
+        profile = t.qos.profile()
+        assert profile.depth == t.qos.depth
+        assert t.fields and t.description
+    for key in ("setpoint", "measured_output", "manipulated_input"):
+        assert topics[key].type == "sensor_msgs/msg/JointState"
+        assert "header.stamp" in topics[key].fields
+
+
+def test_parse_contract_rejects_malformed_entries():
+    good = {"topics": {"x": {"name": "/x", "type": "std_msgs/msg/Float64", "qos": {"reliability": "reliable", "durability": "volatile", "depth": 1},
+                             "description": "d", "fields": {"data": "value"}}}}
+    assert parse_contract(good)["x"].qos.depth == 1
+    cases = [
+        (("name",), "x", "absolute topic name"),
+        (("type",), "std_msgs/Float64", "package/msg/Type"),
+        (("qos", "reliability"), "sometimes", "reliability"),
+        (("qos", "durability"), "forever", "durability"),
+        (("qos", "depth"), 0, "depth"),
+        (("fields",), {}, "document every field"),
+    ]
+    for path, value, words in cases:
+        doc = copy.deepcopy(good)
+        node = doc["topics"]["x"]
+        for part in path[:-1]:
+            node = node[part]
+        node[path[-1]] = value
+        with pytest.raises(ContractError, match=words):
+            parse_contract(doc)
+    doc = copy.deepcopy(good)
+    del doc["topics"]["x"]["qos"]
+    with pytest.raises(ContractError, match="topics.x.qos: missing"):
+        parse_contract(doc)
+    with pytest.raises(ContractError, match="'topics' mapping"):
+        parse_contract({"nope": 1})
+
+
+def test_unknown_topic_key_is_a_clear_error():
+    with pytest.raises(ContractError, match="no topic 'nope'"):
+        topic("nope")
