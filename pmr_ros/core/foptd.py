@@ -170,6 +170,13 @@ class FoptdMatrix:
         n = max(self.n_outputs, self.n_inputs)
         return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
 
+    def settling_samples(self, time_constants: float = 8.0) -> int:
+        """Samples until every element forgets its initial state to ``exp(-time_constants)``.
+
+        ``time_constants`` x the largest tau plus the largest delay, in samples.
+        """
+        return int(np.ceil(time_constants * self.time_constant.max() / self.sample_time)) + int(self.delay_samples.max()) + 1
+
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""
         pole = np.exp(-self.sample_time / self.time_constant)
@@ -223,8 +230,9 @@ class FoptdMatrix:
         Parameters
         ----------
         u : ndarray, shape (N, n_inputs)
-            Inputs; the filters start at steady state for ``u[0]`` so a record
-            taken from the middle of a run has no start-up transient.
+            Inputs.  The filters start at steady state for ``u[0]``; the true
+            initial state is unknown, so drop the first
+            :meth:`settling_samples` of the result before using it.
 
         Returns
         -------

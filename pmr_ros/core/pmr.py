@@ -178,11 +178,14 @@ def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix
     samples = r.shape[0]
     if u.shape[0] != samples or y.shape[0] != samples:
         raise InsufficientData("r, u and y have different lengths")
-    segments = settings.welch.segments(samples)
+    warmup = model.settling_samples()
+    segments = settings.welch.segments(samples - warmup)
     need = max(MIN_SEGMENTS, 2 * n_out)
     if segments < need:
-        shortest = settings.segment_length + (need - 1) * (settings.segment_length - int(settings.segment_length * settings.overlap))
-        raise InsufficientData(f"window too short: {samples} samples give {segments} Welch segments, need {need} ({shortest} samples)")
+        shortest = warmup + settings.segment_length + (need - 1) * (settings.segment_length - int(settings.segment_length * settings.overlap))
+        raise InsufficientData(
+            f"window too short: {samples} samples less {warmup} of model settling give {segments} Welch segments, need {need} ({shortest} samples)"
+        )
     spread = r.std(axis=0)
     for j, s in enumerate(spread):
         if s <= 1e-9 * (1.0 + abs(r[:, j].mean())):
@@ -212,6 +215,9 @@ def estimate_pmr(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix
     check_record(r, u, y, model, settings)
     n_out, n_in = model.n_outputs, model.n_inputs
     yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
+    # yhat's filters start from a guessed state: drop their settling time everywhere.
+    warmup = model.settling_samples()
+    r, y, yhat = r[warmup:], y[warmup:], yhat[warmup:]
     signals = np.hstack([y, yhat])
     omega, S = cross_spectra(r, signals, settings.welch)  # (F, n_r, n_out + n_out*n_in)
     _, S_rr = cross_spectra(r, r, settings.welch)

@@ -1,0 +1,122 @@
+"""The PMR engine: exactness without noise, insufficient data, and the paper's baseline."""
+
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.config import load_config
+from pmr_ros.core.pmr import InsufficientData, check_record, diagnose, estimate_pmr
+
+SEEDS = range(1, 6)
+
+
+def test_noise_free_pmr_with_plant_equal_to_model_is_one_with_zero_delay():
+    config = load_config(overrides={"noise": {"std": 0.0}, "run": {"scenario": "none"}})
+    rec = simulate(config, samples=8192)
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    informative = estimate.omega <= 1.0
+    np.testing.assert_allclose(estimate.ratio[informative], 1.0, atol=1e-3)
+    diagnosis = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
+    for element in diagnosis.elements.values():
+        assert element.gain_ratio == pytest.approx(1.0, abs=1e-3)
+        assert abs(element.tau_index) < 0.5
+        assert element.delay_mismatch_samples == 0
+        assert element.verdict == "ok"
+
+
+def test_noise_free_pmr_equals_the_true_ratio_under_mismatch():
+    config = load_config(overrides={"noise": {"std": 0.0}})
+    rec = simulate(config, samples=8192, scenario="full")
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    w = estimate.omega[estimate.omega <= 0.4]
+    truth = config.plant("full").discretize().frequency_response(w) / config.model.discretize().frequency_response(w)
+    np.testing.assert_allclose(estimate.ratio[: w.size], np.moveaxis(truth, -1, 0), rtol=0.02, atol=0.02)
+
+
+def _run(args):
+    path, scenario, seed = args
+    config = load_config(path)
+    rec = simulate(config, seed=seed, scenario=scenario)
+    return scenario, seed, diagnose(rec.r, rec.u, rec.y, config.model, config.pmr).to_dict()
+
+
+@pytest.fixture(scope="module")
+def baseline_runs():
+    """Every scenario x 5 seeds on Wood-Berry and on the 3x3, two processes at a time."""
+    jobs = [(path, s, seed) for path in (None, "config/three_by_three.yaml") for s in ("none", "gain", "time_constant", "delay", "full") for seed in SEEDS]
+    with ProcessPoolExecutor(2) as pool:
+        results = list(pool.map(_run, jobs))
+    out = {}
+    for (path, _, _), (scenario, seed, d) in zip(jobs, results, strict=True):
+        out[(path, scenario, seed)] = d
+    return out
+
+
+def _matrix(d, key, n):
+    return np.array([d["elements"][name][key] for name in d["elements"]], dtype=float).reshape(n, n)
+
+
+def test_full_mismatch_reproduces_section_3_3_on_wood_berry(baseline_runs, wood_berry):
+    for seed in SEEDS:
+        d = baseline_runs[(None, "full", seed)]
+        assert d["status"] == "ok"
+        np.testing.assert_allclose(_matrix(d, "gain_ratio", 2), [[1.10, 1.15], [0.85, 0.90]], atol=0.03)
+        np.testing.assert_array_equal(np.sign(_matrix(d, "tau_index", 2)), [[1, 1], [-1, -1]])
+        np.testing.assert_array_equal(_matrix(d, "delay_mismatch_samples", 2), [[0, 1], [2, 0]])
+        assert all(e["verdict"] == "mismatch" for e in d["elements"].values())
+
+
+@pytest.mark.parametrize("path", [None, "config/three_by_three.yaml"], ids=["wood_berry", "3x3"])
+@pytest.mark.parametrize("scenario", ["none", "gain", "time_constant", "delay", "full"])
+def test_each_scenario_flags_exactly_its_own_parameters(baseline_runs, path, scenario):
+    config = load_config(path)
+    n = config.model.n_outputs
+    injected = config.mismatch.for_scenario(scenario)
+    for seed in SEEDS:
+        d = baseline_runs[(path, scenario, seed)]
+        assert d["status"] == "ok"
+        np.testing.assert_array_equal(_matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}")
+        np.testing.assert_array_equal(_matrix(d, "tau_mismatch", n).astype(bool), injected.time_constant_pct != 0, err_msg=f"tau flags, seed {seed}")
+        np.testing.assert_array_equal(_matrix(d, "delay_mismatch", n).astype(bool), injected.delay_samples != 0, err_msg=f"delay flags, seed {seed}")
+        np.testing.assert_allclose(_matrix(d, "gain_ratio", n), injected.gain_ratio, atol=0.03, err_msg=f"gain ratios, seed {seed}")
+        np.testing.assert_array_equal(_matrix(d, "delay_mismatch_samples", n), injected.delay_samples, err_msg=f"delays, seed {seed}")
+        tau = _matrix(d, "tau_index", n)
+        moved = injected.time_constant_pct != 0
+        np.testing.assert_array_equal(np.sign(tau[moved]), np.sign(injected.time_constant_pct[moved]), err_msg=f"tau signs, seed {seed}")
+
+
+def test_constant_setpoints_are_insufficient_data(wood_berry):
+    config = load_config(overrides={"prbs": {"amplitude": 0.0}})
+    rec = simulate(config, samples=4096)
+    d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
+    assert d.status == "insufficient_data" and "no excitation" in d.reason
+    assert all(e.gain_ratio is None and e.verdict == "insufficient_data" for e in d.elements.values())
+    assert d.elements["G11"].summary() == "insufficient data"
+
+
+def test_one_constant_setpoint_is_insufficient_data():
+    config = load_config(overrides={"prbs": {"amplitude": [1.0, 0.0]}})
+    rec = simulate(config, samples=4096)
+    d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
+    assert d.status == "insufficient_data" and "r2" in d.reason
+
+
+def test_too_short_a_record_is_insufficient_data(wood_berry):
+    rec = simulate(wood_berry, samples=1000)
+    d = diagnose(rec.r, rec.u, rec.y, wood_berry.model, wood_berry.pmr)
+    assert d.status == "insufficient_data" and "too short" in d.reason
+
+
+def test_check_record_rejects_nan_and_wrong_shapes(wood_berry):
+    rec = simulate(wood_berry, samples=3000)
+    y = rec.y.copy()
+    y[100, 1] = np.nan
+    with pytest.raises(InsufficientData, match="NaN"):
+        check_record(rec.r, rec.u, y, wood_berry.model, wood_berry.pmr)
+    with pytest.raises(InsufficientData, match="shape"):
+        check_record(rec.r, rec.u[:, :1], rec.y, wood_berry.model, wood_berry.pmr)
+    with pytest.raises(InsufficientData, match="lengths"):
+        check_record(rec.r, rec.u[:-1], rec.y, wood_berry.model, wood_berry.pmr)
+    check_record(rec.r, rec.u, rec.y, wood_berry.model, wood_berry.pmr)  # a good record passes
