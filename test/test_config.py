@@ -1,0 +1,91 @@
+"""Configuration: the shipped files load; bad values name the file and field."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pmr_ros.core.config import ConfigError, config_dir, flatten_parameters, load_config, read_parameter_file
+
+
+def test_shipped_wood_berry_is_the_standard_matrix(wood_berry):
+    m = wood_berry.model
+    np.testing.assert_allclose(m.gain, [[12.8, -18.9], [6.6, -19.4]])
+    np.testing.assert_allclose(m.time_constant, [[16.7, 21.0], [10.9, 14.4]])
+    np.testing.assert_array_equal(m.delay_samples, [[1, 3], [7, 3]])
+    assert m.sample_time == 1.0 and m.output_names == ("x_D", "x_B")
+    np.testing.assert_allclose(wood_berry.mismatch.gain_pct, [[10, 15], [-15, -10]])
+    np.testing.assert_allclose(wood_berry.mismatch.time_constant_pct, [[10, 12], [-15, -8]])
+    np.testing.assert_array_equal(wood_berry.mismatch.delay_samples, [[0, 1], [2, 0]])
+    assert wood_berry.run.scenario == "full" and wood_berry.run.samples == 16384
+    np.testing.assert_allclose(wood_berry.noise_std, [0.1, 0.1])  # a scalar default broadcast per channel
+
+
+def test_three_by_three_loads():
+    config = load_config(config_dir() / "three_by_three.yaml")
+    assert config.model.gain.shape == (3, 3) and len(config.model.element_names()) == 9
+
+
+def test_matrix_as_list_of_rows_is_accepted(tmp_path):
+    path = _write(tmp_path, {"system": {"gain": [[12.8, -18.9], [6.6, -19.4]]}})
+    np.testing.assert_allclose(load_config(path).model.gain, [[12.8, -18.9], [6.6, -19.4]])
+
+
+def test_overrides_and_flatten():
+    config = load_config(overrides={"run": {"seed": 9}})
+    assert config.run.seed == 9
+    flat = flatten_parameters(config.parameters)
+    assert flat["system.gain"] == [12.8, -18.9, 6.6, -19.4] and flat["run.seed"] == 9
+
+
+def _write(tmp_path: Path, change: dict, base: str = "wood_berry.yaml") -> Path:
+    doc = yaml.safe_load((config_dir() / base).read_text())
+    params = doc["/**"]["ros__parameters"]
+    for block, values in change.items():
+        params.setdefault(block, {}).update(values)
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+@pytest.mark.parametrize(
+    "change,field,words",
+    [
+        ({"system": {"input_names": ["reflux", "steam", "feed"]}}, "system.input_names", "square"),
+        ({"system": {"gain": [[12.8, -18.9], [6.6]]}}, "system.gain", "ragged"),
+        ({"system": {"gain": [12.8, -18.9, 6.6]}}, "system.gain", "needs 4 entries"),
+        ({"system": {"time_constant": [16.7, 21.0, 0.0, 14.4]}}, "system.time_constant[2] (G21)", "> 0"),
+        ({"system": {"time_constant": [16.7, -21.0, 10.9, 14.4]}}, "system.time_constant[1] (G12)", "> 0"),
+        ({"system": {"delay": [1.0, 3.5, 7.0, 3.0]}}, "system.delay[1]", "whole number of samples"),
+        ({"system": {"gain": [12.8, math.nan, 6.6, -19.4]}}, "system.gain[1] (G12)", "finite"),
+        ({"system": {"gain": [12.8, "big", 6.6, -19.4]}}, "system.gain[1] (G12)", "number"),
+        ({"system": {"sample_time": 0.0}}, "system.sample_time", "> 0"),
+        ({"run": {"scenario": "everything"}}, "run.scenario", "none, gain, time_constant, delay, full"),
+        ({"noise": {"std": [0.1, -0.1]}}, "noise.std[1]", ">= 0"),
+        ({"prbs": {"register_length": 30}}, "prbs.register_length", "<= 24"),
+        ({"mpc": {"control_horizon": 80}}, "mpc.control_horizon", "prediction_horizon"),
+        ({"mpc": {"u_min": 3.0}}, "mpc.u_min", "below"),
+        ({"mismatch": {"delay_samples": [0, 0, -9, 0]}}, "mismatch.delay_samples", "negative"),
+        ({"pmr": {"window": "no_such_window"}}, "pmr.window", "window"),
+    ],
+)
+def test_bad_values_name_file_field_and_value(tmp_path, change, field, words):
+    path = _write(tmp_path, change)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    message = str(info.value)
+    assert str(path) in message and field in message and words in message
+
+
+def test_unreadable_and_malformed_files(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read"):
+        read_parameter_file(tmp_path / "missing.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("a: [1, 2\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        read_parameter_file(bad)
+    bad.write_text("system:\n  gain: 1\n")
+    with pytest.raises(ConfigError, match="ros__parameters"):
+        read_parameter_file(bad)
