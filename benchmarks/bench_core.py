@@ -1,0 +1,62 @@
+"""Benchmark of the numerical core (prints figures; not a test).
+
+- closed-loop steps per second of plant + PRBS + MPC on Wood-Berry (target >= 3,000)
+- median OSQP solve time of the MPC, when a constraint binds and when forced every step
+- diagnosis time for 8,192 samples of the 2x2 (target <= 50 ms)
+
+Run: .venv/bin/python benchmarks/bench_core.py
+"""
+
+from __future__ import annotations
+
+import platform
+import statistics
+import time
+
+from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.config import load_config
+from pmr_ros.core.mpc import LinearMpc
+from pmr_ros.core.plant import FoptdPlant
+from pmr_ros.core.pmr import diagnose
+from pmr_ros.core.prbs import PrbsGenerator
+
+
+def closed_loop_rate(config, samples: int, always_solve_qp: bool) -> tuple[float, LinearMpc]:
+    plant = FoptdPlant(config.plant("full"), config.noise_std, 1)
+    mpc = LinearMpc(config.model, config.mpc, record_solve_times=True, always_solve_qp=always_solve_qp)
+    prbs = PrbsGenerator(config.prbs, 1)
+    t0 = time.perf_counter()
+    for k in range(samples):
+        y = plant.measure()
+        plant.advance(mpc.step(y, prbs.value(k)))
+    return samples / (time.perf_counter() - t0), mpc
+
+def main() -> None:
+    config = load_config()
+    print(f"pmr_ros core benchmark on {platform.processor() or platform.machine()}, Python {platform.python_version()}")
+    samples = 16384
+    rate, mpc = closed_loop_rate(config, samples, always_solve_qp=False)
+    solves = mpc.statistics.solve_time_s
+    print(f"closed loop (Wood-Berry, default MPC): {rate:,.0f} steps/s  (target >= 3,000)")
+    print(f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve {1e6 * statistics.median(solves):.0f} us")
+    rate_qp, mpc_qp = closed_loop_rate(config, samples, always_solve_qp=True)
+    print(f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve {1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us")
+
+    record = simulate(config, samples=8192)
+    times = []
+    for _ in range(20):
+        t0 = time.perf_counter()
+        diagnose(record.r, record.u, record.y, config.model, config.pmr)
+        times.append(time.perf_counter() - t0)
+    print(f"diagnosis of 8,192 samples (2x2): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms  (target <= 50 ms)")
+    big = load_config("config/three_by_three.yaml")
+    rec3 = simulate(big, samples=8192)
+    t3 = []
+    for _ in range(10):
+        t0 = time.perf_counter()
+        diagnose(rec3.r, rec3.u, rec3.y, big.model, big.pmr)
+        t3.append(time.perf_counter() - t0)
+    print(f"diagnosis of 8,192 samples (3x3): median {1e3 * statistics.median(t3):.1f} ms")
+
+if __name__ == "__main__":
+    main()
