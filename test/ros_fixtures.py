@@ -47,7 +47,7 @@ def claimed_domain() -> Iterator[int]:
 
 def ros_environment(domain: int) -> dict[str, str]:
     """Environment variables of an isolated run in ``domain`` (for child processes too)."""
-    return {"ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_LOCALHOST_ONLY": "0"}
+    return {"ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
 
 
 @pytest.fixture

@@ -39,12 +39,15 @@ class PmrDiagnosticianNode(ConfiguredNode):
     warnings : collections.deque of str
         The newest warnings (also logged), for tests and introspection.
     last_published : DiagnosticArray or None
+    messages_received : int
+        Messages of r, u and y taken, good or bad.
     """
 
     def __init__(self, **kwargs) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), live_parameters=True, **kwargs)
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
+        self.messages_received = 0
         self._labels = {s: f"{s} on {topic(TOPIC_KEYS[s]).name}" for s in SIGNALS}
         self.aligner = self._new_aligner()
         self._last_arrival = {s: None for s in SIGNALS}
@@ -92,6 +95,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.get_logger().warning(text)
 
     def _on_signal(self, signal: str, msg) -> None:
+        self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
         was_lagging = self.aligner.lagging()

@@ -60,7 +60,7 @@ def check_signal(label: str, names: Sequence[str], values: Sequence[float], expe
     """
     width = len(expected_names)
     if len(values) != width:
-        return f"{label}: {len(values)} values {list(values)!r}, expected {width} ({', '.join(expected_names)}); message dropped"
+        return f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} ({', '.join(expected_names)}); message dropped"
     if len(names) and tuple(names) != tuple(expected_names):
         return f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message dropped"
     array = np.asarray(values, dtype=float)

@@ -10,6 +10,7 @@ the round trips allow and gives exactly the batch core's data.
 from __future__ import annotations
 
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -75,6 +76,7 @@ class _Listener(Node):
         self.sample_time = config.model.sample_time
         self.final_sample = config.run.samples - 1
         self.final = None
+        self.final_has_verdict = False
         self.estimates = None
         self.arrays: dict[str, np.ndarray] = {}
         self.counts: dict[str, int] = {}
@@ -101,17 +103,21 @@ class _Listener(Node):
         return on_message
 
     def _on_diagnostics(self, msg) -> None:
-        _, info = diagnosis_from_array(msg)
+        diagnosis, info = diagnosis_from_array(msg)
         if info.get("last_sample") == self.final_sample:
             self.final = msg
+            self.final_has_verdict = diagnosis.status == "ok"
 
     def _on_estimates(self, msg) -> None:
-        self.estimates = msg
+        stamp, _, _ = read_signal(msg)
+        if int(round(stamp / self.sample_time)) == self.final_sample:
+            self.estimates = msg
 
     @property
     def done(self) -> bool:
         recorded = all(c >= self.final_sample + 1 for c in self.counts.values())
-        return self.final is not None and recorded
+        estimated = self.final is not None and (self.estimates is not None or not self.final_has_verdict)
+        return estimated and recorded
 
 
 def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) -> list[Node]:
@@ -252,7 +258,17 @@ def make_executor(kind: str, context: Context):
     if kind == "events":
         from rclpy.experimental import EventsExecutor
 
-        return EventsExecutor(context=context)
+        # EventsExecutor calls faulthandler.enable() on sys.stderr, which fails when
+        # stderr is not a real file (captured output): give it the process's stderr.
+        stderr = sys.stderr
+        try:
+            stderr.fileno()
+        except (AttributeError, OSError, ValueError):
+            sys.stderr = sys.__stderr__
+        try:
+            return EventsExecutor(context=context)
+        finally:
+            sys.stderr = stderr
     if kind == "single":
         return SingleThreadedExecutor(context=context)
     raise ValueError(f"executor {kind!r}: must be one of {', '.join(EXECUTORS)}")

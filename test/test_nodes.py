@@ -1,0 +1,320 @@
+"""The four nodes in one process over real topics, and the diagnostician against bad traffic.
+
+Each test runs in its own ROS domain and rclpy Context (test/ros_fixtures.py).
+The full 16384-sample run of the paper's scenario happens once per module.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+from rcl_interfaces.msg import ParameterType  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E402
+
+from pmr_ros import cli  # noqa: E402
+from pmr_ros.core.closed_loop import simulate  # noqa: E402
+from pmr_ros.core.config import ConfigError, flatten_parameters, load_config  # noqa: E402
+from pmr_ros.core.pmr import diagnose  # noqa: E402
+from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
+from pmr_ros.nodes.wood_berry_plant import PlantNode  # noqa: E402
+from pmr_ros.ros.contract import topic  # noqa: E402
+from pmr_ros.ros.convert import diagnosis_from_array, signal_message  # noqa: E402
+from pmr_ros.ros.node_set import run_node_set  # noqa: E402
+from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+EXPECTED_GAIN = {"G11": 1.10, "G12": 1.15, "G21": 0.85, "G22": 0.90}
+EXPECTED_TAU_SIGN = {"G11": 1, "G12": 1, "G21": -1, "G22": -1}
+EXPECTED_DELAY = {"G11": 0, "G12": 1, "G21": 2, "G22": 0}
+
+
+@pytest.fixture(scope="module")
+def full_run():
+    """The node set on the paper's full-mismatch scenario, 16384 samples, r/u/y recorded from the topics."""
+    config = load_config()
+    with claimed_domain() as domain, pytest.MonkeyPatch.context() as mp:
+        for key, value in ros_environment(domain).items():
+            mp.setenv(key, value)
+        return run_node_set(config, domain_id=domain, record=True)
+
+
+def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run):
+    d = full_run.diagnosis
+    assert d.status == "ok", d.reason
+    assert full_run.info["window_samples"] == 16384 and full_run.info["last_sample"] == 16383
+    for name, element in d.elements.items():
+        assert element.gain_ratio == pytest.approx(EXPECTED_GAIN[name], abs=0.03), name
+        assert np.sign(element.tau_index) == EXPECTED_TAU_SIGN[name], name
+        assert element.delay_mismatch_samples == EXPECTED_DELAY[name], name
+        assert element.verdict == "mismatch"
+        assert full_run.info["levels"][name] in ("WARN", "ERROR")
+        assert full_run.info["messages"][name] == element.summary()
+        assert full_run.estimates[name]["gain_ratio"] == element.gain_ratio
+        assert full_run.estimates[name]["delay_mismatch_samples"] == element.delay_mismatch_samples
+    assert full_run.warnings == []
+    assert full_run.samples_per_second > 100
+
+
+def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
+    batch = simulate(full_run.config)
+    node = full_run.record
+    assert np.array_equal(node.r, batch.r)
+    assert np.array_equal(node.u, batch.u)
+    assert np.array_equal(node.y, batch.y)
+    expected = diagnose(batch.r, batch.u, batch.y, full_run.config.model, full_run.config.pmr)
+    assert {n: e.to_dict() for n, e in full_run.diagnosis.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
+
+
+def test_pmr_ros_run_uses_the_node_set_and_matches_batch(tmp_path, ros_domain, capsys):
+    nodes_json, batch_json = tmp_path / "nodes.json", tmp_path / "batch.json"
+    assert cli.main(["run", "--samples", "2000", "--seed", "3", "--json", str(nodes_json)]) == 0
+    assert cli.main(["run", "--samples", "2000", "--seed", "3", "--batch", "--json", str(batch_json)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("G21") == 2
+    nodes, batch = json.loads(nodes_json.read_text()), json.loads(batch_json.read_text())
+    assert nodes["path"] == "nodes" and batch["path"] == "batch"
+    assert nodes["elements"] == batch["elements"]
+    assert nodes["node_set"]["window"] == {"window_samples": 2000, "first_sample": 0, "last_sample": 1999}
+    assert set(nodes["node_set"]["levels"]) == {"G11", "G12", "G21", "G22"}
+
+
+# -- parameters --------------------------------------------------------------
+
+
+def _params(**dotted):
+    flat = flatten_parameters(load_config().parameters)
+    flat.update({k.replace("__", "."): v for k, v in dotted.items()})
+    return parameter_overrides(flat)
+
+
+def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros_context):
+    node = PmrDiagnosticianNode(context=ros_context)
+    try:
+        desc = node.describe_parameter("run.samples")
+        assert desc.description and desc.integer_range[0].from_value == 1
+        assert "LFSR" in node.describe_parameter("prbs.register_length").description
+        assert node.describe_parameter("pmr.overlap").floating_point_range[0].to_value == pytest.approx(0.99)
+        result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
+        assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
+        result = node.set_parameters([Parameter("mpc.control_horizon", value=50)])[0]
+        assert not result.successful and "must not exceed mpc.prediction_horizon" in result.reason
+        result = node.set_parameters([Parameter("prbs.clock_period", value=0)])[0]
+        assert not result.successful and "prbs.clock_period" in result.reason
+        assert node.get_parameter("prbs.clock_period").value == 8
+        result = node.set_parameters([Parameter("diagnostician.window_samples", value=4096)])[0]
+        assert not result.successful and "must not exceed diagnostician.window_samples (4096)" in result.reason
+        ok = node.set_parameters([Parameter("diagnostician.window_samples", value=10000)])[0]
+        assert ok.successful and node.aligner.capacity == 10000 and node.settings.window_samples == 10000
+        ok = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0, 4.0])])[0]
+        assert ok.successful and node.config.model.gain[1, 1] == 4.0
+    finally:
+        node.destroy_node()
+
+
+def test_simulation_nodes_refuse_runtime_changes_with_a_reason(ros_context):
+    node = PlantNode(context=ros_context)
+    try:
+        assert node.get_parameter("use_sim_time").value is True
+        result = node.set_parameters([Parameter("noise.std", value=0.2)])[0]
+        assert not result.successful and "restart" in result.reason
+        result = node.set_parameters([Parameter("noise.std", value=-1.0)])[0]
+        assert not result.successful and "noise.std = -1.0: must be >= 0" in result.reason
+        assert node.describe_parameter("system.gain").type == ParameterType.PARAMETER_DOUBLE_ARRAY
+    finally:
+        node.destroy_node()
+
+
+def test_invalid_parameters_at_start_are_a_config_error(ros_context):
+    with pytest.raises(ConfigError, match=r"prbs.clock_period = 0") as err:
+        PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params(prbs__clock_period=0))
+    assert "pmr_diagnostician" in str(err.value)
+    with pytest.raises(ConfigError, match="system.delay"):
+        PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params(system__delay=[1.5, 3.0, 7.0, 3.0]))
+
+
+# -- the diagnostician against bad traffic -----------------------------------
+
+SMALL = {
+    "pmr.segment_length": 128,
+    "diagnostician.window_samples": 600,
+    "diagnostician.update_period_samples": 100,
+    "diagnostician.min_samples": 500,
+    "diagnostician.max_lag_samples": 16,
+    "diagnostician.stale_timeout_s": 0.3,
+}
+
+
+@cache
+def _record():
+    return simulate(load_config(), samples=1000)
+
+
+class Harness:
+    """A diagnostician fed r, u, y over the real topics by a test node; collects /diagnostics."""
+
+    def __init__(self, context) -> None:
+        flat = flatten_parameters(load_config().parameters)
+        flat.update(SMALL)
+        self.diag = PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(flat))
+        self.feeder = rclpy.create_node("feeder", context=context)
+        self.config = self.diag.config
+        self.pubs = {}
+        for signal, key in (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output")):
+            t = topic(key)
+            self.pubs[signal] = self.feeder.create_publisher(t.message_class(), t.name, t.qos.profile())
+        t = topic("diagnostics")
+        self.received = []
+        self.feeder.create_subscription(t.message_class(), t.name, self.received.append, t.qos.profile())
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.diag)
+        self.executor.add_node(self.feeder)
+        spin_until(self.executor, lambda: all(p.get_subscription_count() >= 1 for p in self.pubs.values()), 5.0)
+
+    def send(self, signal: str, k: int, values=None, names=None) -> None:
+        rec = _record()
+        model = self.config.model
+        if values is None:
+            values = {"r": rec.r, "u": rec.u, "y": rec.y}[signal][k]
+        if names is None:
+            names = model.input_names if signal == "u" else model.output_names
+        self.pubs[signal].publish(signal_message(values, names, k * model.sample_time))
+        self._sent = getattr(self, "_sent", 0) + 1
+
+    def send_samples(self, ks, skip=()) -> None:
+        for k in ks:
+            for s in ("r", "y", "u"):
+                if (s, k) not in skip and k not in skip:
+                    self.send(s, k)
+            if k % 100 == 99:
+                self.settle()
+        self.settle()
+
+    def settle(self) -> None:
+        """Spin until the diagnostician has taken every message sent so far."""
+        def taken():
+            return self.diag.messages_received >= self._sent
+
+        assert spin_until(self.executor, taken, 10.0), "diagnostician did not take the messages"
+        spin_until(self.executor, lambda: False, 0.02)
+
+    def statuses(self):
+        return [diagnosis_from_array(m) for m in self.received]
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=1.0)
+        self.diag.destroy_node()
+        self.feeder.destroy_node()
+
+
+@pytest.fixture
+def harness(ros_context):
+    h = Harness(ros_context)
+    yield h
+    h.close()
+
+
+def _levels(info):
+    return set(info["levels"].values())
+
+
+def _assert_bad_stretch_excluded(h: Harness, first_good: int) -> None:
+    """Every verdict after the bad stretch comes from a window that starts after it."""
+    results = h.statuses()
+    assert results, "no diagnostics published"
+    for diagnosis, info in results:
+        if diagnosis.status == "ok":
+            assert info["first_sample"] >= first_good or info["last_sample"] < first_good - 1
+    final, info = results[-1]
+    assert info["last_sample"] == 999
+    assert final.status == "ok" and info["first_sample"] == 400
+    warn = [(d, i) for d, i in results if i.get("last_sample") == 399]
+    assert warn and warn[0][0].status == "insufficient_data" and _levels(warn[0][1]) == {"WARN"}
+    assert "unbroken samples, need 500" in warn[0][0].reason
+
+
+def test_nan_and_inf_in_y_are_dropped_and_the_stretch_excluded(harness):
+    h = harness
+    h.send_samples(range(0, 300))
+    h.send("r", 300), h.send("u", 300), h.send("y", 300, [float("nan"), 0.0])
+    h.send("r", 301), h.send("u", 301), h.send("y", 301, [0.0, float("inf")])
+    h.settle()
+    h.send_samples(range(302, 1000))
+    text = "\n".join(h.diag.warnings)
+    assert "y on /pmr/measured_output: non-finite value x_D=nan" in text
+    assert "x_B=inf" in text
+    assert "window restarts at sample 302" in text
+    _assert_bad_stretch_excluded(h, 302)
+
+
+def test_a_vector_of_the_wrong_length_is_dropped(harness):
+    h = harness
+    h.send_samples(range(0, 300))
+    h.send("r", 300), h.send("y", 300), h.send("u", 300, [0.1, 0.2, 0.3], ("reflux", "steam", "extra"))
+    h.settle()
+    h.send_samples(range(301, 1000))
+    text = "\n".join(h.diag.warnings)
+    assert "u on /pmr/manipulated_input: 3 values [0.1, 0.2, 0.3], expected 2 (reflux, steam)" in text
+    _assert_bad_stretch_excluded(h, 301)
+
+
+def test_a_gap_of_missing_samples_restarts_the_window(harness):
+    h = harness
+    h.send_samples(range(0, 1000), skip=set(range(290, 300)))
+    text = "\n".join(h.diag.warnings)
+    assert "samples 290..299 missing (gap of 10)" in text
+    assert "window restarts at sample 300" in text
+    # Enough unbroken samples after the gap by sample 799: a verdict from 300 on only.
+    results = h.statuses()
+    at_799 = [(d, i) for d, i in results if i.get("last_sample") == 799][0]
+    assert at_799[0].status == "ok" and at_799[1]["first_sample"] == 300
+    at_699 = [(d, i) for d, i in results if i.get("last_sample") == 699][0]
+    assert at_699[0].status == "insufficient_data" and "400 unbroken samples" in at_699[0].reason
+
+
+def test_duplicated_and_out_of_order_stamps_are_dropped_and_change_nothing(harness):
+    h = harness
+    h.send_samples(range(0, 301))
+    h.send("y", 300, [5.0, 5.0])  # duplicated stamp, other values
+    h.send("u", 295)  # out of order
+    h.settle()
+    h.send_samples(range(301, 1000))
+    text = "\n".join(h.diag.warnings)
+    assert "y on /pmr/measured_output: duplicated stamp 300 s (sample 300, newest is 300); message dropped" in text
+    assert "u on /pmr/manipulated_input: out-of-order stamp 295 s" in text
+    assert h.diag.aligner.gaps == 0
+    rec = _record()
+    r, u, y, first = h.diag.aligner.window(600)
+    assert first == 400 and np.array_equal(y, rec.y[400:]) and np.array_equal(u, rec.u[400:])
+    final, info = h.statuses()[-1]
+    expected = diagnose(rec.r[400:], rec.u[400:], rec.y[400:], h.config.model, h.config.pmr)
+    assert {n: e.to_dict() for n, e in final.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
+
+
+def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
+    h = harness
+    h.send_samples(range(0, 300))
+    for k in range(300, 400):
+        h.send("r", k)
+        h.send("y", k)
+    h.settle()
+    stale = [(d, i) for d, i in h.statuses() if _levels(i) == {"STALE"}]
+    assert stale, "no STALE diagnostics while u is missing"
+    assert "u on /pmr/manipulated_input stopped at sample 299" in stale[0][0].reason
+    assert all(e.gain_ratio is None for e in stale[0][0].elements.values())
+    # Then everything stops: after diagnostician.stale_timeout_s of silence, STALE again from the wall-clock check.
+    def silent_r_reported():
+        return any("no r on /pmr/setpoint for" in d.reason and _levels(i) == {"STALE"} for d, i in h.statuses())
+
+    assert spin_until(h.executor, silent_r_reported, 3.0)
+    assert any("no u on /pmr/manipulated_input for" in w for w in h.diag.warnings)
+    assert h.received[-1].status[0].level == DiagnosticStatus.STALE
