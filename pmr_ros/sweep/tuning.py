@@ -20,8 +20,9 @@ import numpy as np
 from ..core.foptd import FoptdMatrix
 from ..core.mpc import LinearMpc, MpcTuning
 
-STABILITY_LIMIT = 0.995
-"""Largest accepted closed-loop spectral radius: slowest mode decays within ~200 samples."""
+STABILITY_LIMIT = 0.999
+"""Largest accepted closed-loop spectral radius: the slowest mode decays (1/e) within
+1000 samples, well inside a record; slow but stable modes are the plant's own business."""
 
 HORIZON_STEP = 10
 """Samples added to the prediction horizon per search step."""

@@ -1,0 +1,328 @@
+"""pmr-ros sweep: plan, tuning, CSV, resume, interruption, report, and the CLI's errors."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+
+from pmr_ros.cli import build_parser, main
+from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.config import load_config
+from pmr_ros.core.foptd import SCENARIOS
+from pmr_ros.core.pmr import diagnose
+from pmr_ros.sweep import execute as sweep_execute
+from pmr_ros.sweep import store
+from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
+from pmr_ros.sweep.plan import PlanError, SweepPlan, SweepPoint, element_index, nu_grid, parse_nu_list, row_time_constant_ratio
+from pmr_ros.sweep.progress import ProgressBar, format_duration
+from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
+
+SAMPLES = 2048
+SMALL = ["--nu", "1,3", "--seeds", "1", "--samples", str(SAMPLES), "--quiet"]
+
+
+# --- plan -------------------------------------------------------------------------------------
+
+
+def test_default_nu_grid_is_the_papers():
+    grid = nu_grid(1.0, 10.0, 0.25)
+    assert len(grid) == 37 and grid[0] == 1.0 and grid[-1] == 10.0 and grid[5] == 2.25
+
+
+@pytest.mark.parametrize("args", [(5.0, 2.0, 0.25), (0.0, 2.0, 0.5), (1.0, 2.0, 0.0), (1.0, 2.0, -1.0), (1.0, float("inf"), 1.0)])
+def test_bad_nu_grid(args):
+    with pytest.raises(PlanError):
+        nu_grid(*args)
+
+
+def test_nu_list():
+    assert parse_nu_list("3, 1,2.25,1") == (1.0, 2.25, 3.0)
+    for text in ("", " , ", "0,1", "1,-2", "1,x"):
+        with pytest.raises(PlanError):
+            parse_nu_list(text)
+
+
+def test_element_index_and_row_ratio(wood_berry):
+    assert element_index(wood_berry.model, "G21") == (1, 0)
+    with pytest.raises(PlanError, match="unknown element"):
+        element_index(wood_berry.model, "G33")
+    model = wood_berry.model.with_time_constant(0, 0, 16.7 * 2.25)
+    assert row_time_constant_ratio(model, 0, 0) == pytest.approx(16.7 * 2.25 / 21.0)
+    assert row_time_constant_ratio(wood_berry.model, 1, 0) == pytest.approx(10.9 / 14.4)
+
+
+def test_plan_points_and_runs(wood_berry):
+    plan = SweepPlan(elements=("G11", "G21"), nu=(1.0, 2.0), seeds=(1, 2), samples=100)
+    points = plan.points(wood_berry.model)
+    assert [(p.element, p.nu) for p in points] == [("G11", 1.0), ("G11", 2.0), ("G21", 1.0), ("G21", 2.0)]
+    assert points[1].time_constant == pytest.approx(33.4)
+    assert points[0].model(wood_berry.model) is wood_berry.model
+    assert len(plan.runs()) == 10 and plan.total_runs == 40
+
+
+# --- tuning -----------------------------------------------------------------------------------
+
+
+def test_baseline_tuning_is_kept_and_slow_points_get_a_longer_horizon(wood_berry):
+    plants = [wood_berry.plant(s) for s in SCENARIOS]
+    base = stable_tuning(wood_berry.model, plants, wood_berry.mpc)
+    assert base.tuning == wood_berry.mpc and base.stable
+    model = wood_berry.model.with_time_constant(0, 0, 16.7 * 5)
+    assert loop_spectral_radius(model, model, wood_berry.mpc) > 1.0  # the configured horizon is unstable there
+    slow = stable_tuning(model, [model], wood_berry.mpc)
+    assert slow.stable and slow.spectral_radius < STABILITY_LIMIT
+    assert slow.tuning.prediction_horizon > wood_berry.mpc.prediction_horizon
+    assert slow.tuning.control_horizon == wood_berry.mpc.control_horizon
+
+
+# --- the command, end to end --------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "out"
+    assert main(["sweep", "--out", str(out), "--jobs", "2", *SMALL]) == 0
+    return out
+
+
+def test_small_sweep_csv_shape(small_sweep):
+    with (small_sweep / store.RESULTS_FILE).open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert tuple(rows[0].keys()) == store.COLUMNS
+    # 2 sweeps x 2 nu x 5 scenarios x 1 seed x 4 elements
+    assert len(rows) == 2 * 2 * 5 * 1 * 4
+    assert {r["sweep"] for r in rows} == {"tau_G11", "tau_G21"}
+    assert {r["method"] for r in rows} == {"classic"}
+    assert {(r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(rows)
+    assert all(r["status"] == "ok" for r in rows)
+    g11 = [r for r in rows if r["sweep"] == "tau_G11" and r["nu"] == "3.0"]
+    assert float(g11[0]["time_constant_swept"]) == pytest.approx(50.1)
+
+
+def test_small_sweep_report(small_sweep):
+    report = (small_sweep / "reproduction.md").read_text()
+    assert "Breakdown points" in report and "eq. 16" in report
+    figures = sorted(p.name for p in (small_sweep / "figures").glob("*.png"))
+    assert figures == sorted(f"sweep_{e}_{q}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay"))
+    assert all((small_sweep / "figures" / f).stat().st_size < 300_000 for f in figures)
+    assert json.loads((small_sweep / store.MANIFEST_FILE).read_text())["samples"] == SAMPLES
+
+
+def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
+    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0]
+    for scenario in SCENARIOS:
+        record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
+        diagnosis = diagnose(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr)
+        for sweep in ("tau_G11", "tau_G21"):
+            for row in (r for r in rows if r["scenario"] == scenario and r["sweep"] == sweep):
+                e = diagnosis.elements[row["element"]]
+                assert row["prediction_horizon"] == wood_berry.mpc.prediction_horizon
+                # exactly equal: same loop, same arithmetic, repr-exact CSV
+                assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (e.gain_ratio, e.tau_index, e.delay_mismatch_samples)
+                assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (e.gain_mismatch, e.tau_mismatch, e.delay_mismatch)
+
+
+def _run_has_batch_flag() -> bool:
+    try:
+        build_parser().parse_args(["run", "--batch"])
+    except SystemExit:
+        return False
+    return True
+
+
+def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
+    """The same through the ``pmr-ros run`` command (``--batch`` once it exists; until then run is the batch path)."""
+    report = tmp_path / "run.json"
+    argv = ["run", "--scenario", "full", "--seed", "1", "--samples", str(SAMPLES), "--json", str(report)]
+    if _run_has_batch_flag():
+        argv.insert(1, "--batch")
+    main(argv)
+    elements = json.loads(report.read_text())["elements"]
+    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"]
+    assert len(rows) == 4
+    for row in rows:
+        e = elements[row["element"]]
+        assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
+        assert row["tau_index"] == pytest.approx(e["tau_index"], rel=1e-12)
+        assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--nu-start", "5", "--nu-stop", "2"], "empty"),
+        (["--nu", "0,1"], "positive"),
+        (["--nu", ","], "empty"),
+        (["--nu-step", "0"], "positive"),
+        (["--nu-start", "-1"], "positive"),
+        (["--nu", "1", "--elements", "G33"], "unknown element"),
+        (["--nu", "1", "--elements", "G11,G11"], "twice"),
+    ],
+)
+def test_bad_input_is_one_clear_line(tmp_path, capsys, argv, message):
+    code = main(["sweep", "--out", str(tmp_path / "o"), "--quiet", *argv])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_existing_out_dir_needs_force_or_resume(small_sweep, capsys):
+    code = main(["sweep", "--out", str(small_sweep), *SMALL])
+    err = capsys.readouterr().err
+    assert code == 2 and "--force" in err and "Traceback" not in err
+    assert main(["sweep", "--out", str(small_sweep), "--force", "--resume", *SMALL]) == 2
+
+
+def test_resume_after_interruption(small_sweep, tmp_path):
+    full = (small_sweep / store.RESULTS_FILE).read_text().splitlines()
+    out = tmp_path / "resumed"
+    out.mkdir()
+    # An interrupted sweep: the manifest, the first 3 runs' rows and a torn line.
+    (out / store.MANIFEST_FILE).write_text((small_sweep / store.MANIFEST_FILE).read_text())
+    kept = full[: 1 + 3 * 4]
+    (out / store.RESULTS_FILE).write_text("\n".join(kept) + "\n" + full[13][:40])
+    calls = []
+    original = sweep_execute.run_point
+
+    def counting(config, task):
+        calls.append(len(task.runs))
+        return original(config, task)
+
+    sweep_execute.run_point = counting
+    try:
+        assert main(["sweep", "--out", str(out), "--resume", "--jobs", "1", "--no-report", *SMALL]) == 0
+    finally:
+        sweep_execute.run_point = original
+    assert sum(calls) == 20 - 3  # only the missing runs were simulated
+    lines = (out / store.RESULTS_FILE).read_text().splitlines()
+    assert lines[: len(kept)] == kept
+    assert sorted(lines) == sorted(full)
+
+
+def test_resume_refuses_other_samples(small_sweep, capsys):
+    assert main(["sweep", "--out", str(small_sweep), "--resume", "--nu", "1", "--seeds", "1", "--samples", "4096", "--quiet", "--no-report"]) == 2
+    assert "different samples" in capsys.readouterr().err
+
+
+def test_interrupt_keeps_finished_points(tmp_path, wood_berry, monkeypatch):
+    plan = SweepPlan(elements=("G11",), nu=(1.0, 2.0, 3.0), seeds=(1,), samples=SAMPLES, scenarios=("none",))
+    tasks = sweep_execute.plan_tasks(wood_berry, plan, set())
+    original = sweep_execute.run_point
+    done = []
+
+    def interrupted(config, task):
+        if done:
+            raise KeyboardInterrupt
+        done.append(task)
+        return original(config, task)
+
+    monkeypatch.setattr(sweep_execute, "run_point", interrupted)
+    results = tmp_path / store.RESULTS_FILE
+    with pytest.raises(KeyboardInterrupt):
+        sweep_execute.execute(wood_berry, tasks, results, jobs=1, progress=False)
+    rows = store.read_rows(results)
+    assert len(rows) == 4 and {r["nu"] for r in rows} == {done[0].point.nu}
+    left = sweep_execute.plan_tasks(wood_berry, plan, {store.run_key(r) for r in rows})
+    assert sorted(t.point.nu for t in left) == [1.0, 2.0]
+
+
+def test_report_only_needs_results(tmp_path, capsys):
+    assert main(["sweep", "--out", str(tmp_path), "--report-only"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+# --- pieces -------------------------------------------------------------------------------------
+
+
+def test_store_round_trip(tmp_path):
+    row = dict.fromkeys(store.COLUMNS)
+    row.update(method="classic", sweep="tau_G11", element_swept="G11", nu=2.25, scenario="full", seed=3, element="G12",
+               gain_ratio=1.0 / 3.0, tau_index=float("nan"), gain_mismatch=True, tau_mismatch=False, status="ok",
+               delay_mismatch_samples=-2, samples=16384, mpc_solves=7, mpc_failures=0, tracking_rms=0.5)
+    path = tmp_path / "r.csv"
+    store.append_rows(path, [row])
+    store.append_rows(path, [row])
+    back = store.read_rows(path)
+    assert len(back) == 2 and back[0]["gain_ratio"] == 1.0 / 3.0 and back[0]["tau_index"] is None
+    assert back[0]["gain_mismatch"] is True and back[0]["delay_mismatch_samples"] == -2
+    assert store.run_key(back[0]) == ("classic", "tau_G11", 2.25, "full", 3)
+    assert store.complete_rows(back, 2) == back and store.complete_rows(back[:1], 2) == []
+    store.rewrite(path, back[:1])
+    assert len(store.read_rows(path)) == 1
+    assert store.config_fingerprint({"a": 1}) == store.config_fingerprint({"a": 1}) != store.config_fingerprint({"a": 2})
+    store.write_manifest(tmp_path, {"samples": 5})
+    assert store.read_manifest(tmp_path) == {"samples": 5}
+    (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
+    with pytest.raises(ValueError):
+        store.read_rows(tmp_path / "bad.csv")
+
+
+def _row(**kw):
+    row = {"status": "ok", "gain_ratio": 1.1, "true_gain_ratio": 1.1, "tau_index": 20.0, "true_time_constant_pct": 10.0,
+           "delay_mismatch_samples": 0, "true_delay_samples": 0}
+    row.update(kw)
+    return row
+
+
+def test_run_correctness():
+    assert run_correctness(_row(), 8.0) == {"gain": True, "tau": True, "delay": True}
+    assert run_correctness(_row(gain_ratio=1.14), 8.0)["gain"] is False
+    assert run_correctness(_row(tau_index=-20.0), 8.0)["tau"] is False
+    assert run_correctness(_row(tau_index=5.0), 8.0)["tau"] is False  # flag not raised
+    assert run_correctness(_row(tau_index=5.0, true_time_constant_pct=0.0), 8.0)["tau"] is True
+    assert run_correctness(_row(tau_index=9.0, true_time_constant_pct=0.0), 8.0)["tau"] is False
+    assert run_correctness(_row(delay_mismatch_samples=1), 8.0)["delay"] is False
+    assert run_correctness(_row(status="insufficient_data", gain_ratio=None), 8.0) == {"gain": False, "tau": False, "delay": False}
+
+
+def _synthetic(nu, seed, gain):
+    base = {c: None for c in store.COLUMNS}
+    base.update(method="classic", sweep="tau_G11", element_swept="G11", nu=nu, scenario="gain", seed=seed, element="G11",
+                row_time_constant_ratio=nu * 0.8, prediction_horizon=40, loop_spectral_radius=0.97, mpc_solves=10,
+                mpc_failures=0, samples=100, tracking_rms=1.0, true_time_constant_pct=0.0, tau_index=0.0)
+    base.update(_row(gain_ratio=gain, tau_index=0.0, true_time_constant_pct=0.0))
+    return base
+
+
+def test_summary_and_breakdown():
+    rows = []
+    for nu, gains in ((1.0, (1.1, 1.1, 1.1)), (2.0, (1.1, 1.5, 1.1)), (3.0, (1.5, 1.5, 1.1)), (4.0, (1.1, 1.1, 1.1)), (5.0, (1.5, 1.5, 1.5))):
+        rows += [_synthetic(nu, s, g) for s, g in enumerate(gains)]
+    summary = summarize(rows, 8.0)
+    assert [p.gain_wrong for p in summary] == [0, 1, 2, 0, 3]
+    assert summary[2].gain_median == 1.5 and summary[2].gain_low == 1.1
+    gain = [b for b in breakdowns(summary) if b.diagnosis == "gain"][0]
+    assert gain.nu == 3.0 and gain.ratio == pytest.approx(2.4) and gain.failing_share == pytest.approx(2 / 3)
+    assert earliest(breakdowns(summary)).nu == 3.0
+    # a diagnosis that is wrong at the first nu is reported as such, not as a breakdown
+    bad = summarize([_synthetic(1.0, 0, 1.5), _synthetic(2.0, 0, 1.5)], 8.0)
+    b = [x for x in breakdowns(bad) if x.diagnosis == "gain"][0]
+    assert b.fails_at_baseline and b.nu is None
+
+
+def test_progress_bar_shows_eta():
+    stream = io.StringIO()
+    bar = ProgressBar(10, stream=stream)
+    bar.update(5)
+    bar.update(5)
+    bar.close()
+    text = stream.getvalue()
+    assert "5/10 runs" in text and "ETA" in text and "10/10" in text
+    assert format_duration(75) == "1m15s" and format_duration(3700) == "1h01m" and format_duration(5) == "5s"
+
+
+def test_point_model_changes_only_the_swept_time_constant(wood_berry):
+    point = SweepPoint("G21", 1, 0, 2.5, 10.9)
+    model = point.model(wood_berry.model)
+    expected = wood_berry.model.time_constant.copy()
+    expected[1, 0] = 10.9 * 2.5
+    np.testing.assert_allclose(model.time_constant, expected)
+    np.testing.assert_array_equal(model.gain, wood_berry.model.gain)
+
+
+def test_load_config_is_unchanged_by_a_sweep(small_sweep):
+    assert load_config().mpc.prediction_horizon == 40
