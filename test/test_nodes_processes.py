@@ -1,0 +1,128 @@
+"""The four nodes as four processes from their console scripts, with one params file.
+
+Children are always killed; timeouts are generous because the machine may be busy.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from ros_fixtures import spin_until  # noqa: E402
+
+from pmr_ros.core.closed_loop import simulate  # noqa: E402
+from pmr_ros.core.config import config_dir, load_config  # noqa: E402
+from pmr_ros.core.pmr import diagnose  # noqa: E402
+from pmr_ros.ros.contract import topic  # noqa: E402
+from pmr_ros.ros.convert import diagnosis_from_array  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+SAMPLES = 3000
+NODES = ("pmr_diagnostician", "mpc_controller", "prbs_setpoint", "wood_berry_plant")
+
+
+def _executable(name: str) -> str:
+    candidate = Path(sys.executable).parent / name
+    found = str(candidate) if candidate.is_file() else shutil.which(name)
+    if not found:
+        pytest.skip(f"console script {name} not installed (pip install -e .)")
+    return found
+
+
+def _run_file(tmp_path: Path) -> Path:
+    path = tmp_path / "run.yaml"
+    path.write_text(
+        "/**:\n  ros__parameters:\n"
+        f"    run:\n      samples: {SAMPLES}\n"
+        f"    diagnostician:\n      window_samples: {SAMPLES}\n      update_period_samples: {SAMPLES}\n      min_samples: {SAMPLES}\n"
+    )
+    return path
+
+
+def _stop(proc: subprocess.Popen, how: int) -> None:
+    if proc.poll() is None:
+        proc.send_signal(how)
+    try:
+        proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=5)
+
+
+def test_four_processes_give_the_batch_verdicts_and_stop_cleanly(tmp_path, ros_context):
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    run_file = _run_file(tmp_path)
+    system_file = config_dir() / "wood_berry.yaml"
+    logs, procs = {}, {}
+    listener = rclpy.create_node("test_listener", context=ros_context)
+    t = topic("diagnostics")
+    final = []
+
+    def on_diagnostics(msg):
+        diagnosis, info = diagnosis_from_array(msg, "pmr_diagnostician")
+        if info.get("last_sample") == SAMPLES - 1:
+            final.append((diagnosis, info))
+
+    listener.create_subscription(t.message_class(), t.name, on_diagnostics, t.qos.profile())
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(listener)
+    try:
+        for name in NODES:
+            logs[name] = open(tmp_path / f"{name}.log", "w+")  # noqa: SIM115 - closed in finally
+            procs[name] = subprocess.Popen(
+                [_executable(name), "--ros-args", "--params-file", str(system_file), "--params-file", str(run_file)],
+                stdout=logs[name], stderr=subprocess.STDOUT, env=dict(os.environ),
+            )
+        assert spin_until(executor, lambda: bool(final) or any(p.poll() is not None for p in procs.values()), 120.0), "no final verdicts in 120 s"
+        assert final, {n: (tmp_path / f"{n}.log").read_text()[-2000:] for n in NODES}
+        diagnosis, info = final[0]
+        config = load_config(overrides={"run": {"samples": SAMPLES}})
+        batch = simulate(config)
+        expected = diagnose(batch.r, batch.u, batch.y, config.model, config.pmr)
+        assert diagnosis.status == expected.status == "ok"
+        assert {n: e.to_dict() for n, e in diagnosis.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
+        assert info["first_sample"] == 0 and info["window_samples"] == SAMPLES
+        # Ctrl-C for two, SIGTERM for the other two: all exit 0, without a traceback.
+        for name, how in zip(NODES, (signal.SIGINT, signal.SIGTERM, signal.SIGINT, signal.SIGTERM), strict=True):
+            _stop(procs[name], how)
+            text = (tmp_path / f"{name}.log").read_text()
+            assert procs[name].returncode == 0, (name, text[-2000:])
+            assert "Traceback" not in text, (name, text)
+    finally:
+        for proc in procs.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(timeout=5)
+        for handle in logs.values():
+            handle.close()
+        executor.shutdown(timeout_sec=1.0)
+        listener.destroy_node()
+
+
+@pytest.mark.parametrize(
+    ("arguments", "words"),
+    [
+        (["-p", "prbs.clock_period:=0"], "prbs.clock_period = 0"),
+        (["-p", "system.gain:=[1.0, 2.0]"], "system.gain = [1.0, 2.0]: needs 4 entries"),
+        (["--params-file", "/nonexistent/params.yaml"], "error"),
+    ],
+)
+def test_a_node_with_bad_parameters_exits_with_one_clear_line(ros_domain, arguments, words):
+    proc = subprocess.run(
+        [_executable("pmr_diagnostician"), "--ros-args", *arguments],
+        capture_output=True, text=True, timeout=60, env=dict(os.environ),
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert words in proc.stderr
+    assert "Traceback" not in proc.stderr + proc.stdout
