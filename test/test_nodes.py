@@ -318,3 +318,12 @@ def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
     assert spin_until(h.executor, silent_r_reported, 3.0)
     assert any("no u on /pmr/manipulated_input for" in w for w in h.diag.warnings)
     assert h.received[-1].status[0].level == DiagnosticStatus.STALE
+
+
+def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
+    config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
+    result = run_node_set(config, domain_id=ros_domain, record=True, extra_parameters={"simulation.real_time_rate_hz": 400.0})
+    assert result.info["last_sample"] == 599
+    assert result.wall_time_s >= 0.9 * 600 / 400
+    assert np.isfinite(result.record.y).all() and np.isfinite(result.record.u).all()
+    assert np.array_equal(result.record.r, simulate(config).r)
