@@ -1,6 +1,7 @@
 """Welch cross-spectra: transfer functions, and a zero bin that survives."""
 
 import numpy as np
+import pytest
 from scipy.signal import lfilter
 
 from pmr_ros.core.spectra import WelchSettings, cross_spectra
@@ -27,3 +28,29 @@ def test_segments_count():
     assert s.segments(100) == 0
     assert s.segments(512) == 1
     assert s.segments(16384) == 63
+
+
+def test_welch_equals_scipy_csd_without_detrending():
+    from scipy.signal import csd
+
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((5000, 2)) + 3.0
+    y = rng.standard_normal((5000, 3)) + x[:, :1]
+    omega, S = cross_spectra(x, y, WelchSettings("hann", 512, 0.5))
+    xc, yc = x - x.mean(axis=0), y - y.mean(axis=0)
+    f, ref = csd(xc.T[:, None, :], yc.T[None, :, :], nperseg=512, noverlap=256, detrend=False, axis=-1)
+    np.testing.assert_allclose(S, np.moveaxis(ref, -1, 0), atol=1e-12)
+    np.testing.assert_allclose(omega, 2 * np.pi * f)
+
+
+def test_segment_statistics_of_hann_at_half_overlap():
+    from pmr_ros.core.spectra import segment_spectra
+
+    s = WelchSettings("hann", 512, 0.5)
+    # overlap correlation of Hann at 50 %: rho = 1/6, so K / (1 + 2 rho^2) for large K
+    assert s.equivalent_segments(1000) == pytest.approx(1000 / (1 + 2 / 36), rel=2e-3)
+    assert s.equivalent_segments(1) == 1.0
+    assert s.bin_correlation == pytest.approx(1 + 2 * (2 / 3) ** 2 + 2 * (1 / 6) ** 2)
+    seg = segment_spectra(np.random.default_rng(0).standard_normal((2048, 2)), s)
+    assert seg.segments == 7 and seg.ffts.shape == (7, 257, 2)
+    np.testing.assert_allclose(seg.cross(slice(0, 1), slice(1, 2)), cross_spectra(np.random.default_rng(0).standard_normal((2048, 2))[:, :1], np.random.default_rng(0).standard_normal((2048, 2))[:, 1:], s)[1])

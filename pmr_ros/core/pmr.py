@@ -21,7 +21,7 @@ import numpy as np
 
 from .delay import hamon_hannan_delay, informative_band
 from .foptd import FoptdMatrix
-from .spectra import WelchSettings, cross_spectra
+from .spectra import WelchSettings, segment_spectra
 
 MIN_SEGMENTS = 4
 """Fewest Welch segments with which a row regression is attempted."""
@@ -192,6 +192,78 @@ def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix
             raise InsufficientData(f"no excitation: setpoint r{j + 1} ({model.output_names[j]}) is constant")
 
 
+@dataclass(frozen=True)
+class RecordSpectra:
+    """The cross-spectra of a record that the PMR needs, from one Welch transform.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (F,)
+        Frequencies 0 .. pi [rad/sample].
+    rr : ndarray, shape (F, n_r, n_r)
+        Setpoint spectra ``S_{r r}``.
+    ry : ndarray, shape (F, n_r, n_out)
+        ``S_{r_l y_i}``.
+    ryhat : ndarray, shape (F, n_r, n_out, n_in)
+        ``S_{r_l yhat_ik}``.
+    yy : ndarray, shape (F, n_out)
+        Output auto-spectra ``S_{y_i y_i}`` (real).
+    yhat_y : ndarray, shape (F, n_out, n_in)
+        ``S_{yhat_ik y_i}``.
+    yhat_yhat : ndarray, shape (F, n_out, n_in, n_in)
+        ``S_{yhat_ik yhat_im}``.
+    segments : int
+        Welch segments averaged.
+    equivalent_segments : float
+        Independent segments they are worth (overlap).
+    settings : WelchSettings
+    """
+
+    omega: np.ndarray
+    rr: np.ndarray
+    ry: np.ndarray
+    ryhat: np.ndarray
+    yy: np.ndarray
+    yhat_y: np.ndarray
+    yhat_yhat: np.ndarray
+    segments: int
+    equivalent_segments: float
+    settings: WelchSettings
+
+
+def record_spectra(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, welch: WelchSettings) -> RecordSpectra:
+    """Spectra of setpoints, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
+
+    The model's settling time (:meth:`FoptdMatrix.settling_samples`) is dropped
+    from the start of every signal: ``yhat``'s filters start from a guessed state.
+    The record must have passed :func:`check_record`.
+    """
+    n_out, n_in = model.n_outputs, model.n_inputs
+    n_r = r.shape[1]
+    yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
+    warmup = model.settling_samples()
+    seg = segment_spectra(np.hstack([r, y, yhat])[warmup:], welch)
+    R = slice(0, n_r)
+    Y = slice(n_r, n_r + n_out)
+    F = seg.omega.size
+    yhat_cols = np.arange(n_r + n_out, n_r + n_out + n_out * n_in).reshape(n_out, n_in)
+    yy = np.stack([seg.cross([n_r + i], [n_r + i])[:, 0, 0].real for i in range(n_out)], axis=1)
+    yhat_y = np.stack([seg.cross(yhat_cols[i], [n_r + i])[:, :, 0] for i in range(n_out)], axis=1)
+    yhat_yhat = np.stack([seg.cross(yhat_cols[i], yhat_cols[i]) for i in range(n_out)], axis=1)
+    return RecordSpectra(
+        omega=seg.omega,
+        rr=seg.cross(R, R),
+        ry=seg.cross(R, Y),
+        ryhat=seg.cross(R, yhat_cols.ravel()).reshape(F, n_r, n_out, n_in),
+        yy=yy,
+        yhat_y=yhat_y,
+        yhat_yhat=yhat_yhat,
+        segments=seg.segments,
+        equivalent_segments=welch.equivalent_segments(seg.segments),
+        settings=welch,
+    )
+
+
 def estimate_pmr(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, settings: PmrSettings) -> PmrEstimate:
     """The implicit MIMO PMR estimate (eq. 13) from closed-loop records.
 
@@ -213,30 +285,25 @@ def estimate_pmr(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix
     """
     r, u, y = (np.asarray(a, dtype=float) for a in (r, u, y))
     check_record(r, u, y, model, settings)
-    n_out, n_in = model.n_outputs, model.n_inputs
-    yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
-    # yhat's filters start from a guessed state: drop their settling time everywhere.
-    warmup = model.settling_samples()
-    r, y, yhat = r[warmup:], y[warmup:], yhat[warmup:]
-    signals = np.hstack([y, yhat])
-    omega, S = cross_spectra(r, signals, settings.welch)  # (F, n_r, n_out + n_out*n_in)
-    _, S_rr = cross_spectra(r, r, settings.welch)
-    _, S_yy = cross_spectra(y, y, settings.welch)
-    F = omega.size
+    spectra = record_spectra(r, u, y, model, settings.welch)
+    return implicit_estimate(spectra)
+
+
+def implicit_estimate(spectra: RecordSpectra) -> PmrEstimate:
+    """Solve eq. (13) row by row and frequency by frequency."""
+    F, _, n_out, n_in = spectra.ryhat.shape
     ratio = np.empty((F, n_out, n_in), dtype=complex)
     condition = np.empty((F, n_out))
     coherence = np.empty((F, n_out))
-    S_ry = S[:, :, :n_out]
-    S_ryhat = S[:, :, n_out:].reshape(F, r.shape[1], n_out, n_in)
-    S_rr_inv = np.linalg.pinv(S_rr)
+    rr_inv = np.linalg.pinv(spectra.rr)
     for i in range(n_out):
-        design = S_ryhat[:, :, i, :]  # (F, n_r, n_in)
-        target = S_ry[:, :, i]  # (F, n_r)
+        design = spectra.ryhat[:, :, i, :]  # (F, n_r, n_in)
+        target = spectra.ry[:, :, i]  # (F, n_r)
         ratio[:, i, :] = (np.linalg.pinv(design) @ target[:, :, None])[:, :, 0]
         condition[:, i] = np.linalg.cond(design)
-        explained = np.einsum("fl,flm,fm->f", target.conj(), S_rr_inv, target).real
-        coherence[:, i] = np.clip(explained / np.maximum(S_yy[:, i, i].real, 1e-300), 0.0, 1.0)
-    return PmrEstimate(omega, ratio, coherence, condition, settings.welch.segments(r.shape[0]))
+        explained = np.einsum("fl,flm,fm->f", target.conj(), rr_inv, target).real
+        coherence[:, i] = np.clip(explained / np.maximum(spectra.yy[:, i], 1e-300), 0.0, 1.0)
+    return PmrEstimate(spectra.omega, ratio, coherence, condition, spectra.segments)
 
 
 def diagnose(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, settings: PmrSettings) -> Diagnosis:
