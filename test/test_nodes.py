@@ -22,7 +22,7 @@ from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E4
 
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.config import ConfigError, flatten_parameters, load_config  # noqa: E402
+from pmr_ros.core.config import ConfigError, config_dir, flatten_parameters, load_config  # noqa: E402
 from pmr_ros.core.pmr import diagnose  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
 from pmr_ros.nodes.wood_berry_plant import PlantNode  # noqa: E402
@@ -327,3 +327,19 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     assert result.wall_time_s >= 0.9 * 600 / 400
     assert np.isfinite(result.record.y).all() and np.isfinite(result.record.u).all()
     assert np.array_equal(result.record.r, simulate(config).r)
+
+
+def test_diagnostician_subscribes_to_r_u_y_only(ros_context):
+    node = PmrDiagnosticianNode(context=ros_context)
+    try:
+        assert {s.topic_name for s in node.subscriptions} == {topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")}
+    finally:
+        node.destroy_node()
+
+
+def test_node_set_runs_any_square_system_like_the_batch(ros_domain):
+    config = load_config(config_dir() / "three_by_three.yaml", {"run": {"samples": 1500}})
+    result = run_node_set(config, domain_id=ros_domain, record=True)
+    batch = simulate(config)
+    assert np.array_equal(result.record.y, batch.y) and np.array_equal(result.record.u, batch.u)
+    assert len(result.info["levels"]) == 9 and result.info["last_sample"] == 1499
