@@ -29,6 +29,8 @@ setup(
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
         "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
         "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7"],
+        # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
+        "plot": ["matplotlib>=3.7"],
     },
     zip_safe=True,
     maintainer="pmr_ros developers",
