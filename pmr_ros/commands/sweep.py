@@ -96,6 +96,7 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
                         f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
                     )
             manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
+            manifest["cpu_time_s"] = float(old.get("cpu_time_s", 0.0))
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -123,6 +124,7 @@ def handle(args: argparse.Namespace) -> int:
         "config_fingerprint": store.config_fingerprint(config.parameters),
         "samples": plan.samples,
         "wall_time_s": 0.0,
+        "cpu_time_s": 0.0,
     }
     _prepare_folder(args, out, manifest)
     done: set[tuple] = set()
@@ -145,10 +147,13 @@ def handle(args: argparse.Namespace) -> int:
         print(f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
               f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)", file=sys.stderr)
     t0 = time.perf_counter()
+    outcome = None
     try:
-        execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet)
+        outcome = execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet)
     finally:
         manifest["wall_time_s"] = round(manifest["wall_time_s"] + time.perf_counter() - t0, 2)
+        if outcome is not None:
+            manifest["cpu_time_s"] = round(manifest["cpu_time_s"] + outcome.cpu_time_s, 2)
         store.write_manifest(out, manifest)
     if not args.quiet:
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)

@@ -140,9 +140,9 @@ def _init_worker(config: PmrConfig) -> None:
 
 
 def _work(task: PointTask) -> tuple[PointTask, list[dict], float]:
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     rows = run_point(_WORKER_CONFIG, task)
-    return task, rows, time.perf_counter() - t0
+    return task, rows, time.process_time() - t0
 
 
 @dataclass
@@ -152,7 +152,7 @@ class SweepOutcome:
     points_run: int
     runs_run: int
     wall_time_s: float
-    interrupted: bool = False
+    cpu_time_s: float = 0.0
 
 
 def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True) -> SweepOutcome:
@@ -168,10 +168,12 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
     ordered = sorted(tasks, key=lambda t: -t.point.nu)
     start = time.perf_counter()
     points = runs = 0
+    cpu = 0.0
 
-    def record(task: PointTask, rows: list[dict]) -> None:
-        nonlocal points, runs
+    def record(task: PointTask, rows: list[dict], cpu_s: float) -> None:
+        nonlocal points, runs, cpu
         store.append_rows(results, rows)
+        cpu += cpu_s
         points += 1
         runs += len(task.runs)
         if bar:
@@ -182,12 +184,12 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
             global _WORKER_CONFIG
             _WORKER_CONFIG = config
             for task in ordered:
-                record(task, run_point(config, task))
+                record(*_work(task))
         else:
             pool = multiprocessing.get_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
             try:
-                for task, rows, _ in pool.imap_unordered(_work, ordered):
-                    record(task, rows)
+                for task, rows, cpu_s in pool.imap_unordered(_work, ordered):
+                    record(task, rows, cpu_s)
                 pool.close()
             except BaseException:
                 pool.terminate()
@@ -201,4 +203,4 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
         raise
     if bar:
         bar.close()
-    return SweepOutcome(points, runs, time.perf_counter() - start)
+    return SweepOutcome(points, runs, time.perf_counter() - start, cpu)

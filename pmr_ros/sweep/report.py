@@ -191,7 +191,10 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
     L.append(f"- ν grid: {len(nus)} values from {nus[0]:g} to {nus[-1]:g}; scenarios: the five of Table 2; seeds: {', '.join(map(str, seeds))}; "
              f"{', '.join(map(str, samples))} samples per run; {len(rows)} CSV rows ({len(rows) // len(elements)} closed-loop runs × {len(elements)} elements), methods: {', '.join(methods)}.")
     if wall:
-        L.append(f"- Wall time of the sweep: **{wall:.0f} s** on {manifest.get('jobs', '?')} worker processes ({manifest.get('cpu_count', '?')} cores), code revision `{_git_revision(Path(__file__).parent)}`.")
+        cpu = manifest.get("cpu_time_s")
+        cpu_text = f"; the workers' CPU time was {cpu:.0f} s, i.e. {cpu / max(1, manifest.get('jobs', 1)):.0f} s per process" if cpu else ""
+        L.append(f"- Wall time of the sweep: **{wall:.0f} s** on {manifest.get('jobs', '?')} worker processes ({manifest.get('cpu_count', '?')} cores){cpu_text}; "
+                 f"code revision `{_git_revision(Path(__file__).parent)}`.")
     L.append("- The paper's Figs. 5–7 are captioned G12, but its section 3.5 and eq. (19) change G21 = 6.6e^{-7s}/(10.9ν s + 1); "
              "10.9 min is τ21 of the standard Wood-Berry matrix (the text's eq. 14 prints rows 2 upside down). We sweep **G21**, as eq. (19) says.")
     L.append("- Row time-constant ratio: the swept τ over the other τ of its row (model values): τ11/τ12 = 16.7ν/21 for the G11 sweep, τ21/τ22 = 10.9ν/14.4 for the G21 sweep.\n")
@@ -227,6 +230,13 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
     total = len(SCENARIOS) * len(elements) * len(DIAGNOSES)
     L.append(f"Baseline correctness over all five scenarios ({total} element-diagnosis pairs × {len(seeds)} seeds, rules below): "
              + ("all right." if not wrong else "wrong seeds — " + "; ".join(wrong) + ".") + "\n")
+
+    # Findings, computed
+    L.append("## Findings\n")
+    for method in methods:
+        for element_swept in swept:
+            L.extend(_findings(summary, breaks, method, element_swept, elements, threshold))
+    L.append("")
 
     # Definition
     L.append("## When a diagnosis \"breaks down\"\n")
@@ -302,6 +312,57 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
     L.append("")
     L.append("The per-point medians, spreads and wrong-seed counts are in `figures/sweep_summary.csv`; the record-level CSV (every estimate per element, ν, scenario and seed) is the sweep folder's `results.csv`.\n")
     return "\n".join(L) + "\n"
+
+
+def _findings(summary, breaks, method, element_swept, elements, threshold) -> list[str]:
+    """Bullet points on one sweep, every number from the data."""
+    bs = [b for b in breaks if b.method == method and b.element_swept == element_swept]
+    pts = [p for p in summary if p.method == method and p.element_swept == element_swept]
+    if not pts:
+        return []
+    nus = sorted({p.nu for p in pts})
+    ratio0 = next(p.row_time_constant_ratio for p in pts if p.nu == nus[0])
+    first = earliest(bs)
+    paper = PAPER_BREAKDOWN_NU.get(element_swept)
+    out = []
+    head = f"- **Sweep of τ of {element_swept}** ({method}; row ratio {ratio0:.2f} at ν = {nus[0]:g}): "
+    if first is None:
+        out.append(head + "no diagnosis fails on the grid" + (f"; the paper reports a breakdown at ν ≈ {paper:g}." if paper else "."))
+        return out
+    def at(nu, scenario, element):
+        return next(p for p in pts if p.nu == nu and p.scenario == scenario and p.element == element)
+    here, base = at(first.nu, first.scenario, first.element), at(nus[0], first.scenario, first.element)
+    value = {"gain": ("median gain ratio", "gain_median", "{:.3f}"), "tau": ("median τ index", "tau_median", "{:+.1f}"), "delay": ("median delay mismatch", "delay_median", "{:+.0f}")}[first.diagnosis]
+    text = (f"the first diagnosis to fail is {first.element}'s {first.diagnosis} diagnosis in scenario {first.scenario} at **ν = {first.nu:g}** "
+            f"(row ratio **{first.ratio:.2f}**)")
+    if paper:
+        text += f"; the paper reports ν ≈ {paper:g} (row ratio {_ratio_at(summary, element_swept, paper):.2f})"
+    text += (f". There the {value[0]} of {first.element} is {value[2].format(getattr(here, value[1]))} "
+             f"(baseline {value[2].format(getattr(base, value[1]))}, {getattr(here, first.diagnosis + '_wrong')} of {here.seeds} seeds wrong")
+    if first.diagnosis == "tau":
+        text += f"; flag threshold ±{threshold:g}"
+    text += f"); it stays failed at {100 * first.failing_share:.0f} % of the grid points from there on."
+    out.append(head + text)
+    broken = {(b.element, b.diagnosis) for b in bs if b.nu is not None}
+    never = [f"{e} {d}" for e in elements for d in DIAGNOSES if (e, d) not in broken and not any(b.fails_at_baseline for b in bs if b.element == e and b.diagnosis == d)]
+    out.append(f"  - {len(never)} of {len(elements) * len(DIAGNOSES)} (element, diagnosis) pairs never fail in any scenario: {', '.join(never) if never else 'none'}.")
+    others = []
+    for e in elements:
+        for d in DIAGNOSES:
+            if (e, d) == (first.element, first.diagnosis):
+                continue
+            b = earliest([x for x in bs if x.element == e and x.diagnosis == d])
+            if b is not None:
+                others.append(f"{e} {d} at ν = {b.nu:g} ({b.scenario}, stays failed at {100 * b.failing_share:.0f} %)")
+    if others:
+        out.append("  - Other failures: " + "; ".join(others) + ".")
+    solve_here = float(np.median([p.solve_fraction for p in pts if p.nu == first.nu]))
+    solve_base = float(np.median([p.solve_fraction for p in pts if p.nu == nus[0]]))
+    failures = sum(p.mpc_failures for p in pts if p.element == elements[0])
+    out.append(f"  - The MPC: input limits bind (OSQP runs) at {100 * solve_here:.0f} % of the samples at ν = {first.nu:g} against {100 * solve_base:.0f} % at the baseline; "
+               f"OSQP failures over the whole sweep: {failures}; largest prediction horizon used: {max(p.prediction_horizon for p in pts)}; "
+               f"largest unconstrained-loop spectral radius: {max(p.loop_spectral_radius for p in pts):.4f}.")
+    return out
 
 
 def _ratio_at(summary: list[PointSummary], element_swept: str, nu: float) -> float:
