@@ -31,20 +31,19 @@ def register(sub) -> None:
             "and a markdown report.  Default: the paper's two sweeps, tau11 = 16.7 nu (eq. 18) and "
             "tau21 = 10.9 nu (eq. 19; the paper's figures call it G12), nu = 1, 1.25, ..., 10, 5 seeds."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     p.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
-    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help="folder of results.csv, sweep.json and, by default, the report")
+    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})")
     grid = p.add_argument_group("nu grid (--nu or a range)")
     grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
-    grid.add_argument("--nu-start", type=_positive_float, default=1.0, metavar="X", help="first nu")
-    grid.add_argument("--nu-stop", type=_positive_float, default=10.0, metavar="X", help="last nu (included)")
-    grid.add_argument("--nu-step", type=_positive_float, default=0.25, metavar="X", help="nu step")
-    p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each")
-    p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario)")
+    grid.add_argument("--nu-start", type=_positive_float, default=1.0, metavar="X", help="first nu (default: 1)")
+    grid.add_argument("--nu-stop", type=_positive_float, default=10.0, metavar="X", help="last nu, included (default: 10)")
+    grid.add_argument("--nu-step", type=_positive_float, default=0.25, metavar="X", help="nu step (default: 0.25)")
+    p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each (default: G11,G21)")
+    p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
     p.add_argument("--first-seed", type=nonnegative_int, metavar="S", help="seeds are S, S+1, ... (default: run.seed of the config)")
     p.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples per run (default: run.samples of the config)")
-    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes")
+    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes (default: the number of cores)")
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
     p.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --out: skip the runs already in results.csv")
     p.add_argument("--report", metavar="FILE", help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)")
