@@ -92,8 +92,9 @@ def test_constant_setpoints_are_insufficient_data(wood_berry):
     rec = simulate(config, samples=4096)
     d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     assert d.status == "insufficient_data" and "no excitation" in d.reason
-    assert all(e.gain_ratio is None and e.verdict == "insufficient_data" for e in d.elements.values())
-    assert d.elements["G11"].summary() == "insufficient data"
+    assert all(e.gain_ratio is None and e.verdict == "inconclusive" for e in d.elements.values())
+    assert d.elements["G11"].summary().startswith("insufficient data: no excitation")
+    assert d.to_dict()["elements"]["G11"]["reasons"] == [d.reason]
 
 
 def test_one_constant_setpoint_is_insufficient_data():

@@ -50,11 +50,28 @@ def add_system_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)")
 
 
+def add_method_argument(parser: argparse.ArgumentParser) -> None:
+    """--method classic|parametric, shared by commands that diagnose."""
+    from ..core.pmr import METHODS
+
+    parser.add_argument(
+        "--method",
+        choices=METHODS,
+        help="classic: the paper's Table 1 (gain ratio, tau index, delay); parametric: fitted dK %%, dtau %%, dD with "
+        "confidence intervals and ok/mismatch/inconclusive verdicts (default: pmr.method of the config)",
+    )
+
+
 def run_overrides(args: argparse.Namespace) -> dict:
-    """Config overrides from the options of :func:`add_system_arguments`."""
+    """Config overrides from the options of :func:`add_system_arguments` and :func:`add_method_argument`."""
+    overrides: dict = {}
     run = {}
     for name in ("samples", "seed", "scenario"):
         value = getattr(args, name, None)
         if value is not None:
             run[name] = value
-    return {"run": run} if run else {}
+    if run:
+        overrides["run"] = run
+    if getattr(args, "method", None) is not None:
+        overrides["pmr"] = {"method": args.method}
+    return overrides

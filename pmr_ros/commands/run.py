@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_system_arguments, run_overrides
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_system_arguments, run_overrides
 
 
 def register(sub) -> None:
@@ -24,6 +24,7 @@ def register(sub) -> None:
         ),
     )
     add_system_arguments(p)
+    add_method_argument(p)
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     p.add_argument("--batch", action="store_true", help="run the pure numerical core instead of the ROS 2 node set")
     p.add_argument(
@@ -50,10 +51,10 @@ def handle(args: argparse.Namespace) -> int:
     config = load_config(args.config, run_overrides(args))
     if args.batch:
         from ..core.closed_loop import simulate
-        from ..core.pmr import diagnose
+        from ..core.diagnosis import diagnose_with
 
         record = simulate(config)
-        diagnosis = diagnose(record.r, record.u, record.y, config.model, config.pmr)
+        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:

@@ -21,7 +21,8 @@ import yaml
 
 from .foptd import SCENARIOS, FoptdMatrix, Mismatch
 from .mpc import MpcTuning
-from .pmr import PmrSettings
+from .parametric import ParametricSettings
+from .pmr import METHODS, PmrSettings
 from .prbs import PrbsSettings
 
 DEFAULT_SYSTEM = "wood_berry.yaml"
@@ -71,6 +72,7 @@ class PmrConfig:
     prbs: PrbsSettings
     mpc: MpcTuning
     pmr: PmrSettings
+    parametric: ParametricSettings
     run: RunSettings
     source: str
     parameters: dict[str, Any]
@@ -292,6 +294,7 @@ def parse_config(params: dict, source: str | Path) -> PmrConfig:
         du_max=rd.vector("mpc.du_max", n_in, positive=True),
     )
     pmr = PmrSettings(
+        method=rd.text("pmr.method", METHODS),
         window=rd.text("pmr.window"),
         segment_length=rd.number("pmr.segment_length", integer=True, minimum=16),
         overlap=rd.number("pmr.overlap", minimum=0.0),
@@ -313,12 +316,34 @@ def parse_config(params: dict, source: str | Path) -> PmrConfig:
         get_window(pmr.window, 8)
     except ValueError:
         raise rd.error("pmr.window", pmr.window, "not a scipy.signal window name (e.g. hann, hamming, blackman)") from None
+    level = rd.number("parametric.confidence_level", positive=True)
+    if level >= 1.0:
+        raise rd.error("parametric.confidence_level", level, "must be < 1")
+    delay_confidence = rd.number("parametric.delay_confidence_min", positive=True)
+    if delay_confidence > 1.0:
+        raise rd.error("parametric.delay_confidence_min", delay_confidence, "must be <= 1")
+    parametric = ParametricSettings(
+        segment_length=rd.number("parametric.segment_length", integer=True, minimum=0),
+        resolution=rd.number("parametric.resolution", positive=True),
+        confidence_level=level,
+        gain_tolerance_pct=rd.number("parametric.gain_tolerance_pct", minimum=0.0),
+        tau_tolerance_pct=rd.number("parametric.tau_tolerance_pct", minimum=0.0),
+        max_interval_pct=rd.number("parametric.max_interval_pct", positive=True),
+        delay_confidence_min=delay_confidence,
+        coherence_min=rd.number("parametric.coherence_min", minimum=0.0),
+        excitation_min=rd.number("parametric.excitation_min", minimum=0.0),
+        max_condition=rd.number("parametric.max_condition", positive=True),
+        row_time_constant_ratio_warn=rd.number("parametric.row_time_constant_ratio_warn", positive=True),
+        max_delay_samples=pmr.max_delay_samples,
+    )
+    if 0 < parametric.segment_length < 16:
+        raise rd.error("parametric.segment_length", parametric.segment_length, "must be 0 (automatic) or >= 16")
     run = RunSettings(
         samples=rd.number("run.samples", integer=True, positive=True),
         seed=rd.number("run.seed", integer=True, minimum=0),
         scenario=rd.text("run.scenario", SCENARIOS),
     )
-    return PmrConfig(model, mismatch, noise, prbs, mpc, pmr, run, str(source), params)
+    return PmrConfig(model, mismatch, noise, prbs, mpc, pmr, parametric, run, str(source), params)
 
 
 def _has(params: dict, field: str) -> bool:

@@ -15,7 +15,8 @@ The classic diagnosis (Table 1) per element reads the gain ratio from
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,8 +24,14 @@ from .delay import hamon_hannan_delay, informative_band
 from .foptd import FoptdMatrix
 from .spectra import WelchSettings, segment_spectra
 
+if TYPE_CHECKING:
+    from .parametric import ElementEstimate
+
 MIN_SEGMENTS = 4
 """Fewest Welch segments with which a row regression is attempted."""
+
+METHODS = ("classic", "parametric")
+"""Diagnosis methods: the paper's Table 1, or the FOPTD-ratio fit of :mod:`pmr_ros.core.parametric`."""
 
 MAX_CONDITION = 1e6
 """Largest condition number of a row regression accepted in the diagnosis band."""
@@ -36,6 +43,8 @@ class PmrSettings:
 
     Attributes
     ----------
+    method : str
+        ``classic`` or ``parametric`` (see :data:`METHODS`).
     window, segment_length, overlap
         Welch estimator (see :class:`~pmr_ros.core.spectra.WelchSettings`).
     tau_band : float
@@ -52,6 +61,7 @@ class PmrSettings:
         coherence with the setpoints first falls below this.
     """
 
+    method: str = "classic"
     window: str = "hann"
     segment_length: int = 512
     overlap: float = 0.5
@@ -94,12 +104,16 @@ class PmrEstimate:
 
 @dataclass
 class ElementDiagnosis:
-    """Classic (Table 1) diagnosis of one element ``G_ik``.
+    """Diagnosis of one element ``G_ik``.
 
+    The classic (Table 1) numbers are always there when the data allowed:
     ``gain_ratio`` is ``K / Khat``; ``tau_index`` is -100 x the slope of
     ``M(w)/M(0)`` [1/(rad/sample)], positive when the plant is slower than the
-    model; ``delay_mismatch_samples`` is ``D - Dhat``.  All numbers are None
-    when the data were insufficient.
+    model; ``delay_mismatch_samples`` is ``D - Dhat``.  With the parametric
+    method, ``parametric`` holds its estimate, and the gain ratio, delay,
+    mismatch flags, verdict and message are the parametric ones (``tau_index``
+    stays the classic index, ``classic`` keeps the classic numbers).
+    All numbers are None when the data were insufficient.
     """
 
     element: str
@@ -109,6 +123,9 @@ class ElementDiagnosis:
     tau_mismatch: bool | None = None
     delay_mismatch_samples: int | None = None
     delay_mismatch: bool | None = None
+    reasons: list[str] = field(default_factory=list)
+    parametric: ElementEstimate | None = None
+    classic: dict | None = None
 
     @property
     def gain_direction(self) -> str:
@@ -120,27 +137,64 @@ class ElementDiagnosis:
     def tau_direction(self) -> str:
         if not self.tau_mismatch:
             return "ok"
-        return "larger" if self.tau_index > 0 else "smaller"
+        value = self.parametric.tau_mismatch_pct if self.parametric is not None else self.tau_index
+        return "larger" if value > 0 else "smaller"
 
     @property
     def verdict(self) -> str:
+        """``ok``, ``mismatch`` or ``inconclusive`` (the data cannot say; see ``reasons``)."""
+        if self.parametric is not None:
+            return self.parametric.verdict
         if self.gain_ratio is None:
-            return "insufficient_data"
+            return "inconclusive"
         return "mismatch" if (self.gain_mismatch or self.tau_mismatch or self.delay_mismatch) else "ok"
 
     def summary(self) -> str:
         """One line for people: ``gain +15 %, tau larger, delay +2 samples``."""
+        if self.parametric is not None:
+            return self.parametric.summary()
         if self.gain_ratio is None:
-            return "insufficient data"
+            return "insufficient data" + (f": {self.reasons[0]}" if self.reasons else "")
         gain = f"gain {100 * (self.gain_ratio - 1):+.0f} %" if self.gain_mismatch else "gain ok"
         tau = f"τ {self.tau_direction} (index {self.tau_index:+.0f})" if self.tau_mismatch else "τ ok"
         delay = f"delay {self.delay_mismatch_samples:+d} samples" if self.delay_mismatch else "delay ok"
         return f"{gain}, {tau}, {delay}"
 
     def to_dict(self) -> dict:
-        out = asdict(self)
-        out.pop("element")
-        out.update(gain_direction=self.gain_direction, tau_direction=self.tau_direction, verdict=self.verdict)
+        """JSON-ready numbers, verdicts, intervals and quality figures."""
+        out = {
+            "gain_ratio": self.gain_ratio,
+            "gain_mismatch": self.gain_mismatch,
+            "tau_index": self.tau_index,
+            "tau_mismatch": self.tau_mismatch,
+            "delay_mismatch_samples": self.delay_mismatch_samples,
+            "delay_mismatch": self.delay_mismatch,
+            "gain_direction": self.gain_direction,
+            "tau_direction": self.tau_direction,
+            "verdict": self.verdict,
+            "gain_mismatch_pct": None if self.gain_ratio is None else 100.0 * (self.gain_ratio - 1.0),
+            "gain_mismatch_pct_interval": None,
+            "tau_mismatch_pct": None,
+            "tau_mismatch_pct_interval": None,
+            "delay_confidence": None,
+            "reasons": list(self.reasons),
+        }
+        p = self.parametric
+        if p is not None:
+            out.update(
+                gain_mismatch_pct=p.gain_mismatch_pct,
+                gain_mismatch_pct_interval=None if p.gain_mismatch_pct_interval is None else list(p.gain_mismatch_pct_interval),
+                tau_mismatch_pct=p.tau_mismatch_pct,
+                tau_mismatch_pct_interval=None if p.tau_mismatch_pct_interval is None else list(p.tau_mismatch_pct_interval),
+                delay_confidence=p.delay_confidence,
+                gain_verdict=p.gain_verdict,
+                tau_verdict=p.tau_verdict,
+                delay_verdict=p.delay_verdict,
+                reasons=list(p.reasons),
+                warnings=list(p.warnings),
+                quality=dict(p.quality),
+                classic=self.classic,
+            )
         return out
 
 
@@ -153,12 +207,14 @@ class Diagnosis:
     reason: str = ""
     samples: int = 0
     estimate: PmrEstimate | None = field(default=None, repr=False)
+    method: str = "classic"
 
     def to_dict(self) -> dict:
         return {
             "status": self.status,
             "reason": self.reason,
             "samples": self.samples,
+            "method": self.method,
             "elements": {name: e.to_dict() for name, e in self.elements.items()},
         }
 
@@ -322,7 +378,7 @@ def diagnose(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, se
         if not np.isfinite(worst) or worst > MAX_CONDITION:
             raise InsufficientData(f"ill-conditioned regression (condition number {worst:.3g} > {MAX_CONDITION:g}): the setpoints do not excite the inputs independently")
     except InsufficientData as exc:
-        return Diagnosis({n: ElementDiagnosis(n) for n in names}, "insufficient_data", str(exc), samples)
+        return Diagnosis({n: ElementDiagnosis(n, reasons=[str(exc)]) for n in names}, "insufficient_data", str(exc), samples)
 
     omega = estimate.omega
     elements: dict[str, ElementDiagnosis] = {}

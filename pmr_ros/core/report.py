@@ -27,7 +27,7 @@ def injected_mismatch(config: PmrConfig, scenario: str) -> dict[str, dict]:
     return out
 
 
-def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scenario: str | None, seed: int | None, method: str = "classic") -> dict:
+def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scenario: str | None, seed: int | None) -> dict:
     """The JSON-ready report of a diagnosis.
 
     ``elements`` maps ``G11, G12, ...`` to the numbers and verdicts of each
@@ -39,7 +39,7 @@ def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scena
         "command": command,
         "system": config.model.name,
         "config": config.source,
-        "method": method,
+        "method": diagnosis.method,
         "scenario": scenario,
         "seed": seed,
         "samples": diagnosis.samples,
@@ -47,6 +47,7 @@ def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scena
         "status": diagnosis.status,
         "reason": diagnosis.reason,
         "settings": asdict(config.pmr),
+        "parametric_settings": asdict(config.parametric) if diagnosis.method == "parametric" else None,
         "elements": {},
     }
     for name, element in diagnosis.elements.items():
@@ -63,6 +64,38 @@ def write_json(report: dict, path: str | Path) -> None:
     Path(path).write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
 
 
+def _interval(value: float | None, interval: list | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:+6.1f} [{interval[0]:+6.1f},{interval[1]:+6.1f}]"
+
+
+def format_parametric_table(report: dict) -> str:
+    """The parametric method's table: estimates with intervals and verdicts."""
+    level = 100 * report["parametric_settings"]["confidence_level"]
+    injected = report.get("injected")
+    cols = f"{'element':8s} {'dK % [' + f'{level:.0f} % interval]':26s} {'dtau % [interval]':26s} {'dD (confidence)':16s} {'verdict':13s}"
+    if injected:
+        cols += " injected dK %, dtau %, dD"
+    lines = [cols]
+    notes = []
+    for name, e in report["elements"].items():
+        marks = {"ok": "", "mismatch": "!", "inconclusive": "?"}
+        gain = _interval(e["gain_mismatch_pct"], e["gain_mismatch_pct_interval"]) + marks[e.get("gain_verdict", "inconclusive")]
+        tau = _interval(e["tau_mismatch_pct"], e["tau_mismatch_pct_interval"]) + marks[e.get("tau_verdict", "inconclusive")]
+        delay = "-" if e["delay_mismatch_samples"] is None else f"{e['delay_mismatch_samples']:+d} ({100 * e['delay_confidence']:.0f} %)" + marks[e.get("delay_verdict", "inconclusive")]
+        line = f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {e['verdict']:13s}"
+        if injected:
+            t = injected[name]
+            line += f" {t['gain_pct']:+.0f}, {t['time_constant_pct']:+.0f}, {t['delay_samples']:+d}"
+        lines.append(line)
+        notes += [f"{name}: {text}" for text in e.get("reasons", []) + e.get("warnings", [])]
+    lines.append("")
+    lines.append("! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]")
+    lines += notes
+    return "\n".join(lines) + "\n"
+
+
 def format_table(report: dict) -> str:
     """The verdict table, one line per element."""
     head = (
@@ -71,6 +104,8 @@ def format_table(report: dict) -> str:
     )
     if report["status"] != "ok":
         return f"{head}\nINSUFFICIENT DATA: {report['reason']}\n"
+    if report["method"] == "parametric":
+        return f"{head}\n\n" + format_parametric_table(report)
     injected = report.get("injected")
     lines = [head, ""]
     cols = f"{'element':8s} {'gain ratio':>10s}  {'gain':14s} {'tau index':>9s}  {'time constant':15s} {'delay':>5s}  {'verdict':9s}"
