@@ -18,11 +18,11 @@ from collections import deque
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 
-from ..core.pmr import diagnose
 from ..ros.alignment import SIGNALS, SampleAligner
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.contract import topic
 from ..ros.convert import diagnostic_array, estimates_message, no_verdict_statuses, read_signal, verdict_statuses
+from ..ros.windowing import STALE, VERDICT, evaluate_window, offer_signal, window_info
 
 NODE_NAME = "pmr_diagnostician"
 TOPIC_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
@@ -98,21 +98,14 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
-        was_lagging = self.aligner.lagging()
-        result = self.aligner.add(signal, stamp, names, values)
-        for text in result.warnings:
+        offer = offer_signal(self.aligner, signal, stamp, names, values, self.settings.update_period_samples)
+        for text in offer.result.warnings:
             self._warn(text)
-        lagging = self.aligner.lagging()
-        if lagging and not was_lagging:
-            self._warn(lagging)
+        if offer.newly_lagging:
+            self._warn(offer.newly_lagging)
             self.publish_diagnostics()
-        period = self.settings.update_period_samples
-        if any((k + 1) % period == 0 for k in result.completed):
+        if offer.update_due:
             self.publish_diagnostics()
-        elif lagging and result.accepted:
-            k = self.aligner.newest[signal]
-            if (k + 1) % period == 0:
-                self.publish_diagnostics()
 
     def _check_silence(self) -> None:
         now = time.monotonic()
@@ -132,14 +125,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._publish_statuses(no_verdict_statuses(self.config.model.element_names(), DiagnosticStatus.STALE, reason, self.get_name(), self.config.model.name, self._window_info()))
 
     # -- output --------------------------------------------------------------
-    def _window_info(self, samples: int | None = None, first: int | None = None) -> dict:
-        al = self.aligner
-        if al.stretch_last is None:
-            return {"window_samples": 0}
-        if samples is None:
-            samples = min(al.stretch_length, self.settings.window_samples)
-            first = al.stretch_last - samples + 1
-        return {"window_samples": samples, "first_sample": first, "last_sample": al.stretch_last}
+    def _window_info(self) -> dict:
+        return window_info(self.aligner, self.settings.window_samples)
 
     def _publish_statuses(self, statuses: list) -> None:
         al = self.aligner
@@ -149,27 +136,20 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._diag_pub.publish(msg)
 
     def publish_diagnostics(self) -> None:
-        """Diagnose the current window (or say why not) and publish the statuses."""
-        model, al = self.config.model, self.aligner
+        """Diagnose the current window (or say why not) and publish the statuses.
+
+        The decision and the diagnosis are :func:`pmr_ros.ros.windowing.evaluate_window`,
+        which the offline diagnosis of a bag shares.
+        """
+        model = self.config.model
         names, node, system = model.element_names(), self.get_name(), model.name
-        stale = al.lagging()
-        if stale:
-            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.STALE, stale, node, system, self._window_info()))
+        outcome = evaluate_window(self.aligner, self.config, self.settings.window_samples, self.settings.min_samples)
+        if outcome.kind != VERDICT:
+            level = DiagnosticStatus.STALE if outcome.kind == STALE else DiagnosticStatus.WARN
+            self._publish_statuses(no_verdict_statuses(names, level, outcome.reason, node, system, outcome.window))
             return
-        if al.stretch_length < self.settings.min_samples:
-            reason = f"{al.stretch_length} unbroken samples, need {self.settings.min_samples}"
-            if al.gaps:
-                reason += f" (the window restarted after a gap {al.gaps} time(s))"
-            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, reason, node, system, self._window_info()))
-            return
-        r, u, y, first = al.window(self.settings.window_samples)
-        diagnosis = diagnose(r, u, y, model, self.config.pmr)
-        window = self._window_info(r.shape[0], first)
-        if diagnosis.status != "ok":
-            self._publish_statuses(no_verdict_statuses(names, DiagnosticStatus.WARN, diagnosis.reason, node, system, window))
-            return
-        self._publish_statuses(verdict_statuses(diagnosis, node, system, window))
-        self._estimates_pub.publish(estimates_message(diagnosis, al.stretch_last * al.sample_time_s, system))
+        self._publish_statuses(verdict_statuses(outcome.diagnosis, node, system, outcome.window))
+        self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, system))
 
 
 def main(args: list[str] | None = None) -> int:

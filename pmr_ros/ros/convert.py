@@ -5,6 +5,9 @@ Layouts follow ``msg_defs/topics.yaml``: signals are ``sensor_msgs/JointState``
 verdicts a ``diagnostic_msgs/DiagnosticArray`` with one status per element,
 the numeric estimates a ``JointState`` named ``<element>/<quantity>``.
 Floats travel as float64 (signals) or ``repr`` strings (KeyValue): both lossless.
+The readers (``read_signal``, ``diagnosis_from_array``, ...) live in
+:mod:`pmr_ros.ros.layout`, free of ROS imports, so bags decoded with ``rosbags``
+are read by the same code; they are re-exported here.
 """
 
 from __future__ import annotations
@@ -12,33 +15,32 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from ..core.pmr import Diagnosis, ElementDiagnosis
+from .layout import BOOL_KEYS as _BOOL_KEYS
+from .layout import FLOAT_KEYS as _FLOAT_KEYS
+from .layout import INT_KEYS as _INT_KEYS
+from .layout import diagnosis_from_array, read_estimates, read_signal, seconds_from_stamp, status_values
+
+__all__ = [
+    "ESTIMATE_QUANTITIES", "LEVEL_NAMES", "clock_message", "diagnosis_from_array", "diagnostic_array", "element_level", "estimates_message",
+    "no_verdict_statuses", "read_estimates", "read_signal", "seconds_from_stamp", "signal_message", "stamp_from_seconds", "status_values", "verdict_statuses",
+]
 
 ESTIMATE_QUANTITIES = ("gain_ratio", "tau_index", "delay_mismatch_samples")
 """Quantities of each element on the estimates topic, in this order."""
 
 LEVEL_NAMES = {DiagnosticStatus.OK: "OK", DiagnosticStatus.WARN: "WARN", DiagnosticStatus.ERROR: "ERROR", DiagnosticStatus.STALE: "STALE"}
 
-_BOOL_KEYS = ("gain_mismatch", "tau_mismatch", "delay_mismatch")
-_FLOAT_KEYS = ("gain_ratio", "tau_index")
-_INT_KEYS = ("delay_mismatch_samples",)
-
 
 def stamp_from_seconds(seconds: float) -> Time:
     """``builtin_interfaces/Time`` of ``seconds`` (>= 0), nanosecond resolution."""
     nanoseconds = int(round(seconds * 1e9))
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
-
-
-def seconds_from_stamp(stamp: Time) -> float:
-    """Seconds of a ``builtin_interfaces/Time``."""
-    return stamp.sec + stamp.nanosec * 1e-9
 
 
 def signal_message(values: Sequence[float], names: Sequence[str], stamp_s: float, frame_id: str = "") -> JointState:
@@ -49,11 +51,6 @@ def signal_message(values: Sequence[float], names: Sequence[str], stamp_s: float
     msg.name = list(names)
     msg.position = [float(v) for v in values]
     return msg
-
-
-def read_signal(msg: JointState) -> tuple[float, tuple[str, ...], np.ndarray]:
-    """``(stamp [s], channel names, values)`` of a signal message, unchecked."""
-    return seconds_from_stamp(msg.header.stamp), tuple(msg.name), np.asarray(msg.position, dtype=float)
 
 
 def clock_message(seconds: float) -> Clock:
@@ -121,65 +118,6 @@ def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> Diagno
     return msg
 
 
-def _parse(value: str):
-    if value in ("True", "False"):
-        return value == "True"
-    if value == "None":
-        return None
-    try:
-        return int(value)
-    except ValueError:
-        pass
-    try:
-        return float(value)
-    except ValueError:
-        return value
-
-
-def status_values(status: DiagnosticStatus) -> dict:
-    """A status's KeyValues as Python values (numbers, booleans, None, strings)."""
-    return {kv.key: _parse(kv.value) for kv in status.values}
-
-
-def diagnosis_from_array(msg: DiagnosticArray, node_name: str | None = None) -> tuple[Diagnosis, dict]:
-    """Rebuild the core :class:`Diagnosis` from a ``/diagnostics`` message.
-
-    Parameters
-    ----------
-    msg : DiagnosticArray
-    node_name : str, optional
-        Only statuses named ``"<node_name>: ..."`` are read.
-
-    Returns
-    -------
-    diagnosis : Diagnosis
-        ``status`` ok with every element's numbers, or ``insufficient_data``
-        (``stale`` data included) with the reason.
-    info : dict
-        ``levels`` (element -> level name), ``messages`` and the window fields.
-    """
-    elements, levels, messages = {}, {}, {}
-    reason, state, window = "", "ok", {}
-    for status in msg.status:
-        owner, sep, element = status.name.partition(": ")
-        if not sep or (node_name is not None and owner != node_name):
-            continue
-        values = status_values(status)
-        levels[element] = LEVEL_NAMES.get(status.level, repr(status.level))
-        messages[element] = status.message
-        window = {k: values[k] for k in ("window_samples", "first_sample", "last_sample") if k in values}
-        if values.get("verdict") == "insufficient_data":
-            state, reason = "insufficient_data", str(values.get("reason", status.message))
-            elements[element] = ElementDiagnosis(element)
-            continue
-        kwargs = {k: values.get(k) for k in _FLOAT_KEYS + _BOOL_KEYS + _INT_KEYS}
-        elements[element] = ElementDiagnosis(element, **kwargs)
-    if state != "ok":
-        elements = {name: ElementDiagnosis(name) for name in elements}
-    samples = int(window.get("window_samples", 0) or 0)
-    return Diagnosis(elements, state, reason, samples), {"levels": levels, "messages": messages, **window}
-
-
 def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> JointState:
     """The numeric estimates of a diagnosis with verdicts, named ``<element>/<quantity>``."""
     names, values = [], []
@@ -189,12 +127,3 @@ def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> Jo
             names.append(f"{name}/{quantity}")
             values.append(math.nan if value is None else float(value))
     return signal_message(values, names, stamp_s, frame_id)
-
-
-def read_estimates(msg: JointState) -> dict[str, dict[str, float]]:
-    """Element -> quantity -> value of an estimates message."""
-    out: dict[str, dict[str, float]] = {}
-    for name, value in zip(msg.name, msg.position, strict=False):
-        element, _, quantity = name.partition("/")
-        out.setdefault(element, {})[quantity] = float(value)
-    return out

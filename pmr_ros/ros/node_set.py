@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -154,6 +155,7 @@ def run_node_set(
     extra_parameters: dict | None = None,
     executor_kind: str = "events",
     private: bool = False,
+    extra_nodes: Callable[[Context, dict], list[Node]] | None = None,
 ) -> NodeSetRun:
     """Run the four nodes in this process for ``config.run.samples`` samples in lockstep.
 
@@ -177,6 +179,10 @@ def run_node_set(
     private : bool
         Discovery off: the nodes see only each other, no other process sees
         them (and concurrent runs cannot disturb each other).
+    extra_nodes : callable, optional
+        ``extra_nodes(context, parameters)`` builds nodes spun with the set
+        (e.g. a bag recorder); ``parameters`` are the dotted values every node
+        got.  The run also waits for each one's ``done`` (when it has one).
 
     Raises
     ------
@@ -198,12 +204,16 @@ def run_node_set(
         diagnostician, plant = nodes[0], nodes[-1]
         listener = _Listener(context, config, record)
         nodes.append(listener)
+        if extra_nodes is not None:
+            flat = flatten_parameters(config.parameters)
+            flat.update(extra)
+            nodes.extend(extra_nodes(context, flat))
         executor = make_executor(executor_kind, context)
         for node in nodes:
             executor.add_node(node)
         started = None
         last_progress, last_sample = time.monotonic(), plant.sample
-        while not listener.done:
+        while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
             executor.spin_once(timeout_sec=0.05)
             now = time.monotonic()
             if plant.sample != last_sample:
