@@ -17,7 +17,7 @@ from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .core.config import ConfigError
 
-COMMANDS = ["run", "sweep"]
+COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 

@@ -12,6 +12,7 @@ import argparse
 import sys
 
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_system_arguments, run_overrides
+from .record import add_storage_arguments, start_recording
 
 
 def register(sub) -> None:
@@ -32,6 +33,8 @@ def register(sub) -> None:
         action="store_true",
         help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); default: private to this process",
     )
+    p.add_argument("--bag", metavar="DIR", help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)")
+    add_storage_arguments(p)
     p.set_defaults(handler=handle)
 
 
@@ -49,6 +52,8 @@ def handle(args: argparse.Namespace) -> int:
     from ..core.report import build_report, format_table
 
     config = load_config(args.config, run_overrides(args))
+    if args.bag and args.batch:
+        raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     if args.batch:
         from ..core.closed_loop import simulate
         from ..core.diagnosis import diagnose_with
@@ -59,10 +64,14 @@ def handle(args: argparse.Namespace) -> int:
         report["path"] = "batch"
     else:
         run_node_set, NodeSetError = _node_set_report(config)
+        recording = start_recording(args, config) if args.bag else None
         try:
-            result = run_node_set(config, private=not args.visible)
+            result = run_node_set(config, private=not args.visible, extra_nodes=recording.nodes if recording else None)
         except NodeSetError as exc:
             raise CommandError(str(exc), code=1) from None
+        finally:
+            if recording is not None:
+                recording.close()
         diagnosis = result.diagnosis
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "nodes"
@@ -75,6 +84,8 @@ def handle(args: argparse.Namespace) -> int:
             "samples_per_second": result.samples_per_second,
             "diagnostician_warnings": result.warnings,
         }
+        if recording is not None:
+            report["bag"] = {"path": str(recording.writer.path), "storage": recording.writer.storage, "messages": recording.writer.counts}
     sys.stdout.write(format_table(report))
     if args.json:
         try:

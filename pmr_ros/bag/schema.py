@@ -1,0 +1,139 @@
+"""What a pmr_ros bag holds: the contract's topics, their types and QoS, and the run's configuration.
+
+A pmr_ros bag is an ordinary rosbag2 bag (MCAP by default, sqlite3 on
+request).  It records every topic of ``msg_defs/topics.yaml`` (r, u, y,
+/clock, /diagnostics, /pmr/estimates) plus the latched ``run_config`` topic, a
+``std_msgs/String`` with the run's configuration as a ROS 2 params file.  The
+same text goes into ``metadata.yaml``'s ``custom_data`` when the bag is closed;
+the topic keeps it readable in a bag whose recorder was killed before it could
+write ``metadata.yaml``.
+
+No rclpy here: messages are (de)serialised with the pure-Python ``rosbags``
+type store of ROS 2 Jazzy, so stock ``ros2 bag`` reads what is written.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cache
+
+import yaml
+
+from .. import __version__
+from ..ros.contract import Topic, TopicQos, load_contract
+
+RUN_CONFIG_KEY = "run_config"
+"""Contract key of the latched topic with the run's configuration."""
+
+SIGNAL_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
+"""Contract keys of the diagnostician's signals."""
+
+CUSTOM_DATA_KEYS = ("pmr_ros.version", "pmr_ros.source", "pmr_ros.scenario", "pmr_ros.seed", "pmr_ros.samples", "pmr_ros.params")
+"""Keys of the run's configuration in ``metadata.yaml`` ``custom_data`` (all strings)."""
+
+STORAGES = ("mcap", "sqlite3")
+"""Storage plugins a bag can be written with; MCAP is rosbag2's default since Iron."""
+
+
+class BagError(Exception):
+    """A bag cannot be read, written or used; the message says which and why (one line)."""
+
+
+@cache
+def typestore():
+    """The ``rosbags`` type store of ROS 2 Jazzy (every common_interfaces message)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_JAZZY)
+
+
+def recorded_topics() -> dict[str, Topic]:
+    """Every topic a bag records, by contract key (the whole contract)."""
+    return dict(load_contract())
+
+
+def rosbags_qos(qos: TopicQos):
+    """The contract's QoS as the ``rosbags`` QoS of a connection (``offered_qos_profiles``)."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    return Qos(
+        history=QosHistory.KEEP_LAST,
+        depth=qos.depth,
+        reliability=QosReliability.RELIABLE if qos.reliability == "reliable" else QosReliability.BEST_EFFORT,
+        durability=QosDurability.TRANSIENT_LOCAL if qos.durability == "transient_local" else QosDurability.VOLATILE,
+        deadline=QosTime(0, 0),
+        lifespan=QosTime(0, 0),
+        liveliness=QosLiveliness.AUTOMATIC,
+        liveliness_lease_duration=QosTime(0, 0),
+        avoid_ros_namespace_conventions=False,
+    )
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """The configuration a run was made with, as stored in its bag.
+
+    Attributes
+    ----------
+    params : dict
+        Every parameter the nodes ran with, nested (``system``, ``pmr``,
+        ``run``, ``diagnostician``, ...), i.e. the merged params file.
+    source : str
+        The params file the run was configured from.
+    version : str
+        pmr_ros version that recorded the bag.
+    """
+
+    params: dict
+    source: str = ""
+    version: str = field(default=__version__)
+
+    @property
+    def scenario(self) -> str:
+        return str(self.params.get("run", {}).get("scenario", ""))
+
+    @property
+    def seed(self) -> int | None:
+        return self.params.get("run", {}).get("seed")
+
+    @property
+    def samples(self) -> int | None:
+        return self.params.get("run", {}).get("samples")
+
+    def params_yaml(self) -> str:
+        """The parameters as a ROS 2 params file (``/**: ros__parameters:``)."""
+        return yaml.safe_dump({"/**": {"ros__parameters": self.params}}, sort_keys=False)
+
+    def to_text(self) -> str:
+        """The document published on the ``run_config`` topic (YAML)."""
+        return yaml.safe_dump({"pmr_ros_run_config": {"version": self.version, "source": self.source}, "/**": {"ros__parameters": self.params}}, sort_keys=False)
+
+    def custom_data(self) -> dict[str, str]:
+        """``metadata.yaml`` custom_data entries (rosbag2 allows strings only)."""
+        values = (self.version, self.source, self.scenario, str(self.seed), str(self.samples), self.params_yaml())
+        return dict(zip(CUSTOM_DATA_KEYS, values, strict=True))
+
+    @classmethod
+    def from_text(cls, text: str) -> RunConfig:
+        """Parse the ``run_config`` topic's document; raises :class:`BagError` if malformed."""
+        try:
+            doc = yaml.safe_load(text)
+            params = doc["/**"]["ros__parameters"]
+            head = doc.get("pmr_ros_run_config", {}) or {}
+        except (yaml.YAMLError, TypeError, KeyError) as exc:
+            raise BagError(f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})") from None
+        if not isinstance(params, dict):
+            raise BagError("the recorded run configuration has no parameter mapping under '/**: ros__parameters'")
+        return cls(params, str(head.get("source", "")), str(head.get("version", "")))
+
+    @classmethod
+    def from_custom_data(cls, custom: dict[str, str]) -> RunConfig | None:
+        """From ``metadata.yaml`` custom_data, or None when the bag has none."""
+        text = (custom or {}).get("pmr_ros.params")
+        if not text:
+            return None
+        try:
+            params = yaml.safe_load(text)["/**"]["ros__parameters"]
+        except (yaml.YAMLError, TypeError, KeyError) as exc:
+            raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})") from None
+        return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""))

@@ -1,0 +1,118 @@
+"""``pmr-ros record DIR``: record the contract's topics of a live ROS graph into a rosbag2 bag.
+
+For nodes running as separate processes (or a ``pmr-ros replay``): the
+recorder subscribes to every contract topic and writes until Ctrl-C/SIGTERM
+(or ``--duration``), then closes the bag.  The bag is flushed every
+``--flush-period`` seconds, so a killed recorder leaves a readable bag up to
+its last flush.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+
+from . import CommandError, add_system_arguments, run_overrides
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{value} must be > 0")
+    return value
+
+
+def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
+    """--storage/--force, shared with ``pmr-ros run --bag``."""
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage plugin (default: mcap)")
+    parser.add_argument("--force", action="store_true", help="overwrite an existing bag at the path")
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "record",
+        help="record the contract's topics of a live ROS graph into a rosbag2 bag",
+        description=(
+            "Subscribe to every topic of the pmr_ros contract (r, u, y, /clock, /diagnostics, /pmr/estimates, /pmr/run_config) "
+            "and write them into a rosbag2 bag until Ctrl-C/SIGTERM. The run's configuration is taken from --config, "
+            "else from /pmr/run_config, else from the live pmr_diagnostician's parameters."
+        ),
+    )
+    p.add_argument("bag", metavar="DIR", help="bag directory to create")
+    add_storage_arguments(p)
+    add_system_arguments(p)
+    p.add_argument("--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician")
+    p.add_argument("--flush-period", type=_positive_float, default=None, metavar="S", help="seconds between flushes to disk (default: 0.5)")
+    p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="stop after S seconds of wall time")
+    p.set_defaults(handler=handle)
+
+
+def handle(args: argparse.Namespace) -> int:
+    from ..bag.schema import BagError, RunConfig
+    from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
+
+    run_config = None
+    if args.config is not None or run_overrides(args):
+        from ..core.config import load_config
+
+        config = load_config(args.config, run_overrides(args))
+        run_config = RunConfig(config.parameters, source=str(config.source))
+    try:
+        import rclpy
+        from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        from ..nodes.bag_recorder import BagRecorderNode
+    except ImportError as exc:
+        raise CommandError(f"recording needs rclpy ({exc}); install pmr_ros[ros]") from None
+    flush = args.flush_period or DEFAULT_FLUSH_PERIOD_S
+    try:
+        writer = BagWriter(args.bag, storage=args.storage, force=args.force, flush_period_s=flush)
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+    # Our own handlers: a signal only sets a flag, so it never interrupts a half-written record.
+    stop = []
+    previous = {sig: signal.signal(sig, lambda number, frame: stop.append(number)) for sig in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    node = None
+    try:
+        node = BagRecorderNode(writer, run_config=run_config, parameter_source=None if args.no_parameters else "pmr_diagnostician", flush_period_s=flush)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        print(f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+        deadline = time.monotonic() + args.duration if args.duration else None
+        try:
+            while not stop and (deadline is None or time.monotonic() < deadline):
+                executor.spin_once(timeout_sec=0.1)
+        except ExternalShutdownException:
+            pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        else:
+            writer.close()
+        rclpy.try_shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    counts = ", ".join(f"{name} {n}" for name, n in writer.counts.items())
+    print(f"pmr-ros record: {writer.message_count} messages in {writer.path} ({counts})", file=sys.stderr)
+    return 0
+
+
+def start_recording(args: argparse.Namespace, config):
+    """The recording of ``pmr-ros run --bag``: the bag is created now (fails before the run)."""
+    from ..bag.schema import BagError
+    from ..bag.writer import BagWriter
+    from ..nodes.bag_recorder import RunRecording
+
+    try:
+        writer = BagWriter(args.bag, storage=args.storage, force=args.force)
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+    return RunRecording(writer, str(config.source), config.run.samples)

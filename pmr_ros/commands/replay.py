@@ -1,0 +1,91 @@
+"""``pmr-ros replay BAG``: publish a bag's messages on their topics for live nodes.
+
+Sample by sample in simulated-time lockstep (/clock first), as fast as the
+subscribers acknowledge by default, or at the recorded pace times ``--rate``.
+The diagnostician's own outputs are left out unless ``--all-topics``: a live
+``pmr_diagnostician`` listening to the replay reacts as it did to the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+
+from . import CommandError, nonnegative_int
+
+
+def _rate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{value} must be > 0")
+    return value
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "replay",
+        help="publish a recorded bag's messages on their topics (lockstep simulated time)",
+        description=(
+            "Publish the messages of a pmr_ros bag on their topics with the contract's QoS: /clock and r, u, y sample by sample, "
+            "as fast as possible (lockstep, waiting for subscribers' acknowledgements) or at the recorded pace times --rate."
+        ),
+    )
+    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
+    p.add_argument("--rate", type=_rate, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, as fast as possible)")
+    p.add_argument("--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)")
+    p.add_argument("--wait", type=nonnegative_int, default=10, metavar="S", help="wait up to S seconds for subscribers of r, u and y before starting (default: 10)")
+    p.add_argument("--linger", type=float, default=1.0, metavar="S", help="keep publishers alive S seconds after the last message (default: 1)")
+    p.set_defaults(handler=handle)
+
+
+def handle(args: argparse.Namespace) -> int:
+    from ..bag.reader import open_bag
+    from ..bag.schema import BagError
+
+    try:
+        bag = open_bag(args.bag)
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+    try:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        from ..nodes.bag_player import BagPlayerNode
+        from ..ros.contract import topic
+    except ImportError as exc:
+        raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None
+    stop: list[int] = []
+    previous = {sig: signal.signal(sig, lambda number, frame: stop.append(number)) for sig in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    node = None
+    try:
+        try:
+            node = BagPlayerNode(bag, include_outputs=args.all_topics)
+        except BagError as exc:
+            raise CommandError(str(exc)) from None
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        signals = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
+        if args.wait and not node.wait_for_subscribers(signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)):
+            print(f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} after {args.wait} s; replaying anyway", file=sys.stderr)
+        started = time.monotonic()
+        count = node.play(rate=args.rate, should_stop=lambda: bool(stop))
+        wall = time.monotonic() - started
+        end = time.monotonic() + max(args.linger, 0.0)
+        while time.monotonic() < end and not stop:
+            executor.spin_once(timeout_sec=0.05)
+        total = sum(node.published.values())
+        print(f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s ({total / wall if wall > 0 else 0:.0f} msgs/s)", file=sys.stderr)
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 130 if stop else 0
