@@ -201,9 +201,14 @@ class _Reader:
             raise self.error(field, value, f"needs {length} names, got {len(value)}")
         return tuple(value)
 
-    def matrix(self, field: str, n_out: int, n_in: int, *, positive: bool = False, nonnegative: bool = False) -> np.ndarray:
-        """A row-major flat list of n_out*n_in numbers (a list of rows is accepted too)."""
+    def matrix(self, field: str, n_out: int, n_in: int, *, positive: bool = False, nonnegative: bool = False, scalar: bool = False) -> np.ndarray:
+        """A row-major flat list of n_out*n_in numbers (a list of rows is accepted too).
+
+        With ``scalar``, one number stands for every element.
+        """
         value = self.raw(field)
+        if scalar and isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = [value] * (n_out * n_in)
         if not isinstance(value, list):
             raise self.error(field, value, f"must be a list of {n_out}x{n_in} = {n_out * n_in} numbers, row by row")
         if value and all(isinstance(row, list) for row in value):
@@ -251,9 +256,9 @@ def parse_config(params: dict, source: str | Path) -> PmrConfig:
         raise rd.error(f"system.delay[{j}]", float(delay.ravel()[j]), f"must be a whole number of samples (sample_time = {ts:g})")
     model = FoptdMatrix(gain, tau, np.rint(whole) * ts, ts, outputs, inputs, str(rd.raw("system.name")) if _has(params, "system.name") else "")
 
-    gain_pct = rd.matrix("mismatch.gain_pct", n_out, n_in)
-    tau_pct = rd.matrix("mismatch.time_constant_pct", n_out, n_in)
-    ddel = rd.matrix("mismatch.delay_samples", n_out, n_in)
+    gain_pct = rd.matrix("mismatch.gain_pct", n_out, n_in, scalar=True)
+    tau_pct = rd.matrix("mismatch.time_constant_pct", n_out, n_in, scalar=True)
+    ddel = rd.matrix("mismatch.delay_samples", n_out, n_in, scalar=True)
     if np.any(gain_pct <= -100):
         raise rd.error("mismatch.gain_pct", gain_pct.ravel().tolist(), "must be > -100 (the plant gain must keep its sign)")
     if np.any(tau_pct <= -100):

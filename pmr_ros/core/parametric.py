@@ -381,7 +381,7 @@ def diagnose_parametric(
         )
         row_reasons = []
         if bins.size < 2 * n_in + 2:
-            row_reasons.append(f"informative band too narrow ({bins.size} bins)")
+            row_reasons.append(f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below {classic.coherence_min:g}")
         if row_coherence < settings.coherence_min:
             row_reasons.append(f"coherence with the setpoints too low ({row_coherence:.2f} < {settings.coherence_min:g})")
         if not np.isfinite(condition) or condition > settings.max_condition:
