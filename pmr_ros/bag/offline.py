@@ -17,7 +17,7 @@ from ..core.config import ConfigError, PmrConfig, load_config, parse_config
 from ..core.pmr import Diagnosis, ElementDiagnosis
 from ..ros.alignment import SIGNALS, SampleAligner
 from ..ros.contract import topic
-from ..ros.layout import diagnosis_from_array, read_signal
+from ..ros.layout import BOOL_KEYS, FLOAT_KEYS, INT_KEYS, diagnosis_from_array, read_signal
 from ..ros.parameters import NodeSettings, parse_node_settings
 from ..ros.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from .reader import Bag
@@ -186,10 +186,15 @@ def diagnose_bag(bag: Bag, config_path: str | None = None) -> OfflineResult:
     return result
 
 
-def _numbers(diagnosis: Diagnosis | None) -> dict:
+COMPARED_KEYS = (*FLOAT_KEYS, *BOOL_KEYS, *INT_KEYS, "verdict")
+"""Per-element fields /diagnostics carries (msg_defs/topics.yaml), compared exactly."""
+
+
+def verdict_numbers(diagnosis: Diagnosis | None) -> dict:
+    """Element -> the fields of :data:`COMPARED_KEYS` of a diagnosis (empty for None)."""
     if diagnosis is None:
         return {}
-    return {name: element.to_dict() for name, element in diagnosis.elements.items()}
+    return {name: {k: v for k, v in element.to_dict().items() if k in COMPARED_KEYS} for name, element in diagnosis.elements.items()}
 
 
 def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict]) -> list[dict]:
@@ -215,11 +220,11 @@ def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict]) -> l
             mine_ok = mine.kind == VERDICT
             entry["offline_status"] = "ok" if mine_ok else mine.kind
             if verdict.diagnosis.status == "ok" and mine_ok:
-                entry["equal"] = _numbers(verdict.diagnosis) == _numbers(mine.diagnosis)
+                entry["equal"] = verdict_numbers(verdict.diagnosis) == verdict_numbers(mine.diagnosis)
             else:
                 entry["equal"] = verdict.diagnosis.status != "ok" and not mine_ok
             if not entry["equal"]:
-                entry.update(recorded=_numbers(verdict.diagnosis), offline=_numbers(mine.diagnosis))
+                entry.update(recorded=verdict_numbers(verdict.diagnosis), offline=verdict_numbers(mine.diagnosis))
         out.append(entry)
     return out
 

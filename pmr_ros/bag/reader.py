@@ -115,9 +115,11 @@ class Bag:
 
 
 def _reader_error_types():
+    """What reading a damaged file raises: rosbags' ReaderError, but also whatever a garbage
+    length or offset makes the parser hit (OverflowError, AssertionError, struct.error, ...)."""
     from rosbags.rosbag2.errors import ReaderError
 
-    return (ReaderError, OSError, struct.error, ValueError, KeyError, IndexError, EOFError)
+    return (ReaderError, OSError, struct.error, ValueError, KeyError, IndexError, EOFError, ArithmeticError, AssertionError, TypeError, AttributeError, MemoryError)
 
 
 def _read_rosbag2(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
@@ -214,7 +216,7 @@ def _recover_mcap(path: Path, mcap_file: Path) -> Bag:
                     messages.append(BagMessage(topic, msgtype, record.log_time, bytes(record.data)))
                 elif isinstance(record, Footer):
                     footer = True
-        except (McapError, struct.error, ValueError, EOFError, OSError) as exc:
+        except (McapError, *_reader_error_types()) as exc:
             # The end of a killed recording: everything before this record is whole.
             if not channels:
                 raise BagError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None

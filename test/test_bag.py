@@ -1,0 +1,342 @@
+"""Bags without ROS: writing/reading with rosbags, the reference bag, an independent MCAP reader, bad input.
+
+The reference bag ``bags/wood_berry_full`` was recorded by a real
+``pmr-ros run --bag`` (see bags/README.md); its expected verdicts beside it
+are that run's report.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pmr_ros.bag.offline import COMPARED_KEYS, bag_configuration, compare, diagnose_bag, required_topics, verdict_numbers
+from pmr_ros.bag.reader import open_bag
+from pmr_ros.bag.schema import CUSTOM_DATA_KEYS, RUN_CONFIG_KEY, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
+from pmr_ros.bag.writer import BagWriter, looks_like_bag, prepare_output
+from pmr_ros.cli import main
+from pmr_ros.core.config import load_config
+from pmr_ros.ros.alignment import SampleAligner
+from pmr_ros.ros.contract import topic
+from pmr_ros.ros.layout import diagnosis_from_array, level_name, parse_value, read_estimates, read_signal
+from pmr_ros.ros.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / "bags" / "wood_berry_full"
+EXPECTED = ROOT / "bags" / "wood_berry_full.expected.json"
+
+
+def _time(seconds: float):
+    ns = int(round(seconds * 1e9))
+    return typestore().types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+
+
+def _joint_state(k: int, values, names):
+    ts = typestore().types
+    header = ts["std_msgs/msg/Header"](stamp=_time(float(k)), frame_id="wood_berry")
+    return ts["sensor_msgs/msg/JointState"](header=header, name=list(names), position=np.asarray(values, dtype=float),
+                                              velocity=np.zeros(0), effort=np.zeros(0))
+
+
+def _write_small_bag(path: Path, samples: int = 50, storage: str = "mcap", skip: tuple[str, ...] = (), config: RunConfig | None = None, **kwargs) -> BagWriter:
+    """A bag of ``samples`` samples of r, u, y and /clock (values from the batch core's Wood-Berry run)."""
+    topics = {k: t for k, t in recorded_topics().items() if k not in skip}
+    writer = BagWriter(path, storage=storage, topics=topics, **kwargs)
+    if config is not None:
+        writer.write_run_config(config, 1)
+    ts = typestore().types
+    rng = np.random.default_rng(0)
+    for k in range(samples):
+        t = 10 + k * 1000
+        if "clock" in topics:
+            writer.write_message(topic("clock").name, t, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
+        for key, names in (("measured_output", ("x_D", "x_B")), ("setpoint", ("x_D", "x_B")), ("manipulated_input", ("reflux", "steam"))):
+            if key in topics:
+                writer.write_message(topic(key).name, t + 1, _joint_state(k, rng.normal(size=2), names))
+    return writer
+
+
+@pytest.fixture(scope="module")
+def expected():
+    return json.loads(EXPECTED.read_text())
+
+
+@pytest.fixture(scope="module")
+def reference_result():
+    bag = open_bag(REFERENCE)
+    return bag, diagnose_bag(bag)
+
+
+# -- schema and writer -------------------------------------------------------------------------
+
+def test_run_config_round_trips_through_topic_text_and_custom_data(wood_berry):
+    config = RunConfig(wood_berry.parameters, source="config/wood_berry.yaml")
+    back = RunConfig.from_text(config.to_text())
+    assert back.params == wood_berry.parameters and back.source == "config/wood_berry.yaml"
+    custom = config.custom_data()
+    assert set(custom) == set(CUSTOM_DATA_KEYS) and all(isinstance(v, str) for v in custom.values())
+    assert custom["pmr_ros.seed"] == str(wood_berry.run.seed) and custom["pmr_ros.scenario"] == wood_berry.run.scenario
+    assert RunConfig.from_custom_data(custom).params == wood_berry.parameters
+    assert RunConfig.from_custom_data({}) is None
+    assert yaml.safe_load(config.params_yaml())["/**"]["ros__parameters"] == wood_berry.parameters
+    with pytest.raises(BagError, match="not a pmr_ros params document"):
+        RunConfig.from_text("just a string")
+
+
+def test_recorded_topics_are_the_contract_with_its_qos():
+    topics = recorded_topics()
+    assert {"setpoint", "measured_output", "manipulated_input", "clock", "diagnostics", "estimates", RUN_CONFIG_KEY} <= set(topics)
+    qos = rosbags_qos(topics["setpoint"].qos)
+    assert qos.depth == 1000 and qos.reliability.name == "RELIABLE" and qos.durability.name == "TRANSIENT_LOCAL"
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_writer_and_reader_round_trip_every_message(tmp_path, wood_berry, storage):
+    config = RunConfig(wood_berry.parameters, source="test")
+    writer = _write_small_bag(tmp_path / "bag", 40, storage, config=config)
+    assert writer.flushes >= 1  # the configuration is flushed at once
+    writer.close()
+    bag = open_bag(tmp_path / "bag")
+    assert bag.complete and bag.storage == storage
+    assert bag.counts[topic("setpoint").name] == 40 and bag.counts[topic("clock").name] == 40
+    assert bag.topics[topic("setpoint").name] == "sensor_msgs/msg/JointState"
+    assert bag.run_config().params == wood_berry.parameters
+    stamps = [read_signal(bag.decode(m))[0] for m in bag.messages({topic("measured_output").name})]
+    assert stamps == [float(k) for k in range(40)]
+
+
+def test_prepare_output_never_overwrites_without_force_and_never_deletes_a_non_bag(tmp_path):
+    assert prepare_output(tmp_path / "new", force=False) == tmp_path / "new"
+    _write_small_bag(tmp_path / "old", 3).close()
+    assert looks_like_bag(tmp_path / "old")
+    with pytest.raises(BagError, match="exists already; pass --force"):
+        prepare_output(tmp_path / "old", force=False)
+    prepare_output(tmp_path / "old", force=True)
+    assert not (tmp_path / "old").exists()
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "thesis.tex").write_text("precious")
+    with pytest.raises(BagError, match="not a rosbag2 bag; not overwriting"):
+        prepare_output(tmp_path / "docs", force=True)
+    assert (tmp_path / "docs" / "thesis.tex").exists()
+    with pytest.raises(BagError, match="parent folder"):
+        prepare_output(tmp_path / "missing" / "bag", force=False)
+
+
+def test_an_unclosed_bag_is_read_up_to_its_last_flush(tmp_path):
+    writer = _write_small_bag(tmp_path / "bag", 30, flush_period_s=3600)  # no automatic flush
+    writer.flush()
+    flushed = writer.message_count
+    ts = typestore().types
+    for k in range(30, 40):  # written after the last flush: still in memory when the process dies
+        writer.write_message(topic("clock").name, 10**6 + k, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
+    # Simulate SIGKILL: copy the file as the disk holds it now, without closing the writer.
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    shutil.copy(tmp_path / "bag" / "bag.mcap", killed / "killed.mcap")
+    bag = open_bag(killed)
+    assert not bag.complete and bag.message_count == flushed == 120
+    writer.close()
+
+
+# -- the reference bag ---------------------------------------------------------------------------
+
+def test_reference_bag_is_small_and_records_every_contract_topic(expected):
+    size = sum(f.stat().st_size for f in REFERENCE.iterdir())
+    assert size < 5 * 2**20
+    bag = open_bag(REFERENCE)
+    samples = expected["samples"]
+    for key in ("setpoint", "measured_output", "manipulated_input", "clock"):
+        assert bag.counts[topic(key).name] == samples
+    assert bag.counts[topic("diagnostics").name] >= 1 and bag.counts[topic("estimates").name] >= 1
+    assert bag.counts[topic(RUN_CONFIG_KEY).name] == 1
+    config = bag.run_config()
+    assert config.scenario == "full" and config.seed == 1 and config.samples == samples
+
+
+def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_verdicts(reference_result, expected):
+    bag, result = reference_result
+    assert result.config_origin == "bag"
+    final = result.final
+    assert final.kind == VERDICT and final.window == {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
+    assert final.window == expected["node_set"]["window"]
+    offline = verdict_numbers(final.diagnosis)
+    assert offline == {name: {k: e[k] for k in COMPARED_KEYS} for name, e in expected["elements"].items()}
+    # ... and exactly what the live diagnostician published on /diagnostics for the same window.
+    assert result.comparisons and result.all_equal
+    assert result.warnings == []
+
+
+def test_reference_verdicts_match_the_injected_mismatch(reference_result, expected):
+    _, result = reference_result
+    config = load_config()
+    mismatch = config.mismatch.for_scenario("full")
+    for j, (name, element) in enumerate(result.final.diagnosis.elements.items()):
+        i, k = divmod(j, 2)
+        assert element.gain_mismatch and element.gain_direction == ("higher" if mismatch.gain_pct[i, k] > 0 else "lower"), name
+        assert element.tau_mismatch and element.tau_direction == ("larger" if mismatch.time_constant_pct[i, k] > 0 else "smaller"), name
+        assert element.delay_mismatch_samples == mismatch.delay_samples[i, k], name
+        assert expected["injected"][name]["delay_samples"] == mismatch.delay_samples[i, k]
+
+
+def test_an_independent_mcap_reader_decodes_every_message_of_the_reference_bag():
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    counts: dict[str, int] = {}
+    with (REFERENCE / "wood_berry_full.mcap").open("rb") as handle:
+        reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"} and all(s.data for s in summary.schemas.values())
+        assert {c.message_encoding for c in summary.channels.values()} == {"cdr"}
+        for schema, channel, _message, decoded in reader.iter_decoded_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == topic("estimates").name:
+                assert len(decoded.position) == 12 and decoded.name[0] == "G11/gain_ratio"
+            elif schema.name == "sensor_msgs/msg/JointState":
+                assert len(decoded.position) == 2 and decoded.header.stamp.nanosec == 0
+            elif schema.name == "diagnostic_msgs/msg/DiagnosticArray":
+                assert len(decoded.status) == 4 and decoded.status[0].values[0].key == "verdict"
+            elif schema.name == "std_msgs/msg/String":
+                assert "ros__parameters" in decoded.data
+            assert channel.metadata["offered_qos_profiles"]
+    assert counts == open_bag(REFERENCE).counts
+
+
+def test_metadata_yaml_is_rosbag2_jazzy_metadata():
+    info = yaml.safe_load((REFERENCE / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap"
+    assert info["relative_file_paths"] == ["wood_berry_full.mcap"]
+    assert info["message_count"] == sum(t["message_count"] for t in info["topics_with_message_count"])
+    topics = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
+    for t in recorded_topics().values():
+        meta = topics[t.name]
+        assert meta["type"] == t.type and meta["serialization_format"] == "cdr"
+        assert meta["type_description_hash"].startswith("RIHS01_")
+        (qos,) = meta["offered_qos_profiles"]  # v9: a list of mappings, as Jazzy writes it
+        assert qos["reliability"] == t.qos.reliability and qos["durability"] == t.qos.durability and qos["depth"] == t.qos.depth
+        assert qos["history"] == "keep_last" and set(qos["deadline"]) == {"sec", "nsec"}
+    assert set(info["custom_data"]) == set(CUSTOM_DATA_KEYS)
+
+
+# -- offline diagnosis ---------------------------------------------------------------------------
+
+def test_offline_diagnosis_of_a_bag_with_another_config(tmp_path, expected):
+    # --config: a plain system file; the diagnostician's defaults (16384-sample window, 8192 minimum) apply.
+    bag = open_bag(REFERENCE)
+    config, settings, origin = bag_configuration(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    assert origin.endswith("wood_berry.yaml") and settings.window_samples == 16384 and settings.update_period_samples == 1024
+    result = diagnose_bag(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    assert [o.window["last_sample"] for o in result.outcomes] == list(range(1023, 8192, 1024))
+    assert [o.kind for o in result.outcomes] == [INSUFFICIENT] * 7 + [VERDICT]
+    assert result.comparisons[0]["equal"]  # same whole-run window as the live one
+
+
+def test_compare_flags_a_different_verdict(reference_result):
+    _, result = reference_result
+    recorded = result.recorded
+    tampered = result.outcomes[-1].diagnosis.elements["G11"]
+    original = tampered.gain_ratio
+    tampered.gain_ratio = original + 1e-15
+    try:
+        (entry,) = compare(result.outcomes, recorded)
+        assert not entry["equal"] and entry["recorded"]["G11"]["gain_ratio"] == original
+    finally:
+        tampered.gain_ratio = original
+
+
+def test_required_topics_are_r_u_y():
+    assert required_topics() == {topic(k).name: topic(k).type for k in ("setpoint", "manipulated_input", "measured_output")}
+
+
+def test_shared_windowing_schedule_and_outcomes(wood_berry):
+    model = wood_berry.model
+    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+    aligner = SampleAligner(1.0, names, {s: s for s in "ruy"}, capacity=100, max_lag_samples=3)
+    assert window_info(aligner, 100) == {"window_samples": 0}
+    due = []
+    for k in range(8):
+        for s in "ruy":
+            due.append(offer_signal(aligner, s, float(k), names[s], [0.0, 0.0], 4).update_due)
+    assert sum(due) == 2  # samples 3 and 7 complete
+    assert window_info(aligner, 5) == {"window_samples": 5, "first_sample": 3, "last_sample": 7}
+    outcome = evaluate_window(aligner, wood_berry, 100, 50)
+    assert outcome.kind == INSUFFICIENT and "8 unbroken samples, need 50" in outcome.reason and outcome.stamp_s == 7.0
+    for k in range(8, 13):
+        offer = offer_signal(aligner, "y", float(k), names["y"], [0.0, 0.0], 4)
+    assert offer.newly_lagging is None or "stopped" in offer.newly_lagging
+    assert evaluate_window(aligner, wood_berry, 100, 50).kind == STALE
+
+
+def test_layout_readers_work_on_rosbags_messages(reference_result):
+    bag, _ = reference_result
+    (message,) = list(bag.messages({topic("diagnostics").name}))
+    diagnosis, info = diagnosis_from_array(bag.decode(message), "pmr_diagnostician")
+    assert diagnosis.status == "ok" and set(info["levels"].values()) == {"ERROR"}
+    (est,) = list(bag.messages({topic("estimates").name}))
+    assert read_estimates(bag.decode(est))["G21"]["delay_mismatch_samples"] == 2.0
+    assert level_name(b"\x01") == level_name(1) == "WARN"
+    assert [parse_value(v) for v in ("True", "None", "3", "0.5", "text")] == [True, None, 3, 0.5, "text"]
+
+
+# -- bad input: one line, non-zero exit, no traceback ---------------------------------------------
+
+def _cli_error(capsys, argv: list[str]) -> tuple[int, str]:
+    code = main(argv)
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err + captured.out
+    return code, captured.err.strip()
+
+
+def _bad_inputs(tmp_path: Path, wood_berry) -> dict[str, tuple[Path, str]]:
+    config = RunConfig(wood_berry.parameters)
+    cases = {}
+    (tmp_path / "notes.txt").write_text("hello")
+    cases["a file"] = (tmp_path / "notes.txt", "not a bag")
+    (tmp_path / "folder").mkdir()
+    cases["a folder"] = (tmp_path / "folder", "not a rosbag2 bag")
+    cases["nothing"] = (tmp_path / "nowhere", "no such bag")
+    BagWriter(tmp_path / "empty").close()
+    cases["empty bag"] = (tmp_path / "empty", "empty")
+    _write_small_bag(tmp_path / "no_u", 20, skip=("manipulated_input",), config=config).close()
+    cases["missing topic"] = (tmp_path / "no_u", "topic /pmr/manipulated_input (sensor_msgs/msg/JointState) is not in the bag")
+    wrong = dict(recorded_topics())
+    wrong["setpoint"] = wrong[RUN_CONFIG_KEY].__class__(**{**wrong["setpoint"].__dict__, "type": "std_msgs/msg/String"})
+    writer = BagWriter(tmp_path / "wrong", topics=wrong)
+    writer.write_message("/pmr/setpoint", 1, typestore().types["std_msgs/msg/String"](data="x"))
+    writer.close()
+    cases["wrong type"] = (tmp_path / "wrong", "topic /pmr/setpoint has type std_msgs/msg/String, expected sensor_msgs/msg/JointState")
+    shutil.copytree(REFERENCE, tmp_path / "truncated")
+    mcap = tmp_path / "truncated" / "wood_berry_full.mcap"
+    mcap.write_bytes(mcap.read_bytes()[: mcap.stat().st_size // 2])
+    cases["truncated"] = (tmp_path / "truncated", "truncated or corrupted")
+    shutil.copytree(REFERENCE, tmp_path / "corrupted")
+    mcap = tmp_path / "corrupted" / "wood_berry_full.mcap"
+    data = bytearray(mcap.read_bytes())
+    data[-200:-100] = b"\xff" * 100  # the summary section
+    mcap.write_bytes(bytes(data))
+    cases["corrupted"] = (tmp_path / "corrupted", "truncated or corrupted")
+    return cases
+
+
+def test_bad_bags_give_one_clear_line_and_a_non_zero_exit(tmp_path, capsys, wood_berry):
+    for case, (path, words) in _bad_inputs(tmp_path, wood_berry).items():
+        code, err = _cli_error(capsys, ["diagnose", str(path)])
+        assert code == 2, (case, err)
+        assert err.startswith("pmr-ros: error: ") and "\n" not in err, (case, err)
+        assert words in err, (case, err)
+
+
+def test_diagnose_writes_json_and_needs_a_configuration(tmp_path, capsys, wood_berry):
+    code = main(["diagnose", str(REFERENCE), "--json", str(tmp_path / "report.json")])
+    out = capsys.readouterr().out
+    assert code == 0 and "1 of 1 windows give exactly the same verdicts offline" in out
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["bag"]["configuration"] == "bag" and report["recorded_comparison"]["different"] == []
+    _write_small_bag(tmp_path / "no_config", 20).close()
+    code, err = _cli_error(capsys, ["diagnose", str(tmp_path / "no_config")])
+    assert code == 2 and "holds no run configuration; pass --config" in err
