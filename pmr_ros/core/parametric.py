@@ -365,7 +365,7 @@ def diagnose_parametric(
     welch = settings.welch(model, r.shape[0], classic)
     spectra = record_spectra(r, u, y, model, welch)
     estimate = implicit_estimate(spectra)
-    z = norm.ppf(0.5 + settings.confidence_level / 2.0)
+    z = float(norm.ppf(0.5 + settings.confidence_level / 2.0))
     n_out, n_in = model.n_outputs, model.n_inputs
     results: dict[str, ElementEstimate] = {}
     for i in range(n_out):
@@ -401,7 +401,7 @@ def diagnose_parametric(
                 "condition": condition,
                 "row_time_constant_ratio": row_ratio,
                 "band_rad_per_sample": float(spectra.omega[bins].max()),
-                "segment_length": welch.segment_length,
+                "segment_length": int(welch.segment_length),
             }
             if row_ratio > settings.row_time_constant_ratio_warn:
                 element.warnings.append(

@@ -24,7 +24,7 @@ from ..core.pmr import Diagnosis, ElementDiagnosis
 from .layout import BOOL_KEYS as _BOOL_KEYS
 from .layout import FLOAT_KEYS as _FLOAT_KEYS
 from .layout import INT_KEYS as _INT_KEYS
-from .layout import diagnosis_from_array, read_estimates, read_signal, seconds_from_stamp, status_values
+from .layout import diagnosis_from_array, parametric_pairs, read_estimates, read_signal, seconds_from_stamp, status_values
 
 __all__ = [
     "ESTIMATE_QUANTITIES", "LEVEL_NAMES", "clock_message", "diagnosis_from_array", "diagnostic_array", "element_level", "estimates_message",
@@ -33,6 +33,12 @@ __all__ = [
 
 ESTIMATE_QUANTITIES = ("gain_ratio", "tau_index", "delay_mismatch_samples")
 """Quantities of each element on the estimates topic, in this order."""
+
+PARAMETRIC_QUANTITIES = (
+    "gain_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
+    "tau_mismatch_pct", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
+)
+"""Further quantities on the estimates topic when the parametric method is used."""
 
 LEVEL_NAMES = {DiagnosticStatus.OK: "OK", DiagnosticStatus.WARN: "WARN", DiagnosticStatus.ERROR: "ERROR", DiagnosticStatus.STALE: "STALE"}
 
@@ -66,12 +72,14 @@ def element_level(element: ElementDiagnosis) -> bytes:
     """
     count = sum(bool(flag) for flag in (element.gain_mismatch, element.tau_mismatch, element.delay_mismatch))
     if count == 0:
-        return DiagnosticStatus.OK
+        # the data cannot tell: a warning, with the reasons in the message
+        return DiagnosticStatus.WARN if element.verdict == "inconclusive" else DiagnosticStatus.OK
     return DiagnosticStatus.WARN if count == 1 else DiagnosticStatus.ERROR
 
 
 def _values(pairs: dict) -> list[KeyValue]:
-    return [KeyValue(key=k, value=repr(v) if isinstance(v, float) else str(v)) for k, v in pairs.items()]
+    # repr of a Python float round-trips exactly; numpy scalars print their type, so convert first
+    return [KeyValue(key=k, value=repr(float(v)) if isinstance(v, float) else str(v)) for k, v in pairs.items()]
 
 
 def verdict_statuses(diagnosis: Diagnosis, node_name: str, hardware_id: str, window: dict) -> list[DiagnosticStatus]:
@@ -94,6 +102,7 @@ def verdict_statuses(diagnosis: Diagnosis, node_name: str, hardware_id: str, win
         for key in _FLOAT_KEYS + _BOOL_KEYS + _INT_KEYS:
             pairs[key] = getattr(element, key)
         pairs.update(gain_direction=element.gain_direction, tau_direction=element.tau_direction)
+        pairs.update(parametric_pairs(element))
         pairs.update(window)
         statuses.append(DiagnosticStatus(level=element_level(element), name=f"{node_name}: {name}", message=element.summary(), hardware_id=hardware_id, values=_values(pairs)))
     return statuses
@@ -124,6 +133,11 @@ def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> Jo
     for name, element in diagnosis.elements.items():
         for quantity in ESTIMATE_QUANTITIES:
             value = getattr(element, quantity)
+            names.append(f"{name}/{quantity}")
+            values.append(math.nan if value is None else float(value))
+        pairs = parametric_pairs(element)
+        for quantity in PARAMETRIC_QUANTITIES if pairs else ():
+            value = pairs[quantity]
             names.append(f"{name}/{quantity}")
             values.append(math.nan if value is None else float(value))
     return signal_message(values, names, stamp_s, frame_id)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.parametric import ElementEstimate
 from ..core.pmr import Diagnosis, ElementDiagnosis
 
 LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
@@ -20,6 +21,58 @@ BOOL_KEYS = ("gain_mismatch", "tau_mismatch", "delay_mismatch")
 FLOAT_KEYS = ("gain_ratio", "tau_index")
 INT_KEYS = ("delay_mismatch_samples",)
 WINDOW_KEYS = ("window_samples", "first_sample", "last_sample")
+PARAMETRIC_FLOAT_KEYS = (
+    "gain_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
+    "tau_mismatch_pct", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
+)
+"""KeyValues of the parametric method; ``*_low``/``*_high`` bound the interval."""
+PARAMETRIC_TEXT_KEYS = ("gain_verdict", "tau_verdict", "delay_verdict")
+QUALITY_PREFIX = "quality."
+CLASSIC_PREFIX = "classic."
+LIST_SEPARATOR = " | "
+"""Joins the reasons (and warnings) in one KeyValue."""
+
+
+def parametric_pairs(element: ElementDiagnosis) -> dict:
+    """The KeyValues that carry an element's parametric estimate (empty for classic)."""
+    p = element.parametric
+    if p is None:
+        return {}
+    pairs = {"method": "parametric", "gain_mismatch_pct": p.gain_mismatch_pct, "tau_mismatch_pct": p.tau_mismatch_pct, "delay_confidence": p.delay_confidence}
+    for key, interval in (("gain_mismatch_pct", p.gain_mismatch_pct_interval), ("tau_mismatch_pct", p.tau_mismatch_pct_interval)):
+        pairs[f"{key}_low"], pairs[f"{key}_high"] = interval if interval is not None else (None, None)
+    pairs.update(gain_verdict=p.gain_verdict, tau_verdict=p.tau_verdict, delay_verdict=p.delay_verdict)
+    pairs["reasons"] = LIST_SEPARATOR.join(p.reasons)
+    pairs["warnings"] = LIST_SEPARATOR.join(p.warnings)
+    pairs.update({QUALITY_PREFIX + k: v for k, v in p.quality.items()})
+    pairs.update({CLASSIC_PREFIX + k: v for k, v in (element.classic or {}).items()})
+    return pairs
+
+
+def _parametric_from(values: dict, name: str, delay: int | None) -> ElementEstimate:
+    def interval(key):
+        low, high = values.get(f"{key}_low"), values.get(f"{key}_high")
+        return None if low is None or high is None else (float(low), float(high))
+
+    def listed(key):
+        text = values.get(key)
+        return [] if not text else str(text).split(LIST_SEPARATOR)
+
+    return ElementEstimate(
+        element=name,
+        gain_mismatch_pct=values.get("gain_mismatch_pct"),
+        gain_mismatch_pct_interval=interval("gain_mismatch_pct"),
+        tau_mismatch_pct=values.get("tau_mismatch_pct"),
+        tau_mismatch_pct_interval=interval("tau_mismatch_pct"),
+        delay_mismatch_samples=delay,
+        delay_confidence=values.get("delay_confidence"),
+        gain_verdict=str(values.get("gain_verdict", "inconclusive")),
+        tau_verdict=str(values.get("tau_verdict", "inconclusive")),
+        delay_verdict=str(values.get("delay_verdict", "inconclusive")),
+        reasons=listed("reasons"),
+        warnings=listed("warnings"),
+        quality={k[len(QUALITY_PREFIX):]: v for k, v in values.items() if k.startswith(QUALITY_PREFIX)},
+    )
 
 
 def seconds_from_stamp(stamp) -> float:
@@ -78,7 +131,7 @@ def diagnosis_from_array(msg, node_name: str | None = None) -> tuple[Diagnosis, 
         ``levels`` (element -> level name), ``messages`` and the window fields.
     """
     elements, levels, messages = {}, {}, {}
-    reason, state, window = "", "ok", {}
+    reason, state, window, method = "", "ok", {}, "classic"
     for status in msg.status:
         owner, sep, element = status.name.partition(": ")
         if not sep or (node_name is not None and owner != node_name):
@@ -93,10 +146,17 @@ def diagnosis_from_array(msg, node_name: str | None = None) -> tuple[Diagnosis, 
             continue
         kwargs = {k: values.get(k) for k in FLOAT_KEYS + BOOL_KEYS + INT_KEYS}
         elements[element] = ElementDiagnosis(element, **kwargs)
+        if values.get("method") == "parametric":
+            method = "parametric"
+            estimate = _parametric_from(values, element, kwargs["delay_mismatch_samples"])
+            elements[element].parametric = estimate
+            elements[element].reasons = list(estimate.reasons)
+            classic = {k[len(CLASSIC_PREFIX):]: v for k, v in values.items() if k.startswith(CLASSIC_PREFIX)}
+            elements[element].classic = classic or None
     if state != "ok":
         elements = {name: ElementDiagnosis(name) for name in elements}
     samples = int(window.get("window_samples", 0) or 0)
-    return Diagnosis(elements, state, reason, samples), {"levels": levels, "messages": messages, **window}
+    return Diagnosis(elements, state, reason, samples, method=method), {"levels": levels, "messages": messages, **window}
 
 
 def read_estimates(msg) -> dict[str, dict[str, float]]:

@@ -14,7 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..core.config import PmrConfig
-from ..core.pmr import Diagnosis, diagnose
+from ..core.diagnosis import diagnose_with
+from ..core.pmr import Diagnosis
 from .alignment import AddResult, SampleAligner
 
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
@@ -114,7 +115,7 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig, window_samples: i
             reason += f" (the window restarted after a gap {aligner.gaps} time(s))"
         return WindowOutcome(INSUFFICIENT, None, reason, window_info(aligner, window_samples), stamp)
     r, u, y, first = aligner.window(window_samples)
-    diagnosis = diagnose(r, u, y, config.model, config.pmr)
+    diagnosis = diagnose_with(r, u, y, config.model, config.pmr, config.parametric)
     window = window_info(aligner, window_samples, r.shape[0], first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)

@@ -1,0 +1,64 @@
+"""The parametric method through the ROS shell: /diagnostics, estimates, the node set."""
+
+import json
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+
+from pmr_ros import cli  # noqa: E402
+from pmr_ros.core.closed_loop import simulate  # noqa: E402
+from pmr_ros.core.config import load_config  # noqa: E402
+from pmr_ros.core.diagnosis import diagnose_with  # noqa: E402
+from pmr_ros.ros.convert import diagnosis_from_array, diagnostic_array, element_level, estimates_message, read_estimates, verdict_statuses  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def parametric_diagnosis():
+    config = load_config()
+    record = simulate(config, samples=8192)
+    return diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric")
+
+
+def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
+    window = {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
+    msg = diagnostic_array(verdict_statuses(parametric_diagnosis, "pmr_diagnostician", "wood_berry", window), 8191.0)
+    g21 = next(s for s in msg.status if s.name == "pmr_diagnostician: G21")
+    assert "[" in g21.message and "MISMATCH" in g21.message  # numbers with intervals, for people
+    back, info = diagnosis_from_array(msg)
+    assert back.method == "parametric"
+    assert {n: e.to_dict() for n, e in back.elements.items()} == {n: e.to_dict() for n, e in parametric_diagnosis.elements.items()}
+    assert info["levels"]["G21"] == "ERROR"  # three properties off
+
+
+def test_estimates_topic_has_the_intervals(parametric_diagnosis):
+    values = read_estimates(estimates_message(parametric_diagnosis, 8191.0, "wood_berry"))
+    g12 = values["G12"]
+    assert g12["gain_mismatch_pct_low"] < g12["gain_mismatch_pct"] < g12["gain_mismatch_pct_high"]
+    assert g12["delay_mismatch_samples"] == 1 and g12["delay_confidence"] > 0.95
+
+
+def test_inconclusive_without_mismatch_is_a_warning(parametric_diagnosis):
+    element = parametric_diagnosis.elements["G11"]
+    p = element.parametric
+    saved = (p.gain_verdict, p.tau_verdict, p.delay_verdict, element.gain_mismatch, element.tau_mismatch, element.delay_mismatch)
+    try:
+        p.gain_verdict, p.tau_verdict, p.delay_verdict = "ok", "inconclusive", "ok"
+        element.gain_mismatch = element.tau_mismatch = element.delay_mismatch = False
+        assert element.verdict == "inconclusive" and element_level(element) == DiagnosticStatus.WARN
+        p.tau_verdict = "ok"
+        assert element_level(element) == DiagnosticStatus.OK
+    finally:
+        p.gain_verdict, p.tau_verdict, p.delay_verdict, element.gain_mismatch, element.tau_mismatch, element.delay_mismatch = saved
+
+
+def test_node_set_with_method_parametric_matches_batch(tmp_path, ros_domain, capsys):
+    nodes_json, batch_json = tmp_path / "nodes.json", tmp_path / "batch.json"
+    assert cli.main(["run", "--method", "parametric", "--samples", "8192", "--json", str(nodes_json)]) == 0
+    assert cli.main(["run", "--method", "parametric", "--samples", "8192", "--batch", "--json", str(batch_json)]) == 0
+    nodes, batch = json.loads(nodes_json.read_text()), json.loads(batch_json.read_text())
+    assert nodes["method"] == batch["method"] == "parametric"
+    assert nodes["elements"] == batch["elements"]
+    assert "interval" in capsys.readouterr().out
