@@ -15,9 +15,9 @@ import time
 
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.config import load_config
+from pmr_ros.core.diagnosis import diagnose_with
 from pmr_ros.core.mpc import LinearMpc
 from pmr_ros.core.plant import FoptdPlant
-from pmr_ros.core.pmr import diagnose
 from pmr_ros.core.prbs import PrbsGenerator
 
 
@@ -42,21 +42,16 @@ def main() -> None:
     rate_qp, mpc_qp = closed_loop_rate(config, samples, always_solve_qp=True)
     print(f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve {1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us")
 
-    record = simulate(config, samples=8192)
-    times = []
-    for _ in range(20):
-        t0 = time.perf_counter()
-        diagnose(record.r, record.u, record.y, config.model, config.pmr)
-        times.append(time.perf_counter() - t0)
-    print(f"diagnosis of 8,192 samples (2x2): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms  (target <= 50 ms)")
-    big = load_config("config/three_by_three.yaml")
-    rec3 = simulate(big, samples=8192)
-    t3 = []
-    for _ in range(10):
-        t0 = time.perf_counter()
-        diagnose(rec3.r, rec3.u, rec3.y, big.model, big.pmr)
-        t3.append(time.perf_counter() - t0)
-    print(f"diagnosis of 8,192 samples (3x3): median {1e3 * statistics.median(t3):.1f} ms")
+    for label, cfg in (("2x2", config), ("3x3", load_config("config/three_by_three.yaml"))):
+        record = simulate(cfg, samples=8192)
+        for method in ("classic", "parametric"):
+            times = []
+            for _ in range(10):
+                t0 = time.perf_counter()
+                diagnose_with(record.r, record.u, record.y, cfg.model, cfg.pmr, cfg.parametric, method)
+                times.append(time.perf_counter() - t0)
+            target = "  (target <= 50 ms)" if (label, method) == ("2x2", "classic") else ""
+            print(f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms{target}")
 
 if __name__ == "__main__":
     main()

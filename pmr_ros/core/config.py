@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .foptd import SCENARIOS, FoptdMatrix, Mismatch
+from .foptd import SCENARIOS, FoptdMatrix, Mismatch, element_name
 from .mpc import MpcTuning
 from .parametric import ParametricSettings
 from .pmr import METHODS, PmrSettings
@@ -37,20 +37,25 @@ class ConfigError(ValueError):
         super().__init__(f"{source}: {field} = {value!r}: {reason}")
 
 
-def config_dir() -> Path:
-    """The folder with the shipped configuration files.
+def share_dir(folder: str, marker: str) -> Path:
+    """A data folder of the package that holds the file ``marker``.
 
-    The source tree's ``config/`` in an editable install, else the installed
-    ``share/pmr_ros/config``.
+    The source tree's ``<folder>/`` in an editable install, else the installed
+    ``share/pmr_ros/<folder>`` (where ``setup.py`` puts it, as colcon would).
     """
-    here = Path(__file__).resolve().parents[2] / "config"
-    if (here / DEFAULTS_FILE).is_file():
+    here = Path(__file__).resolve().parents[2] / folder
+    if (here / marker).is_file():
         return here
     for prefix in (sys.prefix, sys.base_prefix):
-        candidate = Path(prefix) / "share" / "pmr_ros" / "config"
-        if (candidate / DEFAULTS_FILE).is_file():
+        candidate = Path(prefix) / "share" / "pmr_ros" / folder
+        if (candidate / marker).is_file():
             return candidate
-    raise FileNotFoundError("cannot find pmr_ros's config/ folder (defaults.yaml)")
+    raise FileNotFoundError(f"cannot find pmr_ros's {folder}/ folder ({marker})")
+
+
+def config_dir() -> Path:
+    """The folder with the shipped configuration files (see :func:`share_dir`)."""
+    return share_dir("config", DEFAULTS_FILE)
 
 
 @dataclass(frozen=True)
@@ -149,6 +154,18 @@ class _Reader:
     def error(self, field: str, value: Any, reason: str) -> ConfigError:
         return ConfigError(self.source, field, value, reason)
 
+    def check_item(self, name: str, item: Any, *, positive: bool = False, nonnegative: bool = False) -> float:
+        """One entry of a list: a finite number, with the sign asked for."""
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise self.error(name, item, "must be a number")
+        if not math.isfinite(item):
+            raise self.error(name, item, "must be finite")
+        if positive and item <= 0:
+            raise self.error(name, item, "must be > 0")
+        if nonnegative and item < 0:
+            raise self.error(name, item, "must be >= 0")
+        return float(item)
+
     def number(self, field: str, *, integer: bool = False, positive: bool = False, minimum: float | None = None) -> float:
         value = self.raw(field)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -177,18 +194,10 @@ class _Reader:
         items = value if isinstance(value, list) else [value]
         if isinstance(value, list) and len(value) != length:
             raise self.error(field, value, f"needs {length} entries (one per channel), got {len(value)}")
-        out = []
-        for j, item in enumerate(items):
-            name = f"{field}[{j}]" if isinstance(value, list) else field
-            if isinstance(item, bool) or not isinstance(item, (int, float)):
-                raise self.error(name, item, "must be a number")
-            if not math.isfinite(item):
-                raise self.error(name, item, "must be finite")
-            if positive and item <= 0:
-                raise self.error(name, item, "must be > 0")
-            if nonnegative and item < 0:
-                raise self.error(name, item, "must be >= 0")
-            out.append(float(item))
+        out = [
+            self.check_item(f"{field}[{j}]" if isinstance(value, list) else field, item, positive=positive, nonnegative=nonnegative)
+            for j, item in enumerate(items)
+        ]
         return np.broadcast_to(np.array(out), (length,)).copy()
 
     def names(self, field: str, length: int | None = None) -> tuple[str, ...]:
@@ -218,20 +227,9 @@ class _Reader:
             value = [x for row in value for x in row]
         if len(value) != n_out * n_in:
             raise self.error(field, value, f"needs {n_out * n_in} entries ({n_out}x{n_in}, row by row), got {len(value)}")
-        out = np.empty(n_out * n_in)
-        for j, item in enumerate(value):
-            i, k = divmod(j, n_in)
-            name = f"{field}[{j}] (G{i + 1}{k + 1})"
-            if isinstance(item, bool) or not isinstance(item, (int, float)):
-                raise self.error(name, item, "must be a number")
-            if not math.isfinite(item):
-                raise self.error(name, item, "must be finite")
-            if positive and item <= 0:
-                raise self.error(name, item, "must be > 0")
-            if nonnegative and item < 0:
-                raise self.error(name, item, "must be >= 0")
-            out[j] = item
-        return out.reshape(n_out, n_in)
+        names = [f"{field}[{j}] ({element_name(*divmod(j, n_in), max(n_out, n_in))})" for j in range(n_out * n_in)]
+        out = [self.check_item(name, item, positive=positive, nonnegative=nonnegative) for name, item in zip(names, value, strict=True)]
+        return np.array(out).reshape(n_out, n_in)
 
 
 def parse_config(params: dict, source: str | Path) -> PmrConfig:

@@ -6,12 +6,13 @@ Nodes and tests take topic names, types and QoS from here, never from literals.
 from __future__ import annotations
 
 import importlib
-import sys
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
 import yaml
+
+from ..core.config import share_dir
 
 CONTRACT_FILE = "topics.yaml"
 RELIABILITIES = ("reliable", "best_effort")
@@ -23,19 +24,8 @@ class ContractError(ValueError):
 
 
 def msg_defs_dir() -> Path:
-    """The folder with the topic contract.
-
-    The source tree's ``msg_defs/`` in an editable install, else the installed
-    ``share/pmr_ros/msg_defs`` (found like :func:`pmr_ros.core.config.config_dir`).
-    """
-    here = Path(__file__).resolve().parents[2] / "msg_defs"
-    if (here / CONTRACT_FILE).is_file():
-        return here
-    for prefix in (sys.prefix, sys.base_prefix):
-        candidate = Path(prefix) / "share" / "pmr_ros" / "msg_defs"
-        if (candidate / CONTRACT_FILE).is_file():
-            return candidate
-    raise FileNotFoundError("cannot find pmr_ros's msg_defs/ folder (topics.yaml)")
+    """The folder with the topic contract (see :func:`pmr_ros.core.config.share_dir`)."""
+    return share_dir("msg_defs", CONTRACT_FILE)
 
 
 @dataclass(frozen=True)
