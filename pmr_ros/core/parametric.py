@@ -205,8 +205,18 @@ class _RowProblem:
         self.b, self.A, self.z1 = b, A, z1
         self.pole_model, self.ts, self.tau_model = pole_model, sample_time, tau_model
         self.n = A.shape[2]
+        self._last: tuple[bytes, tuple, tuple[np.ndarray, np.ndarray]] | None = None
 
     def residual_and_jacobian(self, x: np.ndarray, delays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # least_squares asks for the residual and the Jacobian at the same x in turn: compute both once
+        key = (x.tobytes(), tuple(int(d) for d in delays))
+        if self._last is not None and self._last[:2] == key:
+            return self._last[2]
+        result = self._evaluate(x, delays)
+        self._last = (*key, result)
+        return result
+
+    def _evaluate(self, x: np.ndarray, delays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = self.n
         rho, s = x[:n], x[n:]
         tau = self.tau_model * np.exp(s)
