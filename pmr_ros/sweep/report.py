@@ -192,7 +192,10 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
              f"{', '.join(map(str, samples))} samples per run; {len(rows)} CSV rows ({len(rows) // len(elements)} closed-loop runs × {len(elements)} elements), methods: {', '.join(methods)}.")
     if wall:
         cpu = manifest.get("cpu_time_s")
-        cpu_text = f"; the workers' CPU time was {cpu:.0f} s, i.e. {cpu / max(1, manifest.get('jobs', 1)):.0f} s per process" if cpu else ""
+        per_process = cpu / max(1, manifest.get("jobs", 1)) if cpu else 0.0
+        cpu_text = f"; the workers' CPU time was {cpu:.0f} s, i.e. {per_process:.0f} s per process" if cpu else ""
+        if cpu and wall > 1.15 * per_process:
+            cpu_text += " (wall time well above CPU time per process: the cores were shared with other work during the run)"
         L.append(f"- Wall time of the sweep: **{wall:.0f} s** on {manifest.get('jobs', '?')} worker processes ({manifest.get('cpu_count', '?')} cores){cpu_text}; "
                  f"code revision `{_git_revision(Path(__file__).parent)}`.")
     L.append("- The paper's Figs. 5–7 are captioned G12, but its section 3.5 and eq. (19) change G21 = 6.6e^{-7s}/(10.9ν s + 1); "
