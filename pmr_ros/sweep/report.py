@@ -197,7 +197,7 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
         if cpu and wall > 1.15 * per_process:
             cpu_text += " (wall time well above CPU time per process: the cores were shared with other work during the run)"
         L.append(f"- Wall time of the sweep: **{wall:.0f} s** on {manifest.get('jobs', '?')} worker processes ({manifest.get('cpu_count', '?')} cores){cpu_text}; "
-                 f"code revision `{_git_revision(Path(__file__).parent)}`.")
+                 f"report built at code revision `{_git_revision(Path(__file__).parent)}`.")
     L.append("- The paper's Figs. 5–7 are captioned G12, but its section 3.5 and eq. (19) change G21 = 6.6e^{-7s}/(10.9ν s + 1); "
              "10.9 min is τ21 of the standard Wood-Berry matrix (the text's eq. 14 prints rows 2 upside down). We sweep **G21**, as eq. (19) says.")
     L.append("- Row time-constant ratio: the swept τ over the other τ of its row (model values): τ11/τ12 = 16.7ν/21 for the G11 sweep, τ21/τ22 = 10.9ν/14.4 for the G21 sweep.\n")
