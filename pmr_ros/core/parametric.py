@@ -178,6 +178,9 @@ def _whitened_row(spectra: RecordSpectra, i: int, noise_spectrum: np.ndarray, bi
     return b, A
 
 
+PROFILE_HALF_WIDTH = 2
+"""Delay candidates either side of the chosen one that enter its confidence [samples]."""
+
 NOISE_SMOOTHING_BINS = 9
 """Width of the moving average over frequency applied to the noise spectrum."""
 
@@ -282,7 +285,7 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
     delays = np.array([int(np.clip(d, c[0], c[-1])) for d, c in zip(delay_start, candidates, strict=True)])
     x = np.r_[np.ones(n), np.zeros(n)]
     noise = _noise_spectrum(spectra, i, theta_start)
-    for _ in range(2):  # noise spectrum from the nonparametric row, then from the fit itself
+    for search in (True, False):  # noise spectrum from the nonparametric row, then from the first fit
         b, A = _whitened_row(spectra, i, noise, bins)
         problem = _RowProblem(b, A, z1, pole_model, model.sample_time, model.time_constant[i])
         cache: dict[tuple[int, ...], tuple[np.ndarray, float, np.ndarray]] = {}
@@ -294,7 +297,7 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
             return cache[key]
 
         x, cost, J = evaluate(delays, x)
-        for _sweep in range(3):  # coordinate search over whole-sample delays
+        for _sweep in range(3 if search else 0):  # coordinate search over whole-sample delays
             improved = False
             for k in range(n):
                 for step in (-1, 1):
@@ -310,21 +313,28 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
                             break
             if not improved:
                 break
-        theta = np.zeros((spectra.omega.size, n), dtype=complex)
-        z_all = np.exp(-1j * spectra.omega)
-        a = np.exp(-model.sample_time / (model.time_constant[i] * np.exp(x[n:])))
-        for k in range(n):
-            theta[:, k] = x[k] * _shape(z_all, pole_model[k], a[k], int(delays[k]))
-        noise = _noise_spectrum(spectra, i, theta)
+        if search:
+            theta = np.zeros((spectra.omega.size, n), dtype=complex)
+            z_all = np.exp(-1j * spectra.omega)
+            a = np.exp(-model.sample_time / (model.time_constant[i] * np.exp(x[n:])))
+            for k in range(n):
+                theta[:, k] = x[k] * _shape(z_all, pole_model[k], a[k], int(delays[k]))
+            noise = _noise_spectrum(spectra, i, theta)
 
-    # profile of each element's delay, the others at their best
+    # profile of each element's delay, the others at their best; a neighbour that
+    # fits better than the search's choice would mean the search stopped early: take it
     profiles: list[dict[int, float]] = []
     for k in range(n):
         profile = {}
-        for d in range(max(candidates[k][0], delays[k] - 3), min(candidates[k][-1], delays[k] + 3) + 1):
+        for d in range(max(candidates[k][0], delays[k] - PROFILE_HALF_WIDTH), min(candidates[k][-1], delays[k] + PROFILE_HALF_WIDTH) + 1):
             trial = delays.copy()
             trial[k] = d
             profile[d] = evaluate(trial, x)[1]
+        best = min(profile, key=profile.get)
+        if best != delays[k]:
+            delays = delays.copy()
+            delays[k] = best
+            x, cost, J = evaluate(delays, x)
         profiles.append(profile)
 
     dof = max(1, 2 * b.size - 2 * n)
