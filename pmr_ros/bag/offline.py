@@ -61,7 +61,8 @@ class OfflineResult:
     config_origin : str
         ``bag`` or the ``--config`` file.
     outcomes : list of WindowOutcome
-        Every update, in order, as the live diagnostician would publish it.
+        Every update, in order, as the live diagnostician would publish it
+        (and, see ``end_of_bag``, the window at the end of the data).
     recorded : list of RecordedVerdict
         The live diagnostician's verdicts on the bag's /diagnostics.
     comparisons : list of dict
@@ -71,6 +72,9 @@ class OfflineResult:
         The aligner's warnings (gaps, rejected messages).
     messages : dict
         Signal -> messages read.
+    end_of_bag : bool
+        The last outcome is an extra diagnosis of the window at the end of the
+        data, which fell between two of the diagnostician's updates.
     """
 
     config: PmrConfig
@@ -81,6 +85,7 @@ class OfflineResult:
     comparisons: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     messages: dict[str, int] = field(default_factory=dict)
+    end_of_bag: bool = False
 
     @property
     def final(self) -> WindowOutcome | None:
@@ -181,7 +186,12 @@ def diagnose_bag(bag: Bag, config_path: str | None = None) -> OfflineResult:
             outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
         if offer.update_due:
             outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
-    result = OfflineResult(config, settings, origin, outcomes, _recorded_verdicts(bag), warnings=warnings, messages=counts)
+    end_of_bag = False
+    if aligner.stretch_last is not None and (not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last):
+        # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
+        outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
+        end_of_bag = True
+    result = OfflineResult(config, settings, origin, outcomes, _recorded_verdicts(bag), warnings=warnings, messages=counts, end_of_bag=end_of_bag)
     result.comparisons = compare(result.outcomes, result.recorded)
     return result
 

@@ -51,6 +51,7 @@ def offline_report(result, bag) -> dict:
         "configuration": result.config_origin,
     }
     report["window"] = dict(final.window) if final is not None else {}
+    report["window_at_end_of_bag"] = result.end_of_bag
     report["updates"] = [{"kind": o.kind, "reason": o.reason, **o.window} for o in result.outcomes]
     report["recorded_comparison"] = {
         "windows": len(result.comparisons),
@@ -77,6 +78,8 @@ def handle(args: argparse.Namespace) -> int:
     window = report["window"]
     if window.get("window_samples"):
         print(f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} samples), configuration from {result.config_origin}")
+    if result.end_of_bag:
+        print("note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag")
     if not bag.complete:
         print(f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)")
     compared = report["recorded_comparison"]

@@ -1,7 +1,8 @@
 """``pmr-ros replay BAG``: publish a bag's messages on their topics for live nodes.
 
-Sample by sample in simulated-time lockstep (/clock first), as fast as the
-subscribers acknowledge by default, or at the recorded pace times ``--rate``.
+Sample by sample in simulated-time lockstep (/clock first), by default as fast
+as subscribers in other processes safely keep up (acknowledged blocks, at most
+1000 samples/s, ``--max-samples-per-second``), or at the recorded pace times ``--rate``.
 The diagnostician's own outputs are left out unless ``--all-topics``: a live
 ``pmr_diagnostician`` listening to the replay reacts as it did to the run.
 """
@@ -37,6 +38,8 @@ def register(sub) -> None:
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
     p.add_argument("--rate", type=_rate, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, as fast as possible)")
+    p.add_argument("--max-samples-per-second", type=float, default=None, metavar="N",
+                   help="lockstep pace limit (default: 1000; 0: unbounded, only if every subscriber keeps up)")
     p.add_argument("--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)")
     p.add_argument("--wait", type=nonnegative_int, default=10, metavar="S", help="wait up to S seconds for subscribers of r, u and y before starting (default: 10)")
     p.add_argument("--linger", type=float, default=1.0, metavar="S", help="keep publishers alive S seconds after the last message (default: 1)")
@@ -56,7 +59,7 @@ def handle(args: argparse.Namespace) -> int:
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
 
-        from ..nodes.bag_player import BagPlayerNode
+        from ..nodes.bag_player import DEFAULT_MAX_SAMPLES_PER_S, BagPlayerNode
         from ..ros.contract import topic
     except ImportError as exc:
         raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None
@@ -75,7 +78,8 @@ def handle(args: argparse.Namespace) -> int:
         if args.wait and not node.wait_for_subscribers(signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)):
             print(f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} after {args.wait} s; replaying anyway", file=sys.stderr)
         started = time.monotonic()
-        count = node.play(rate=args.rate, should_stop=lambda: bool(stop))
+        limit = DEFAULT_MAX_SAMPLES_PER_S if args.max_samples_per_second is None else (args.max_samples_per_second or None)
+        count = node.play(rate=args.rate, max_samples_per_s=limit, should_stop=lambda: bool(stop))
         wall = time.monotonic() - started
         end = time.monotonic() + max(args.linger, 0.0)
         while time.monotonic() < end and not stop:

@@ -1,10 +1,12 @@
 """``pmr_bag_player``: publishes a bag's messages on their topics in simulated-time lockstep.
 
 Messages go out in recording order with the contract's QoS, CDR bytes as
-recorded.  Sample by sample (a sample begins with its /clock message), as
-fast as possible by default: after every ``block_samples`` samples the player
-waits until every subscriber has acknowledged what was sent, so reliable
-subscribers with the contract's history depth are never overrun.  With a
+recorded.  Sample by sample (a sample begins with its /clock message), in
+lockstep by default at most :data:`DEFAULT_MAX_SAMPLES_PER_S`, so subscribers
+in other processes are never overrun (waiting for reliable acknowledgements
+does not help: they come with Fast DDS's heartbeats, every 3 s, and only say
+a message arrived, not that it was processed); in one process a test spins the subscriber after each sample
+(``after_sample``) and replays strictly in lockstep, unthrottled.  With a
 ``rate``, the recorded receive times are reproduced (``rate`` 1.0 = the
 recorded pace, 2.0 = twice as fast).
 
@@ -26,6 +28,15 @@ from ..bag.schema import RUN_CONFIG_KEY, BagError, typestore
 from ..ros.contract import load_contract
 
 NODE_NAME = "pmr_bag_player"
+DEFAULT_MAX_SAMPLES_PER_S = 1000.0
+"""Lockstep pace limit for subscribers in other processes [samples/s].
+
+A subscriber cannot tell a publisher it has *processed* a message: reliable
+QoS only acknowledges arrival in its history, and a keep-last history of the
+contract's depth (1000) drops the oldest unread messages when its node falls
+behind.  At 1000 samples/s a Python diagnostician (several thousand
+samples/s) never falls that far behind, and the bag replays about as fast as
+the lockstep node set recorded it."""
 DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates")
 """Contract keys not replayed by default (a live diagnostician makes its own)."""
 
@@ -69,6 +80,8 @@ class BagPlayerNode(Node):
     bag : Bag
     include_outputs : bool
         Also replay /diagnostics and /pmr/estimates.
+    publish_config : bool
+        Publish the recorded run configuration (latched) first.
     **kwargs
         For :class:`rclpy.node.Node` (``context``).
 
@@ -78,55 +91,66 @@ class BagPlayerNode(Node):
         Topic name -> messages published.
     """
 
-    def __init__(self, bag: Bag, *, include_outputs: bool = False, node_name: str = NODE_NAME, **kwargs) -> None:
+    def __init__(self, bag: Bag, *, include_outputs: bool = False, publish_config: bool = True, node_name: str = NODE_NAME, **kwargs) -> None:
         super().__init__(node_name, start_parameter_services=False, **kwargs)
         self.bag = bag
         contract = load_contract()
         self.topics = replayed_topics(bag, include_outputs)
+        self.config_topic = contract[RUN_CONFIG_KEY].name
+        if not publish_config:
+            self.topics.pop(self.config_topic, None)
         by_name = {t.name: t for t in contract.values()}
-        self._publishers = {name: self.create_publisher(by_name[name].message_class(), name, by_name[name].qos.profile()) for name in self.topics}
+        self._outlets = {name: self.create_publisher(by_name[name].message_class(), name, by_name[name].qos.profile()) for name in self.topics}
         self.published = dict.fromkeys(self.topics, 0)
         self.clock_topic = contract["clock"].name
-        self.config_topic = contract[RUN_CONFIG_KEY].name
-        self._publish_config()
+        if publish_config:
+            self._publish_config()
 
     def _publish_config(self) -> None:
         """The run configuration first (latched), from the topic or metadata.yaml."""
-        if self.config_topic not in self._publishers:
-            config = self.bag.run_config()
-            if config is None:
+        if self.config_topic in self._outlets:
+            for message in self.bag.messages({self.config_topic}):
+                self._send(self.config_topic, message.data)
                 return
-            self._publishers[self.config_topic] = self.create_publisher(load_contract()[RUN_CONFIG_KEY].message_class(), self.config_topic, load_contract()[RUN_CONFIG_KEY].qos.profile())
+        config = self.bag.run_config()
+        if config is None:
+            return
+        t = load_contract()[RUN_CONFIG_KEY]
+        if self.config_topic not in self._outlets:
+            self._outlets[self.config_topic] = self.create_publisher(t.message_class(), t.name, t.qos.profile())
             self.published[self.config_topic] = 0
-            data = typestore().serialize_cdr(typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String")
-            self._send(self.config_topic, bytes(data))
+        data = typestore().serialize_cdr(typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String")
+        self._send(self.config_topic, bytes(data))
 
     def _send(self, name: str, data: bytes) -> None:
-        self._publishers[name].publish(data)
+        self._outlets[name].publish(data)
         self.published[name] += 1
 
     def subscribers(self, name: str) -> int:
         """Subscribers matched on topic ``name``."""
-        return self._publishers[name].get_subscription_count()
+        return self._outlets[name].get_subscription_count()
 
     def wait_for_subscribers(self, names: list[str], timeout_s: float, spin: Callable[[], None]) -> bool:
         """Wait until every topic of ``names`` has a subscriber (or ``timeout_s`` passed)."""
         deadline = time.monotonic() + timeout_s
-        while any(self.subscribers(n) == 0 for n in names if n in self._publishers):
+        while any(self.subscribers(n) == 0 for n in names if n in self._outlets):
             if time.monotonic() > deadline:
                 return False
             spin()
         return True
 
-    def play(self, *, rate: float | None = None, block_samples: int = 64, after_sample: Callable[[int], None] | None = None, should_stop: Callable[[], bool] | None = None) -> int:
+    def play(self, *, rate: float | None = None, max_samples_per_s: float | None = DEFAULT_MAX_SAMPLES_PER_S,
+             after_sample: Callable[[int], None] | None = None, should_stop: Callable[[], bool] | None = None) -> int:
         """Publish every sample of the bag; the number of samples published.
 
         Parameters
         ----------
         rate : float, optional
             None: lockstep as fast as possible; else the recorded pace times ``rate``.
-        block_samples : int
-            Lockstep: wait for all subscribers' acknowledgements every this many samples.
+        max_samples_per_s : float or None
+            Lockstep: at most this many samples per second of wall time
+            [samples/s]; None: unbounded (only for subscribers known to keep
+            up, or with ``after_sample`` spinning them).
         after_sample : callable, optional
             Called with the count of samples sent after each one (an in-process
             test spins the receiving node there: strict lockstep).
@@ -145,16 +169,19 @@ class BagPlayerNode(Node):
                 delay = (group[0].log_time_ns - first_log) * 1e-9 / rate - (time.monotonic() - start)
                 if delay > 0:
                     time.sleep(delay)
+            elif max_samples_per_s:
+                start = time.monotonic() if start is None else start
+                ahead = count / max_samples_per_s - (time.monotonic() - start)
+                if ahead > 0:
+                    time.sleep(ahead)
             for message in group:
                 self._send(message.topic, message.data)
             count += 1
             if after_sample is not None:
                 after_sample(count)
-            if rate is None and count % block_samples == 0:
-                self.wait_for_acks(5.0)
-        self.wait_for_acks(10.0)
+        self.wait_for_acks(2.0)
         return count
 
     def wait_for_acks(self, timeout_s: float) -> bool:
         """Wait until every subscriber has acknowledged everything published (reliable QoS)."""
-        return all(p.wait_for_all_acked(Duration(seconds=timeout_s)) for p in self._publishers.values())
+        return all(p.wait_for_all_acked(Duration(seconds=timeout_s)) for p in self._outlets.values())

@@ -1,0 +1,233 @@
+"""Bags with ROS: run --bag, replay into a live diagnostician, the recorder as a process (SIGINT/SIGTERM/SIGKILL).
+
+Each test has its own ROS domain (test/ros_fixtures.py); child processes are always killed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from ros_fixtures import spin_until  # noqa: E402
+
+from pmr_ros.bag.offline import COMPARED_KEYS, diagnose_bag, verdict_numbers  # noqa: E402
+from pmr_ros.bag.reader import open_bag  # noqa: E402
+from pmr_ros.bag.schema import RUN_CONFIG_KEY  # noqa: E402
+from pmr_ros.cli import main  # noqa: E402
+from pmr_ros.core.config import flatten_parameters  # noqa: E402
+from pmr_ros.ros.contract import topic  # noqa: E402
+from pmr_ros.ros.convert import diagnosis_from_array  # noqa: E402
+from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / "bags" / "wood_berry_full"
+EXPECTED = json.loads((ROOT / "bags" / "wood_berry_full.expected.json").read_text())
+SIGNAL_TOPICS = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
+
+
+def _pmr_ros() -> list[str]:
+    candidate = Path(sys.executable).parent / "pmr-ros"
+    found = str(candidate) if candidate.is_file() else shutil.which("pmr-ros")
+    if not found:
+        pytest.skip("console script pmr-ros not installed (pip install -e .)")
+    return [found]
+
+
+def _diagnostician(context, bag):
+    from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
+
+    params = flatten_parameters(bag.run_config().params)
+    return PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(params))
+
+
+def _final_numbers(node, last_sample: int):
+    msg = node.last_published
+    diagnosis, info = diagnosis_from_array(msg, node.get_name())
+    assert info.get("last_sample") == last_sample, info
+    return verdict_numbers(diagnosis), info
+
+
+EXPECTED_NUMBERS = {name: {k: e[k] for k in COMPARED_KEYS} for name, e in EXPECTED["elements"].items()}
+
+
+def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros_context):
+    from rclpy.executors import SingleThreadedExecutor
+
+    from pmr_ros.nodes.bag_player import BagPlayerNode
+
+    bag = open_bag(REFERENCE)
+    diagnostician = _diagnostician(ros_context, bag)
+    player = BagPlayerNode(bag, context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    for node in (diagnostician, player):
+        executor.add_node(node)
+    try:
+        assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
+        # Strict lockstep: after each sample the diagnostician takes its r, u and y before the next goes out.
+        count = player.play(max_samples_per_s=None, after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0))
+        assert count == EXPECTED["samples"]
+        assert spin_until(executor, lambda: diagnostician.last_published is not None, 10.0)
+        numbers, info = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
+        assert numbers == EXPECTED_NUMBERS
+        assert info["first_sample"] == 0 and set(info["levels"].values()) == {"ERROR"}
+        assert list(diagnostician.warnings) == []
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        for node in (diagnostician, player):
+            node.destroy_node()
+
+
+def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_path):
+    from rclpy.executors import SingleThreadedExecutor
+
+    bag = open_bag(REFERENCE)
+    diagnostician = _diagnostician(ros_context, bag)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(diagnostician)
+    log = open(tmp_path / "replay.log", "w+")  # noqa: SIM115 - closed in finally
+    proc = subprocess.Popen([*_pmr_ros(), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    try:
+        done = lambda: diagnostician.last_published is not None or proc.poll() is not None  # noqa: E731
+        assert spin_until(executor, done, 120.0)
+        spin_until(executor, lambda: diagnostician.last_published is not None, 10.0)
+        assert proc.wait(timeout=60) == 0, (tmp_path / "replay.log").read_text()
+        numbers, _ = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
+        assert numbers == EXPECTED_NUMBERS
+        assert diagnostician.messages_received == 3 * EXPECTED["samples"]
+        text = (tmp_path / "replay.log").read_text()
+        assert "8192 samples" in text and "Traceback" not in text
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=5)
+        log.close()
+        executor.shutdown(timeout_sec=1.0)
+        diagnostician.destroy_node()
+
+
+def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_path, capsys):
+    samples = 1500
+    path = tmp_path / "run_bag"
+    argv = ["run", "--samples", str(samples), "--bag", str(path), "--storage", "sqlite3", "--json", str(tmp_path / "run.json")]
+    assert main(argv) == 0
+    capsys.readouterr()
+    bag = open_bag(path)
+    assert bag.complete and bag.storage == "sqlite3"
+    for key in ("setpoint", "manipulated_input", "measured_output", "clock"):
+        assert bag.counts[topic(key).name] == samples, key
+    assert bag.counts[topic("diagnostics").name] >= 1 and bag.counts[topic("estimates").name] >= 1
+    config = bag.run_config()
+    assert config.samples == samples and config.seed == 1 and config.scenario == "full"
+    assert config.params["diagnostician"]["window_samples"] == samples  # the settings the nodes really ran with
+    result = diagnose_bag(bag)
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert verdict_numbers(result.final.diagnosis) == {name: {k: e[k] for k in COMPARED_KEYS} for name, e in run["elements"].items()}
+    assert result.comparisons and result.all_equal
+    # Never overwritten without --force; --batch cannot record.
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "exists already; pass --force" in err and "Traceback" not in err
+    assert main(["run", "--batch", "--bag", str(tmp_path / "x")]) == 2
+    assert "--bag records the node set's topics" in capsys.readouterr().err
+
+
+def _start_recorder(tmp_path: Path, bag: Path, *extra: str) -> tuple[subprocess.Popen, object]:
+    log = open(tmp_path / "record.log", "w+")  # noqa: SIM115 - closed by the caller
+    proc = subprocess.Popen([*_pmr_ros(), "record", str(bag), "--flush-period", "0.2", *extra], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    return proc, log
+
+
+def _publish_to_recorder(ros_context, samples: int, *, publish_config: bool, extra_nodes=()):
+    """Publish the first ``samples`` samples of the reference bag to a recorder process; returns the player."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from pmr_ros.nodes.bag_player import BagPlayerNode
+
+    bag = open_bag(REFERENCE)
+    player = BagPlayerNode(bag, context=ros_context, publish_config=publish_config)
+    executor = SingleThreadedExecutor(context=ros_context)
+    for node in (player, *extra_nodes):
+        executor.add_node(node)
+    assert player.wait_for_subscribers([*SIGNAL_TOPICS, topic("clock").name], 30.0, lambda: executor.spin_once(timeout_sec=0.02)), "the recorder did not subscribe"
+    # Pace the samples a little so the recorder (one Python process) never falls a history depth behind.
+    player.play(should_stop=lambda: sum(player.published.values()) >= 4 * samples + publish_config,
+                after_sample=lambda n: executor.spin_once(timeout_sec=0) if n % 50 == 0 else None)
+    return player, executor
+
+
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM])
+def test_recorder_process_stopped_by_a_signal_closes_the_bag(ros_context, tmp_path, how):
+    samples = 1500
+    path = tmp_path / "recorded"
+    bag = open_bag(REFERENCE)
+    diagnostician = _diagnostician(ros_context, bag) if how == signal.SIGTERM else None
+    extra = [diagnostician] if diagnostician else []
+    proc, log = _start_recorder(tmp_path, path)
+    try:
+        player, executor = _publish_to_recorder(ros_context, samples, publish_config=how == signal.SIGINT, extra_nodes=extra)
+        deadline = time.monotonic() + 1.5
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)  # serve the diagnostician's parameter services
+        proc.send_signal(how)
+        assert proc.wait(timeout=20) == 0
+        text = (tmp_path / "record.log").read_text()
+        assert "Traceback" not in text
+        recorded = open_bag(path)
+        assert recorded.complete and (path / "metadata.yaml").is_file()
+        for name in [*SIGNAL_TOPICS, topic("clock").name]:
+            assert recorded.counts[name] == samples, (name, recorded.counts, text)
+        config = recorded.run_config()
+        assert config is not None and config.params["system"] == bag.run_config().params["system"]
+        if diagnostician is not None:
+            assert "parameters of /pmr_diagnostician" in config.source
+        executor.shutdown(timeout_sec=1.0)
+        player.destroy_node()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=5)
+        log.close()
+        if diagnostician is not None:
+            diagnostician.destroy_node()
+
+
+def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys):
+    samples = 2000
+    path = tmp_path / "killed"
+    proc, log = _start_recorder(tmp_path, path)
+    try:
+        player, executor = _publish_to_recorder(ros_context, samples, publish_config=True)
+        time.sleep(1.5)  # several flush periods (0.2 s) after the last message
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+        assert not (path / "metadata.yaml").exists()
+        recorded = open_bag(path)
+        assert not recorded.complete
+        for name in [*SIGNAL_TOPICS, topic("clock").name]:
+            assert recorded.counts[name] == samples, (name, recorded.counts)
+        assert recorded.counts[topic(RUN_CONFIG_KEY).name] == 1 and recorded.run_config() is not None
+        stamps = [int(recorded.decode(m).header.stamp.sec) for m in recorded.messages({topic("measured_output").name})]
+        assert stamps == list(range(samples))
+        # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
+        assert main(["diagnose", str(path)]) == 3
+        out = capsys.readouterr().out
+        assert "was not closed by its recorder" in out and "2000 unbroken samples, need 8192" in out
+        executor.shutdown(timeout_sec=1.0)
+        player.destroy_node()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=5)
+        log.close()
