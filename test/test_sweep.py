@@ -93,11 +93,14 @@ def test_small_sweep_csv_shape(small_sweep):
     with (small_sweep / store.RESULTS_FILE).open() as fh:
         rows = list(csv.DictReader(fh))
     assert tuple(rows[0].keys()) == store.COLUMNS
-    # 2 sweeps x 2 nu x 5 scenarios x 1 seed x 4 elements
-    assert len(rows) == 2 * 2 * 5 * 1 * 4
+    # 2 methods x 2 sweeps x 2 nu x 5 scenarios x 1 seed x 4 elements
+    assert len(rows) == 2 * 2 * 2 * 5 * 1 * 4
     assert {r["sweep"] for r in rows} == {"tau_G11", "tau_G21"}
-    assert {r["method"] for r in rows} == {"classic"}
-    assert {(r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(rows)
+    assert {r["method"] for r in rows} == {"classic", "parametric"}
+    assert {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(rows)
+    parametric = [r for r in rows if r["method"] == "parametric"]
+    assert all(r["tau_mismatch_pct"] and float(r["gain_mismatch_pct_low"]) <= float(r["gain_mismatch_pct_high"]) for r in parametric)
+    assert {r["verdict"] for r in rows} <= {"ok", "mismatch", "inconclusive"}
     assert all(r["status"] == "ok" for r in rows)
     g11 = [r for r in rows if r["sweep"] == "tau_G11" and r["nu"] == "3.0"]
     assert float(g11[0]["time_constant_swept"]) == pytest.approx(50.1)
@@ -107,13 +110,14 @@ def test_small_sweep_report(small_sweep):
     report = (small_sweep / "reproduction.md").read_text()
     assert "Breakdown points" in report and "eq. 16" in report
     figures = sorted(p.name for p in (small_sweep / "figures").glob("*.png"))
-    assert figures == sorted(f"sweep_{e}_{q}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay"))
+    assert figures == sorted(f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric"))
+    assert "Classic and parametric side by side" in report
     assert all((small_sweep / "figures" / f).stat().st_size < 300_000 for f in figures)
     assert json.loads((small_sweep / store.MANIFEST_FILE).read_text())["samples"] == SAMPLES
 
 
 def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
-    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0]
+    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["method"] == "classic"]
     for scenario in SCENARIOS:
         record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
         diagnosis = diagnose(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr)
@@ -143,12 +147,22 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     main(argv)
     elements = json.loads(report.read_text())["elements"]
     rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"]
-    assert len(rows) == 4
-    for row in rows:
+    classic = [r for r in rows if r["method"] == "classic"]
+    assert len(classic) == 4
+    for row in classic:
         e = elements[row["element"]]
         assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
         assert row["tau_index"] == pytest.approx(e["tau_index"], rel=1e-12)
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"]
+    # and the parametric rows equal `pmr-ros run --batch --method parametric`
+    main([*argv, "--method", "parametric"])
+    elements = json.loads(report.read_text())["elements"]
+    for row in (r for r in rows if r["method"] == "parametric"):
+        e = elements[row["element"]]
+        assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
+        assert row["tau_mismatch_pct"] == pytest.approx(e["tau_mismatch_pct"], rel=1e-12)
+        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(e["tau_mismatch_pct_interval"], rel=1e-12)
+        assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"] and row["verdict"] == e["verdict"]
 
 
 @pytest.mark.parametrize(
@@ -161,6 +175,7 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
         (["--nu-start", "-1"], "positive"),
         (["--nu", "1", "--elements", "G33"], "unknown element"),
         (["--nu", "1", "--elements", "G11,G11"], "twice"),
+        (["--nu", "1", "--methods", "classic,bogus"], "--methods"),
     ],
 )
 def test_bad_input_is_one_clear_line(tmp_path, capsys, argv, message):
@@ -181,10 +196,10 @@ def test_resume_after_interruption(small_sweep, tmp_path):
     full = (small_sweep / store.RESULTS_FILE).read_text().splitlines()
     out = tmp_path / "resumed"
     out.mkdir()
-    # An interrupted sweep: the manifest, the first 3 runs' rows and a torn line.
+    # An interrupted sweep: the manifest, the first 3 runs' rows (2 methods x 4 elements each) and a torn line.
     (out / store.MANIFEST_FILE).write_text((small_sweep / store.MANIFEST_FILE).read_text())
-    kept = full[: 1 + 3 * 4]
-    (out / store.RESULTS_FILE).write_text("\n".join(kept) + "\n" + full[13][:40])
+    kept = full[: 1 + 3 * 2 * 4]
+    (out / store.RESULTS_FILE).write_text("\n".join(kept) + "\n" + full[1 + 3 * 2 * 4][:40])
     calls = []
     original = sweep_execute.run_point
 

@@ -41,6 +41,12 @@ def register(sub) -> None:
     grid.add_argument("--nu-step", type=_positive_float, default=0.25, metavar="X", help="nu step (default: 0.25)")
     p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each (default: G11,G21)")
     p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
+    p.add_argument(
+        "--methods",
+        default="classic,parametric",
+        metavar="LIST",
+        help="diagnosis methods applied to every run, side by side in the report: classic, parametric (default: classic,parametric)",
+    )
     p.add_argument("--first-seed", type=nonnegative_int, metavar="S", help="seeds are S, S+1, ... (default: run.seed of the config)")
     p.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples per run (default: run.samples of the config)")
     p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes (default: the number of cores)")
@@ -54,6 +60,7 @@ def register(sub) -> None:
 
 
 def _plan(args: argparse.Namespace, config):
+    from ..core.pmr import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
     try:
@@ -65,11 +72,15 @@ def _plan(args: argparse.Namespace, config):
             raise PlanError(f"--elements: {args.elements!r} names an element twice")
         for element in elements:
             element_index(config.model, element)
+        methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+        unknown = [m for m in methods if m not in METHODS]
+        if not methods or unknown or len(set(methods)) != len(methods):
+            raise PlanError(f"--methods: {args.methods!r}: give one or more of {', '.join(METHODS)}, each once")
     except PlanError as exc:
         raise CommandError(str(exc)) from None
     first = config.run.seed if args.first_seed is None else args.first_seed
     samples = config.run.samples if args.samples is None else args.samples
-    return SweepPlan(elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples)
+    return SweepPlan(elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods)
 
 
 def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None:

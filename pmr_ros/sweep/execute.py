@@ -23,6 +23,7 @@ import numpy as np
 from ..core.batch import run_lockstep
 from ..core.closed_loop import RunRecord
 from ..core.config import PmrConfig
+from ..core.diagnosis import diagnose_with
 from ..core.foptd import FoptdMatrix
 from ..core.pmr import diagnose
 from . import store
@@ -42,13 +43,44 @@ def classic_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> 
             "gain_mismatch": e.gain_mismatch,
             "tau_mismatch": e.tau_mismatch,
             "delay_mismatch": e.delay_mismatch,
+            "verdict": e.verdict,
         }
         for name, e in diagnosis.elements.items()
     }
     return diagnosis.status, elements
 
 
-METHODS: dict[str, Callable[[RunRecord, FoptdMatrix, PmrConfig], tuple[str, dict[str, dict]]]] = {"classic": classic_method}
+def parametric_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
+    """The parametric diagnosis of one run: fitted dK, dtau, dD with intervals, and the verdicts.
+
+    ``gain_ratio`` is the fitted ``1 + dK/100``; ``tau_index`` stays the classic
+    index (for reference), the fitted time constant is ``tau_mismatch_pct``.
+    """
+    diagnosis = diagnose_with(record.r, record.u, record.y, model, config.pmr, config.parametric, "parametric")
+    elements = {}
+    for name, e in diagnosis.elements.items():
+        p = e.parametric
+        gain_interval = p.gain_mismatch_pct_interval if p is not None and p.gain_mismatch_pct_interval else (None, None)
+        tau_interval = p.tau_mismatch_pct_interval if p is not None and p.tau_mismatch_pct_interval else (None, None)
+        elements[name] = {
+            "gain_ratio": e.gain_ratio,
+            "tau_index": e.tau_index,
+            "delay_mismatch_samples": e.delay_mismatch_samples,
+            "gain_mismatch": e.gain_mismatch,
+            "tau_mismatch": e.tau_mismatch,
+            "delay_mismatch": e.delay_mismatch,
+            "verdict": e.verdict,
+            "tau_mismatch_pct": None if p is None else p.tau_mismatch_pct,
+            "gain_mismatch_pct_low": gain_interval[0],
+            "gain_mismatch_pct_high": gain_interval[1],
+            "tau_mismatch_pct_low": tau_interval[0],
+            "tau_mismatch_pct_high": tau_interval[1],
+            "delay_confidence": None if p is None else p.delay_confidence,
+        }
+    return diagnosis.status, elements
+
+
+METHODS: dict[str, Callable[[RunRecord, FoptdMatrix, PmrConfig], tuple[str, dict[str, dict]]]] = {"classic": classic_method, "parametric": parametric_method}
 """Diagnosis methods by name: ``(record, model, config) -> (status, {element: fields})``.
 
 Another method (e.g. a parametric fit) registers here and fills the same fields.

@@ -154,7 +154,7 @@ class SweepPlan:
     scenarios : tuple of str
         Mismatch scenarios (the paper's Table 2).
     methods : tuple of str
-        Diagnosis methods applied to every run (``classic``).
+        Diagnosis methods applied to every run (``classic``, ``parametric``).
     """
 
     elements: tuple[str, ...]

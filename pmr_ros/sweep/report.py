@@ -15,7 +15,17 @@ import numpy as np
 
 from ..core.config import PmrConfig
 from ..core.foptd import SCENARIOS
-from .analysis import DIAGNOSES, GAIN_TOLERANCE, Breakdown, PointSummary, breakdowns, earliest, summarize
+from .analysis import (
+    DIAGNOSES,
+    GAIN_TOLERANCE,
+    TAU_TOLERANCE_PCT,
+    Breakdown,
+    PointSummary,
+    breakdowns,
+    earliest,
+    run_correctness,
+    summarize,
+)
 
 PAPER_GAIN_PCT = {"G11": 10.0, "G12": 14.4, "G21": -18.0, "G22": -11.3}
 """The paper's eq. (16): baseline gain mismatch estimates [%]."""
@@ -31,6 +41,11 @@ SCENARIO_LABELS = {"none": "1 no MPM", "gain": "2 gain only", "time_constant": "
 QUANTITY = {
     "gain": ("gain", "gain ratio K/K̂ (M(0))"),
     "tau": ("tau", "time-constant index (-100 × slope)"),
+    "delay": ("delay", "delay mismatch D - D̂ [samples]"),
+}
+PARAMETRIC_QUANTITY = {
+    "gain": ("gain", "gain ratio K/K̂ (fitted)"),
+    "tau": ("tau", "time-constant change Δτ [%] (fitted)"),
     "delay": ("delay", "delay mismatch D - D̂ [samples]"),
 }
 
@@ -64,6 +79,7 @@ def plot_sweep(summary: list[PointSummary], method: str, element_swept: str, qua
     import matplotlib.pyplot as plt
 
     points = _by(summary, method=method, element_swept=element_swept)
+    axis_labels = PARAMETRIC_QUANTITY if method == "parametric" else QUANTITY
     fig, axes = plt.subplots(n, n, figsize=(10, 7.2), sharex=True, squeeze=False)
     colors = plt.get_cmap("tab10").colors
     nus = sorted({p.nu for p in points})
@@ -81,10 +97,15 @@ def plot_sweep(summary: list[PointSummary], method: str, element_swept: str, qua
             color = colors[s]
             ax.plot(x, med, color=color, lw=1.4, label=SCENARIO_LABELS[scenario], drawstyle="steps-mid" if quantity == "delay" else "default")
             ax.fill_between(x, low, high, color=color, alpha=0.15, lw=0, step="mid" if quantity == "delay" else None)
-            truth = series[0].true_gain_ratio if quantity == "gain" else series[0].true_delay_samples if quantity == "delay" else None
+            truth = {"gain": series[0].true_gain_ratio, "delay": series[0].true_delay_samples}.get(quantity)
+            if quantity == "tau" and method == "parametric":
+                truth = series[0].true_time_constant_pct
             if truth is not None:
                 ax.axhline(truth, color=color, lw=0.8, ls="--", alpha=0.7)
-        if quantity == "tau":
+        if quantity == "tau" and method == "parametric":
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(max(lo, -60.0), min(hi, 60.0))
+        elif quantity == "tau":
             _tau_axis(ax, points, element)
             for sign in (-1, 1):
                 ax.axhline(sign * tau_threshold, color="0.5", lw=0.6, ls=":")
@@ -99,7 +120,7 @@ def plot_sweep(summary: list[PointSummary], method: str, element_swept: str, qua
         if j // n == n - 1:
             ax.set_xlabel("ν")
         if j % n == 0:
-            ax.set_ylabel(QUANTITY[quantity][1], fontsize=8)
+            ax.set_ylabel(axis_labels[quantity][1], fontsize=8)
         if j // n == 0 and len(nus) > 1:
             slope = (ratio_of[nus[-1]] - ratio_of[nus[0]]) / (nus[-1] - nus[0])
             offset = ratio_of[nus[0]] - slope * nus[0]
@@ -108,7 +129,7 @@ def plot_sweep(summary: list[PointSummary], method: str, element_swept: str, qua
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
     figure = PAPER_FIGURES.get((element_swept, quantity))
-    title = f"{QUANTITY[quantity][0].capitalize()} diagnosis, τ of {element_swept} × ν ({method}); median and min-max over seeds"
+    title = f"{axis_labels[quantity][0].capitalize()} diagnosis, τ of {element_swept} × ν ({method}); median and min-max over seeds"
     if figure:
         title += f" — cf. paper's Fig. {figure}"
     fig.suptitle(title + "\ndashed: injected value; dotted vertical: the paper's breakdown ν", fontsize=9)
@@ -248,7 +269,12 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
              f"without one, the flag stays down; delay — the estimated D − D̂ equals the injected one. A run with insufficient data is wrong. "
              "A point (sweep, ν, scenario, element, diagnosis) **fails** when more than half of its seeds are wrong. "
              "The **breakdown ν** of a diagnosis is the smallest ν of the grid at which it fails (if it already fails at the baseline ν it is reported as such, not as a breakdown); "
-             "\"share failing after\" is the fraction of grid points from the breakdown ν on that fail (1.00 = it never recovers).\n")
+             "\"share failing after\" is the fraction of grid points from the breakdown ν on that fail (1.00 = it never recovers). "
+             f"For the **parametric** method, which fits the time constant itself, the time constant is right when |fitted Δτ − injected Δτ| ≤ {TAU_TOLERANCE_PCT:g} pp; "
+             "gain and delay are judged as above; an inconclusive verdict (no numbers) counts as wrong.\n")
+
+    if "parametric" in methods:
+        L.extend(_side_by_side(rows, summary, methods, swept, elements, threshold))
 
     # Breakdown summary
     L.append("## Breakdown points\n")
@@ -315,6 +341,49 @@ def _markdown(summary, breaks, config, manifest, rows, figures, report, methods,
     L.append("")
     L.append("The per-point medians, spreads and wrong-seed counts are in `figures/sweep_summary.csv`; the record-level CSV (every estimate per element, ν, scenario and seed) is the sweep folder's `results.csv`.\n")
     return "\n".join(L) + "\n"
+
+
+def _side_by_side(rows, summary, methods, swept, elements, threshold) -> list[str]:
+    """Classic against parametric over the whole sweep: how often each diagnosis is right."""
+    L = ["## Classic and parametric side by side\n"]
+    L.append(
+        f"Share of runs (every ν, scenario and seed) whose diagnosis is right by the rules below — for the parametric method: ΔK within ±{100 * GAIN_TOLERANCE:g} pp, "
+        f"Δτ within ±{TAU_TOLERANCE_PCT:g} pp, ΔD exact; for the classic method the gain ratio within ±{100 * GAIN_TOLERANCE:g} pp, the τ flag and sign, ΔD exact. "
+        "\"worst point\" is the lowest share of right seeds at any single (ν, scenario).\n"
+    )
+    L.append("| sweep | element | diagnosis | " + " | ".join(f"{m}: right | {m}: worst point" for m in methods) + " |")
+    L.append("|---|---|---|" + "---|---|" * len(methods))
+    right = {}
+    for row in rows:
+        right.setdefault((row["method"], row["element_swept"], row["element"]), []).append(run_correctness(row, threshold))
+    verdict_all = {}
+    for element_swept in swept:
+        for element in elements:
+            for d in DIAGNOSES:
+                cells = []
+                for m in methods:
+                    runs = right.get((m, element_swept, element), [])
+                    share = float(np.mean([r[d] for r in runs])) if runs else float("nan")
+                    pts = [p for p in summary if p.method == m and p.element_swept == element_swept and p.element == element]
+                    worst = min((1.0 - getattr(p, f"{d}_wrong") / p.seeds for p in pts), default=float("nan"))
+                    cells.append(f"{100 * share:.1f} % | {100 * worst:.0f} %")
+                    verdict_all.setdefault(m, []).extend(r[d] for r in runs)
+                L.append(f"| τ of {element_swept} | {element} | {d} | " + " | ".join(cells) + " |")
+    L.append("")
+    for m in methods:
+        allright = [all(r.values()) for key, runs in right.items() if key[0] == m for r in runs]
+        L.append(f"- **{m}**: {100 * float(np.mean(verdict_all[m])):.1f} % of all (run, element, diagnosis) right; "
+                 f"{100 * float(np.mean(allright)):.1f} % of (run, element) pairs right on gain, time constant and delay together.")
+    parametric = [p for p in summary if p.method == "parametric"]
+    if parametric:
+        below = [p for p in parametric if any(getattr(p, f"{d}_wrong") / p.seeds > 0.10 for d in DIAGNOSES)]
+        L.append(f"- The parametric target (every element, every ν of both sweeps, ≥ 90 % of seeds within spec): "
+                 f"{len(parametric) - len(below)} of {len(parametric)} (sweep, ν, scenario, element) points meet it"
+                 + ("." if not below else "; the others: " + "; ".join(
+                     f"{p.element_swept} ν={p.nu:g} {p.scenario} {p.element} (wrong seeds g/τ/D {p.gain_wrong}/{p.tau_wrong}/{p.delay_wrong} of {p.seeds})" for p in below[:12])
+                    + (" …" if len(below) > 12 else "") + "."))
+    L.append("")
+    return L
 
 
 def _findings(summary, breaks, method, element_swept, elements, threshold) -> list[str]:

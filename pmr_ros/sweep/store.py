@@ -20,14 +20,18 @@ COLUMNS = (
     "mpc_solves", "mpc_failures", "tracking_rms",
     "element", "true_gain_ratio", "true_time_constant_pct", "true_delay_samples",
     "status", "gain_ratio", "tau_index", "delay_mismatch_samples", "gain_mismatch", "tau_mismatch", "delay_mismatch",
+    "verdict", "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
 )  # fmt: skip
-"""Column order of ``results.csv``.  A new method adds rows (``method``), never columns."""
+"""Column order of ``results.csv``.  A method adds rows (``method``); the last seven columns are
+the parametric method's own (empty on classic rows, whose verdict is filled)."""
 
 RESULTS_FILE = "results.csv"
 MANIFEST_FILE = "sweep.json"
 
 _INT_COLUMNS = {"seed", "samples", "prediction_horizon", "control_horizon", "mpc_solves", "mpc_failures", "true_delay_samples", "delay_mismatch_samples"}
-_FLOAT_COLUMNS = {"nu", "time_constant_swept", "row_time_constant_ratio", "loop_spectral_radius", "tracking_rms", "true_gain_ratio", "true_time_constant_pct", "gain_ratio", "tau_index"}
+_FLOAT_COLUMNS = {"nu", "time_constant_swept", "row_time_constant_ratio", "loop_spectral_radius", "tracking_rms", "true_gain_ratio", "true_time_constant_pct", "gain_ratio", "tau_index",
+                  "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence"}
 _BOOL_COLUMNS = {"gain_mismatch", "tau_mismatch", "delay_mismatch"}
 
 
