@@ -23,12 +23,14 @@ setup(
         "osqp>=1.0,<2",
         "control>=0.10,<0.11",
         "rosbags>=0.10,<0.12",
+        # Reading an MCAP bag whose recorder was killed (no summary, no metadata.yaml).
+        "mcap>=1.1,<2",
         "PyYAML>=6,<7",
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
         "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
-        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7"],
+        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7", "mcap-ros2-support>=0.5,<1"],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],
     },
