@@ -11,13 +11,13 @@ are compared with the offline ones number for number.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ..core.config import ConfigError, PmrConfig, load_config, parse_config
 from ..core.pmr import Diagnosis, ElementDiagnosis
 from ..ros.alignment import SIGNALS, SampleAligner
 from ..ros.contract import topic
-from ..ros.layout import BOOL_KEYS, FLOAT_KEYS, INT_KEYS, diagnosis_from_array, read_signal
+from ..ros.layout import diagnosis_from_array, read_signal
 from ..ros.parameters import NodeSettings, parse_node_settings
 from ..ros.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from .reader import Bag
@@ -157,8 +157,11 @@ def required_topics() -> dict[str, str]:
     return {topic(key).name: topic(key).type for key in SIGNAL_KEYS.values()}
 
 
-def diagnose_bag(bag: Bag, config_path: str | None = None) -> OfflineResult:
+def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = None) -> OfflineResult:
     """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
+
+    ``method`` (``classic`` or ``parametric``) overrides the configuration's
+    ``pmr.method``; verdicts recorded with another method are then not compared.
 
     Raises
     ------
@@ -167,6 +170,9 @@ def diagnose_bag(bag: Bag, config_path: str | None = None) -> OfflineResult:
     """
     bag.require(required_topics())
     config, settings, origin = bag_configuration(bag, config_path)
+    recorded_method = config.pmr.method
+    if method is not None:
+        config = replace(config, pmr=replace(config.pmr, method=method))
     model = config.model
     labels = {s: f"{s} on {topic(SIGNAL_KEYS[s]).name}" for s in SIGNALS}
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
@@ -192,19 +198,22 @@ def diagnose_bag(bag: Bag, config_path: str | None = None) -> OfflineResult:
         outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
         end_of_bag = True
     result = OfflineResult(config, settings, origin, outcomes, _recorded_verdicts(bag), warnings=warnings, messages=counts, end_of_bag=end_of_bag)
-    result.comparisons = compare(result.outcomes, result.recorded)
+    if config.pmr.method == recorded_method:
+        result.comparisons = compare(result.outcomes, result.recorded)
+    else:
+        result.warnings.insert(0, f"the bag's verdicts were made with the {recorded_method} method, these with {config.pmr.method}: not compared")
     return result
 
 
-COMPARED_KEYS = (*FLOAT_KEYS, *BOOL_KEYS, *INT_KEYS, "verdict")
-"""Per-element fields /diagnostics carries (msg_defs/topics.yaml), compared exactly."""
-
-
 def verdict_numbers(diagnosis: Diagnosis | None) -> dict:
-    """Element -> the fields of :data:`COMPARED_KEYS` of a diagnosis (empty for None)."""
+    """Element -> every field of its report entry (empty for None).
+
+    /diagnostics carries all of them losslessly (``repr`` floats, the parametric
+    intervals, verdicts, reasons and quality included), so all are compared.
+    """
     if diagnosis is None:
         return {}
-    return {name: {k: v for k, v in element.to_dict().items() if k in COMPARED_KEYS} for name, element in diagnosis.elements.items()}
+    return {name: element.to_dict() for name, element in diagnosis.elements.items()}
 
 
 def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict]) -> list[dict]:

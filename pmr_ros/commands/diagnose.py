@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -29,6 +29,7 @@ def register(sub) -> None:
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
     p.add_argument("--config", metavar="FILE", help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)")
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    add_method_argument(p)
     p.set_defaults(handler=handle)
 
 
@@ -70,7 +71,7 @@ def handle(args: argparse.Namespace) -> int:
 
     try:
         bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config)
+        result = diagnose_bag(bag, args.config, args.method)
         report = offline_report(result, bag)
     except BagError as exc:
         raise CommandError(str(exc)) from None
