@@ -203,13 +203,29 @@ def test_recorder_process_stopped_by_a_signal_closes_the_bag(ros_context, tmp_pa
             diagnostician.destroy_node()
 
 
+def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    seen = 0
+    while time.monotonic() < deadline:
+        try:
+            seen = open_bag(path).counts.get(topic_name, 0)
+        except Exception:  # noqa: BLE001 - a chunk being written may not parse yet
+            seen = 0
+        if seen >= count:
+            return
+        time.sleep(0.2)
+    raise AssertionError(f"only {seen} of {count} messages on {topic_name} reached the disk in {timeout_s} s")
+
+
 def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys):
     samples = 2000
     path = tmp_path / "killed"
     proc, log = _start_recorder(tmp_path, path)
     try:
         player, executor = _publish_to_recorder(ros_context, samples, publish_config=True)
-        time.sleep(1.5)  # several flush periods (0.2 s) after the last message
+        # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
+        # from the file while it is being written -- then kill it without warning.
+        _wait_until_flushed(path, topic("measured_output").name, samples, timeout_s=60.0)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
         assert not (path / "metadata.yaml").exists()
