@@ -29,6 +29,17 @@ def positive_int(text: str) -> int:
     return value
 
 
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{value:g} must be positive (> 0)")
+    return value
+
+
 def nonnegative_int(text: str) -> int:
     """argparse type: a whole number >= 0."""
     try:

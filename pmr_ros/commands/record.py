@@ -14,17 +14,7 @@ import signal
 import sys
 import time
 
-from . import CommandError, add_system_arguments, run_overrides
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"{value} must be > 0")
-    return value
+from . import CommandError, add_system_arguments, positive_float, run_overrides
 
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,8 +37,8 @@ def register(sub) -> None:
     add_storage_arguments(p)
     add_system_arguments(p)
     p.add_argument("--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician")
-    p.add_argument("--flush-period", type=_positive_float, default=None, metavar="S", help="seconds between flushes to disk (default: 0.5)")
-    p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="stop after S seconds of wall time")
+    p.add_argument("--flush-period", type=positive_float, default=None, metavar="S", help="seconds between flushes to disk (default: 0.5)")
+    p.add_argument("--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time")
     p.set_defaults(handler=handle)
 
 

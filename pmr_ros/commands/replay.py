@@ -14,17 +14,7 @@ import signal
 import sys
 import time
 
-from . import CommandError, nonnegative_int
-
-
-def _rate(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"{value} must be > 0")
-    return value
+from . import CommandError, nonnegative_int, positive_float
 
 
 def register(sub) -> None:
@@ -37,7 +27,7 @@ def register(sub) -> None:
         ),
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
-    p.add_argument("--rate", type=_rate, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, as fast as possible)")
+    p.add_argument("--rate", type=positive_float, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, as fast as possible)")
     p.add_argument("--max-samples-per-second", type=float, default=None, metavar="N",
                    help="lockstep pace limit (default: 1000; 0: unbounded, only if every subscriber keeps up)")
     p.add_argument("--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)")

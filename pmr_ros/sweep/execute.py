@@ -25,29 +25,29 @@ from ..core.closed_loop import RunRecord
 from ..core.config import PmrConfig
 from ..core.diagnosis import diagnose_with
 from ..core.foptd import FoptdMatrix
-from ..core.pmr import diagnose
+from ..core.pmr import ElementDiagnosis, diagnose
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
 from .progress import ProgressBar
 from .tuning import stable_tuning
 
 
+def _common_fields(element: ElementDiagnosis) -> dict:
+    return {
+        "gain_ratio": element.gain_ratio,
+        "tau_index": element.tau_index,
+        "delay_mismatch_samples": element.delay_mismatch_samples,
+        "gain_mismatch": element.gain_mismatch,
+        "tau_mismatch": element.tau_mismatch,
+        "delay_mismatch": element.delay_mismatch,
+        "verdict": element.verdict,
+    }
+
+
 def classic_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
     """The classic (Table 1) diagnosis of one run: status and per-element numbers and flags."""
     diagnosis = diagnose(record.r, record.u, record.y, model, config.pmr)
-    elements = {
-        name: {
-            "gain_ratio": e.gain_ratio,
-            "tau_index": e.tau_index,
-            "delay_mismatch_samples": e.delay_mismatch_samples,
-            "gain_mismatch": e.gain_mismatch,
-            "tau_mismatch": e.tau_mismatch,
-            "delay_mismatch": e.delay_mismatch,
-            "verdict": e.verdict,
-        }
-        for name, e in diagnosis.elements.items()
-    }
-    return diagnosis.status, elements
+    return diagnosis.status, {name: _common_fields(e) for name, e in diagnosis.elements.items()}
 
 
 def parametric_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
@@ -63,13 +63,7 @@ def parametric_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) 
         gain_interval = p.gain_mismatch_pct_interval if p is not None and p.gain_mismatch_pct_interval else (None, None)
         tau_interval = p.tau_mismatch_pct_interval if p is not None and p.tau_mismatch_pct_interval else (None, None)
         elements[name] = {
-            "gain_ratio": e.gain_ratio,
-            "tau_index": e.tau_index,
-            "delay_mismatch_samples": e.delay_mismatch_samples,
-            "gain_mismatch": e.gain_mismatch,
-            "tau_mismatch": e.tau_mismatch,
-            "delay_mismatch": e.delay_mismatch,
-            "verdict": e.verdict,
+            **_common_fields(e),
             "tau_mismatch_pct": None if p is None else p.tau_mismatch_pct,
             "gain_mismatch_pct_low": gain_interval[0],
             "gain_mismatch_pct_high": gain_interval[1],
