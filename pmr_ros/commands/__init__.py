@@ -29,6 +29,14 @@ def positive_int(text: str) -> int:
     return value
 
 
+def number(text: str) -> float:
+    """argparse type: a number (its range is checked by the command, with a clearer message)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0."""
     try:

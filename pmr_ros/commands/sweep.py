@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import CommandError, nonnegative_int, positive_float, positive_int
+from . import CommandError, nonnegative_int, number, positive_int
 
 DEFAULT_OUT = "out/sweep"
 
@@ -31,9 +31,9 @@ def register(sub) -> None:
     p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})")
     grid = p.add_argument_group("nu grid (--nu or a range)")
     grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
-    grid.add_argument("--nu-start", type=positive_float, default=1.0, metavar="X", help="first nu (default: 1)")
-    grid.add_argument("--nu-stop", type=positive_float, default=10.0, metavar="X", help="last nu, included (default: 10)")
-    grid.add_argument("--nu-step", type=positive_float, default=0.25, metavar="X", help="nu step (default: 0.25)")
+    grid.add_argument("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)")
+    grid.add_argument("--nu-stop", type=number, default=10.0, metavar="X", help="last nu, included (default: 10)")
+    grid.add_argument("--nu-step", type=number, default=0.25, metavar="X", help="nu step (default: 0.25)")
     p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each (default: G11,G21)")
     p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
     p.add_argument(
