@@ -22,7 +22,7 @@ from pmr_ros.sweep.progress import ProgressBar, format_duration
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
 SAMPLES = 2048
-SMALL = ["--nu", "1,3", "--seeds", "1", "--samples", str(SAMPLES), "--quiet"]
+SMALL = ["--nu", "1,3", "--seeds", "1", "--samples", str(SAMPLES), "--methods", "classic,parametric", "--quiet"]
 
 
 # --- plan -------------------------------------------------------------------------------------
