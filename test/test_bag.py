@@ -230,10 +230,14 @@ def test_offline_diagnosis_of_a_bag_with_another_config(tmp_path, expected):
     bag = open_bag(REFERENCE)
     config, settings, origin = bag_configuration(bag, str(ROOT / "config" / "wood_berry.yaml"))
     assert origin.endswith("wood_berry.yaml") and settings.window_samples == 16384 and settings.update_period_samples == 1024
-    result = diagnose_bag(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    result = diagnose_bag(bag, str(ROOT / "config" / "wood_berry.yaml"), method="classic")
     assert [o.window["last_sample"] for o in result.outcomes] == list(range(1023, 8192, 1024))
     assert [o.kind for o in result.outcomes] == [INSUFFICIENT] * 7 + [VERDICT]
     assert result.comparisons[0]["equal"]  # same whole-run window as the live one
+    # the shipped config's own method (parametric) differs from the recorded one: nothing to compare, and it says so
+    other = diagnose_bag(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    assert other.final_diagnosis.method == "parametric" and other.comparisons == []
+    assert "not compared" in other.warnings[0]
 
 
 def test_compare_flags_a_different_verdict(reference_result):

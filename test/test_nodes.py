@@ -23,7 +23,7 @@ from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E4
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.config import ConfigError, config_dir, flatten_parameters, load_config  # noqa: E402
-from pmr_ros.core.pmr import diagnose  # noqa: E402
+from pmr_ros.core.diagnosis import diagnose_with  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
 from pmr_ros.nodes.wood_berry_plant import PlantNode  # noqa: E402
 from pmr_ros.ros.contract import topic  # noqa: E402
@@ -71,7 +71,7 @@ def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
     assert np.array_equal(node.r, batch.r)
     assert np.array_equal(node.u, batch.u)
     assert np.array_equal(node.y, batch.y)
-    expected = diagnose(batch.r, batch.u, batch.y, full_run.config.model, full_run.config.pmr)
+    expected = diagnose_with(batch.r, batch.u, batch.y, full_run.config.model, full_run.config.pmr, full_run.config.parametric)
     assert {n: e.to_dict() for n, e in full_run.diagnosis.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
 
 
@@ -296,7 +296,7 @@ def test_duplicated_and_out_of_order_stamps_are_dropped_and_change_nothing(harne
     r, u, y, first = h.diag.aligner.window(600)
     assert first == 400 and np.array_equal(y, rec.y[400:]) and np.array_equal(u, rec.u[400:])
     final, info = h.statuses()[-1]
-    expected = diagnose(rec.r[400:], rec.u[400:], rec.y[400:], h.config.model, h.config.pmr)
+    expected = diagnose_with(rec.r[400:], rec.u[400:], rec.y[400:], h.config.model, h.config.pmr, h.config.parametric)
     assert {n: e.to_dict() for n, e in final.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
 
 

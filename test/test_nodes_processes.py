@@ -20,7 +20,7 @@ from ros_fixtures import spin_until  # noqa: E402
 
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.config import config_dir, load_config  # noqa: E402
-from pmr_ros.core.pmr import diagnose  # noqa: E402
+from pmr_ros.core.diagnosis import diagnose_with  # noqa: E402
 from pmr_ros.ros.contract import topic  # noqa: E402
 from pmr_ros.ros.convert import diagnosis_from_array  # noqa: E402
 
@@ -89,7 +89,7 @@ def test_four_processes_give_the_batch_verdicts_and_stop_cleanly(tmp_path, ros_c
         diagnosis, info = final[0]
         config = load_config(overrides={"run": {"samples": SAMPLES}})
         batch = simulate(config)
-        expected = diagnose(batch.r, batch.u, batch.y, config.model, config.pmr)
+        expected = diagnose_with(batch.r, batch.u, batch.y, config.model, config.pmr, config.parametric)
         assert diagnosis.status == expected.status == "ok"
         assert {n: e.to_dict() for n, e in diagnosis.elements.items()} == {n: e.to_dict() for n, e in expected.elements.items()}
         assert info["first_sample"] == 0 and info["window_samples"] == SAMPLES

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from pmr_ros.cli import build_parser, main
+from pmr_ros.cli import main
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.config import load_config
 from pmr_ros.core.foptd import SCENARIOS
@@ -130,21 +130,11 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
                 assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (e.gain_mismatch, e.tau_mismatch, e.delay_mismatch)
 
 
-def _run_has_batch_flag() -> bool:
-    try:
-        build_parser().parse_args(["run", "--batch"])
-    except SystemExit:
-        return False
-    return True
-
-
 def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
-    """The same through the ``pmr-ros run`` command (``--batch`` once it exists; until then run is the batch path)."""
+    """The same through ``pmr-ros run --batch``, with each method."""
     report = tmp_path / "run.json"
-    argv = ["run", "--scenario", "full", "--seed", "1", "--samples", str(SAMPLES), "--json", str(report)]
-    if _run_has_batch_flag():
-        argv.insert(1, "--batch")
-    main(argv)
+    argv = ["run", "--batch", "--scenario", "full", "--seed", "1", "--samples", str(SAMPLES), "--json", str(report)]
+    main([*argv, "--method", "classic"])
     elements = json.loads(report.read_text())["elements"]
     rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"]
     classic = [r for r in rows if r["method"] == "classic"]

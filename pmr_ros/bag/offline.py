@@ -161,7 +161,7 @@ def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = 
     """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
 
     ``method`` (``classic`` or ``parametric``) overrides the configuration's
-    ``pmr.method``; verdicts recorded with another method are then not compared.
+    ``pmr.method``; recorded verdicts made with another method are not compared.
 
     Raises
     ------
@@ -170,7 +170,6 @@ def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = 
     """
     bag.require(required_topics())
     config, settings, origin = bag_configuration(bag, config_path)
-    recorded_method = config.pmr.method
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
     model = config.model
@@ -198,10 +197,10 @@ def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = 
         outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
         end_of_bag = True
     result = OfflineResult(config, settings, origin, outcomes, _recorded_verdicts(bag), warnings=warnings, messages=counts, end_of_bag=end_of_bag)
-    if config.pmr.method == recorded_method:
-        result.comparisons = compare(result.outcomes, result.recorded)
-    else:
-        result.warnings.insert(0, f"the bag's verdicts were made with the {recorded_method} method, these with {config.pmr.method}: not compared")
+    result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
+    others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
+    if others:
+        result.warnings.insert(0, f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})")
     return result
 
 
@@ -216,8 +215,10 @@ def verdict_numbers(diagnosis: Diagnosis | None) -> dict:
     return {name: element.to_dict() for name, element in diagnosis.elements.items()}
 
 
-def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict]) -> list[dict]:
+def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None) -> list[dict]:
     """For every recorded verdict with a window, whether the offline one for that window is equal.
+
+    With ``method``, recorded verdicts made with another method are left out.
 
     Equal means the same kind (verdict or none) and, for a verdict, the same
     numbers and flags exactly (KeyValues are lossless ``repr`` floats).
@@ -229,7 +230,7 @@ def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict]) -> l
     out = []
     for verdict in recorded:
         window = verdict.window
-        if window is None:
+        if window is None or (method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method):
             continue
         mine = offline.get(window)
         entry = {"first_sample": window[0], "last_sample": window[1], "recorded_status": verdict.diagnosis.status}
