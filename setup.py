@@ -39,7 +39,6 @@ setup(
     maintainer_email="dev@pmr-ros.invalid",
     description="Model-plant mismatch diagnosis for MPC with the plant-model ratio, as ROS 2 nodes.",
     license="Apache-2.0",
-    tests_require=["pytest"],
     entry_points={
         "console_scripts": [
             "pmr-ros = pmr_ros.cli:main",
