@@ -38,6 +38,8 @@ def register(sub) -> None:
     p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
     p.add_argument(
         "--methods",
+        "--method",
+        dest="methods",
         default="classic",
         metavar="LIST",
         help="diagnosis methods applied to every run, side by side in the report: classic, parametric "
