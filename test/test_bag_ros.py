@@ -109,10 +109,7 @@ def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_pat
         text = (tmp_path / "replay.log").read_text()
         assert "8192 samples" in text and "Traceback" not in text
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(timeout=5)
-        log.close()
+        _stop(proc, log)
         executor.shutdown(timeout_sec=1.0)
         diagnostician.destroy_node()
 
@@ -141,6 +138,14 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     assert "exists already; pass --force" in err and "Traceback" not in err
     assert main(["run", "--batch", "--bag", str(tmp_path / "x")]) == 2
     assert "--bag records the node set's topics" in capsys.readouterr().err
+
+
+def _stop(proc: subprocess.Popen, log) -> None:
+    """Kill a child process that is still running and close its log."""
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait(timeout=5)
+    log.close()
 
 
 def _start_recorder(tmp_path: Path, bag: Path, *extra: str) -> tuple[subprocess.Popen, object]:
@@ -195,10 +200,7 @@ def test_recorder_process_stopped_by_a_signal_closes_the_bag(ros_context, tmp_pa
         executor.shutdown(timeout_sec=1.0)
         player.destroy_node()
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(timeout=5)
-        log.close()
+        _stop(proc, log)
         if diagnostician is not None:
             diagnostician.destroy_node()
 
@@ -243,7 +245,4 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         executor.shutdown(timeout_sec=1.0)
         player.destroy_node()
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(timeout=5)
-        log.close()
+        _stop(proc, log)
