@@ -246,3 +246,21 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         player.destroy_node()
     finally:
         _stop(proc, log)
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, stop):
+    path = tmp_path / "stopped"
+    proc = subprocess.Popen([*_pmr_ros(), "run", "--samples", "500000", "--bag", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_until_flushed(path, topic("measured_output").name, 1000, timeout_s=60.0)
+        proc.send_signal(stop)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err, err[-2000:]
+    recorded = open_bag(path)
+    assert recorded.complete and (path / "metadata.yaml").exists()  # closed, not merely flushed
+    assert recorded.counts[topic("measured_output").name] >= 1000 and recorded.run_config() is not None
