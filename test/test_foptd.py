@@ -97,3 +97,14 @@ def test_with_time_constant_replaces_one_element(wood_berry):
     assert swept.time_constant[0, 0] == pytest.approx(41.75)
     assert swept.time_constant[1, 0] == 10.9
     assert wood_berry.model.time_constant[0, 0] == 16.7
+
+
+def test_settling_samples_and_filter_coefficients(wood_berry):
+    model = wood_berry.model
+    # 8 x the largest tau (21 min) + the largest delay (7) + 1, in samples
+    assert model.settling_samples() == 168 + 7 + 1
+    assert model.settling_samples(time_constants=1.0) == 21 + 7 + 1
+    b, a = model.discretize().filter_coefficients(1, 0)  # G21: 7 samples dead time + the ZOH's one
+    np.testing.assert_array_equal(b[:-1], np.zeros(8))
+    assert b[-1] == pytest.approx(6.6 * (1 - np.exp(-1 / 10.9)))
+    np.testing.assert_allclose(a, [1.0, -np.exp(-1 / 10.9)])

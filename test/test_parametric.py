@@ -198,3 +198,24 @@ def test_automatic_segment_length_resolves_the_slowest_element(wood_berry):
     assert settings.welch(slow, 16384, classic).segment_length == 2048  # capped at a quarter of the record
     assert ParametricSettings(segment_length=512).welch(slow, 16384, classic).segment_length == 512
     assert settings.welch(wood_berry.model, 3000, classic).segment_length == 512  # never below the classic segment
+
+
+def test_three_by_three_within_specification():
+    config = load_config("config/three_by_three.yaml")
+    mm = config.mismatch
+    for record in simulate_many(config, [("full", 1), ("full", 2)]):
+        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric")
+        for j, (name, e) in enumerate(diagnosis.elements.items()):
+            i, k = divmod(j, 3)
+            p = e.parametric
+            assert abs(p.gain_mismatch_pct - mm.gain_pct[i, k]) <= 3.0, name
+            assert abs(p.tau_mismatch_pct - mm.time_constant_pct[i, k]) <= 5.0, name
+            assert p.delay_mismatch_samples == mm.delay_samples[i, k], name
+            injected = bool(mm.gain_pct[i, k] or mm.time_constant_pct[i, k] or mm.delay_samples[i, k])
+            assert e.verdict == ("mismatch" if injected else "ok"), (name, e.summary())
+
+
+def test_unknown_method_is_refused(wood_berry):
+    record = simulate(wood_berry, samples=4096)
+    with pytest.raises(ValueError, match="unknown diagnosis method 'bayes'"):
+        diagnose_with(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr, method="bayes")
