@@ -337,7 +337,6 @@ def parse_config(params: dict, source: str | Path) -> PmrConfig:
         excitation_min=rd.number("parametric.excitation_min", minimum=0.0),
         max_condition=rd.number("parametric.max_condition", positive=True),
         row_time_constant_ratio_warn=rd.number("parametric.row_time_constant_ratio_warn", positive=True),
-        max_delay_samples=pmr.max_delay_samples,
     )
     if 0 < parametric.segment_length < 16:
         raise rd.error("parametric.segment_length", parametric.segment_length, "must be 0 (automatic) or >= 16")

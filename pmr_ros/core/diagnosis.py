@@ -34,7 +34,7 @@ def diagnose_with(
         The controller's model ``Ghat``.
     settings : PmrSettings
     parametric : ParametricSettings, optional
-        Default: its defaults with ``settings.max_delay_samples``.
+        Default: its defaults.
     method : str, optional
         ``classic`` or ``parametric``.
     """
@@ -45,7 +45,7 @@ def diagnose_with(
     diagnosis.method = method
     if method == "classic" or diagnosis.status != "ok":
         return diagnosis
-    parametric = parametric or ParametricSettings(max_delay_samples=settings.max_delay_samples)
+    parametric = parametric or ParametricSettings()
     _, _, estimates = diagnose_parametric(r, u, y, model, settings, parametric)
     for name, element in diagnosis.elements.items():
         p = estimates[name]

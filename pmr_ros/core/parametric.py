@@ -75,8 +75,8 @@ class ParametricSettings:
     row_time_constant_ratio_warn : float
         The paper's filtering-effect limit: a row whose model time constants
         differ by more gets a quality warning (not a verdict change).
-    max_delay_samples : int
-        ``dD`` searched over ``-max .. +max`` samples.
+
+    The delay search range is the classic one, ``pmr.max_delay_samples``.
     """
 
     segment_length: int = 0
@@ -90,16 +90,14 @@ class ParametricSettings:
     excitation_min: float = 0.02
     max_condition: float = 1e4
     row_time_constant_ratio_warn: float = 1.8
-    max_delay_samples: int = 10
 
     def welch(self, model: FoptdMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
         """The Welch settings for a record of ``samples`` on ``model``."""
         length = self.segment_length
         if length <= 0:
             wanted = self.resolution * 2.0 * math.pi * model.time_constant.max() / model.sample_time
-            length = max(classic.segment_length, 1 << max(4, math.ceil(math.log2(wanted))))
             ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))
-            length = max(classic.segment_length, min(length, ceiling)) if ceiling >= classic.segment_length else classic.segment_length
+            length = max(classic.segment_length, min(1 << max(4, math.ceil(math.log2(wanted))), ceiling))
         return WelchSettings(classic.window, length, classic.overlap)
 
 
@@ -255,7 +253,7 @@ class _RowProblem:
         return result.x, float(r @ r), J
 
 
-def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.ndarray, delay_start: np.ndarray, settings: ParametricSettings, bins: np.ndarray) -> RowFit:
+def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.ndarray, delay_start: np.ndarray, max_delay_samples: int, bins: np.ndarray) -> RowFit:
     """Fit the FOPTD-ratio parameters of every element of row ``i``.
 
     Parameters
@@ -269,7 +267,8 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
         A first PMR estimate of the row (the nonparametric one) for the noise spectrum.
     delay_start : ndarray of int, shape (n_in,)
         Starting delays (the classic Hamon-Hannan ones).
-    settings : ParametricSettings
+    max_delay_samples : int
+        ``dD`` is searched over ``-max .. +max`` samples (and never below ``-Dhat``).
     bins : ndarray of int
         Frequency bins that enter the fit.
     """
@@ -278,11 +277,9 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
     omega = spectra.omega[bins]
     z1 = np.exp(-1j * omega)
     pole_model = disc.pole[i]
-    lowest = -model.delay_samples[i]  # the plant's delay cannot be negative
-    candidates = [
-        np.arange(max(-settings.max_delay_samples, lowest[k]), settings.max_delay_samples + 1) for k in range(n)
-    ]
-    delays = np.array([int(np.clip(d, c[0], c[-1])) for d, c in zip(delay_start, candidates, strict=True)])
+    # (lowest, highest) dD per element; the plant's delay cannot be negative
+    candidates = [(max(-max_delay_samples, -int(model.delay_samples[i, k])), max_delay_samples) for k in range(n)]
+    delays = np.array([int(np.clip(d, low, high)) for d, (low, high) in zip(delay_start, candidates, strict=True)])
     x = np.r_[np.ones(n), np.zeros(n)]
     noise = _noise_spectrum(spectra, i, theta_start)
     for search in (True, False):  # noise spectrum from the nonparametric row, then from the first fit
@@ -304,7 +301,7 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
                     while True:
                         trial = delays.copy()
                         trial[k] += step
-                        if not candidates[k][0] <= trial[k] <= candidates[k][-1]:
+                        if not candidates[k][0] <= trial[k] <= candidates[k][1]:
                             break
                         xt, ct, Jt = evaluate(trial, x)
                         if ct < cost - 1e-9:
@@ -326,7 +323,7 @@ def fit_row(spectra: RecordSpectra, model: FoptdMatrix, i: int, theta_start: np.
     profiles: list[dict[int, float]] = []
     for k in range(n):
         profile = {}
-        for d in range(max(candidates[k][0], delays[k] - PROFILE_HALF_WIDTH), min(candidates[k][-1], delays[k] + PROFILE_HALF_WIDTH) + 1):
+        for d in range(max(candidates[k][0], delays[k] - PROFILE_HALF_WIDTH), min(candidates[k][1], delays[k] + PROFILE_HALF_WIDTH) + 1):
             trial = delays.copy()
             trial[k] = d
             profile[d] = evaluate(trial, x)[1]
@@ -396,9 +393,6 @@ def diagnose_parametric(
         row_ratio = float(model.time_constant[i].max() / model.time_constant[i].min())
         row_coherence = float(coherence[bins].mean())
         condition = float(np.median(estimate.condition[bins, i]))
-        delay_start = np.array(
-            [hamon_hannan_delay(spectra.omega, estimate.ratio[:, i, k], coherence, settings.max_delay_samples, band & (spectra.omega > 0))[0] for k in range(n_in)]
-        )
         row_reasons = []
         if bins.size < 2 * n_in + 2:
             row_reasons.append(f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below {classic.coherence_min:g}")
@@ -411,7 +405,10 @@ def diagnose_parametric(
         share = driven.sum(axis=(0, 1)) / max(driven.sum(), 1e-300)
         fit = None
         if not row_reasons:
-            fit = fit_row(spectra, model, i, estimate.ratio[:, i, :], delay_start, settings, bins)
+            delay_start = np.array(
+                [hamon_hannan_delay(spectra.omega, estimate.ratio[:, i, k], coherence, classic.max_delay_samples, band & (spectra.omega > 0))[0] for k in range(n_in)]
+            )
+            fit = fit_row(spectra, model, i, estimate.ratio[:, i, :], delay_start, classic.max_delay_samples, bins)
         for k in range(n_in):
             name = names[i * n_in + k]
             element = ElementEstimate(name)

@@ -111,8 +111,8 @@ class ElementDiagnosis:
     ``M(w)/M(0)`` [1/(rad/sample)], positive when the plant is slower than the
     model; ``delay_mismatch_samples`` is ``D - Dhat``.  With the parametric
     method, ``parametric`` holds its estimate, and the gain ratio, delay,
-    mismatch flags, verdict and message are the parametric ones (``tau_index``
-    stays the classic index, ``classic`` keeps the classic numbers).
+    mismatch flags, reasons, verdict and message are the parametric ones
+    (``tau_index`` stays the classic index, ``classic`` keeps the classic numbers).
     All numbers are None when the data were insufficient.
     """
 
@@ -190,7 +190,6 @@ class ElementDiagnosis:
                 gain_verdict=p.gain_verdict,
                 tau_verdict=p.tau_verdict,
                 delay_verdict=p.delay_verdict,
-                reasons=list(p.reasons),
                 warnings=list(p.warnings),
                 quality=dict(p.quality),
                 classic=self.classic,

@@ -24,7 +24,15 @@ from ..core.pmr import Diagnosis, ElementDiagnosis
 from .layout import BOOL_KEYS as _BOOL_KEYS
 from .layout import FLOAT_KEYS as _FLOAT_KEYS
 from .layout import INT_KEYS as _INT_KEYS
-from .layout import diagnosis_from_array, parametric_pairs, read_estimates, read_signal, seconds_from_stamp, status_values
+from .layout import (
+    PARAMETRIC_FLOAT_KEYS,
+    diagnosis_from_array,
+    parametric_pairs,
+    read_estimates,
+    read_signal,
+    seconds_from_stamp,
+    status_values,
+)
 
 __all__ = [
     "ESTIMATE_QUANTITIES", "LEVEL_NAMES", "clock_message", "diagnosis_from_array", "diagnostic_array", "element_level", "estimates_message",
@@ -33,12 +41,6 @@ __all__ = [
 
 ESTIMATE_QUANTITIES = ("gain_ratio", "tau_index", "delay_mismatch_samples")
 """Quantities of each element on the estimates topic, in this order."""
-
-PARAMETRIC_QUANTITIES = (
-    "gain_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
-    "tau_mismatch_pct", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
-)
-"""Further quantities on the estimates topic when the parametric method is used."""
 
 LEVEL_NAMES = {DiagnosticStatus.OK: "OK", DiagnosticStatus.WARN: "WARN", DiagnosticStatus.ERROR: "ERROR", DiagnosticStatus.STALE: "STALE"}
 
@@ -131,13 +133,10 @@ def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> Jo
     """The numeric estimates of a diagnosis with verdicts, named ``<element>/<quantity>``."""
     names, values = [], []
     for name, element in diagnosis.elements.items():
-        for quantity in ESTIMATE_QUANTITIES:
-            value = getattr(element, quantity)
-            names.append(f"{name}/{quantity}")
-            values.append(math.nan if value is None else float(value))
+        quantities = {quantity: getattr(element, quantity) for quantity in ESTIMATE_QUANTITIES}
         pairs = parametric_pairs(element)
-        for quantity in PARAMETRIC_QUANTITIES if pairs else ():
-            value = pairs[quantity]
+        quantities.update({quantity: pairs[quantity] for quantity in PARAMETRIC_FLOAT_KEYS if pairs})
+        for quantity, value in quantities.items():
             names.append(f"{name}/{quantity}")
             values.append(math.nan if value is None else float(value))
     return signal_message(values, names, stamp_s, frame_id)

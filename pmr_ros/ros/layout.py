@@ -25,8 +25,7 @@ PARAMETRIC_FLOAT_KEYS = (
     "gain_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
     "tau_mismatch_pct", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
 )
-"""KeyValues of the parametric method; ``*_low``/``*_high`` bound the interval."""
-PARAMETRIC_TEXT_KEYS = ("gain_verdict", "tau_verdict", "delay_verdict")
+"""Numeric KeyValues of the parametric method (also on /pmr/estimates); ``*_low``/``*_high`` bound the interval."""
 QUALITY_PREFIX = "quality."
 CLASSIC_PREFIX = "classic."
 LIST_SEPARATOR = " | "
