@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import fcntl
 import os
+import shutil
+import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -62,7 +64,7 @@ def ros_domain(monkeypatch) -> Iterator[int]:
 @pytest.fixture
 def ros_context(ros_domain):
     """An initialised rclpy Context of this test alone, shut down afterwards."""
-    rclpy = pytest.importorskip("rclpy")
+    import rclpy  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
     from rclpy.context import Context
 
     context = Context()
@@ -79,3 +81,12 @@ def spin_until(executor, predicate: Callable[[], bool], timeout_s: float = 10.0)
             return False
         executor.spin_once(timeout_sec=0.02)
     return True
+
+
+def console_script(name: str) -> str:
+    """Path of an installed console script; its absence fails the test (./test.sh installs them all)."""
+    candidate = Path(sys.executable).parent / name
+    found = str(candidate) if candidate.is_file() else shutil.which(name)
+    if not found:
+        pytest.fail(f"console script {name} not installed: run ./test.sh, which installs pmr_ros with pip install -e .")
+    return found

@@ -7,18 +7,14 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-
-pytest.importorskip("rclpy")
-
-from ros_fixtures import spin_until  # noqa: E402
+import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
+from ros_fixtures import console_script, spin_until  # noqa: E402
 
 from pmr_ros.bag.offline import diagnose_bag, verdict_numbers  # noqa: E402
 from pmr_ros.bag.reader import open_bag  # noqa: E402
@@ -35,14 +31,6 @@ ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
 EXPECTED = json.loads((ROOT / "bags" / "wood_berry_full.expected.json").read_text())
 SIGNAL_TOPICS = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
-
-
-def _pmr_ros() -> list[str]:
-    candidate = Path(sys.executable).parent / "pmr-ros"
-    found = str(candidate) if candidate.is_file() else shutil.which("pmr-ros")
-    if not found:
-        pytest.skip("console script pmr-ros not installed (pip install -e .)")
-    return [found]
 
 
 def _diagnostician(context, bag):
@@ -97,7 +85,7 @@ def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_pat
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(diagnostician)
     log = open(tmp_path / "replay.log", "w+")  # noqa: SIM115 - closed in finally
-    proc = subprocess.Popen([*_pmr_ros(), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    proc = subprocess.Popen([console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
     try:
         done = lambda: diagnostician.last_published is not None or proc.poll() is not None  # noqa: E731
         assert spin_until(executor, done, 120.0)
@@ -150,7 +138,7 @@ def _stop(proc: subprocess.Popen, log) -> None:
 
 def _start_recorder(tmp_path: Path, bag: Path, *extra: str) -> tuple[subprocess.Popen, object]:
     log = open(tmp_path / "record.log", "w+")  # noqa: SIM115 - closed by the caller
-    proc = subprocess.Popen([*_pmr_ros(), "record", str(bag), "--flush-period", "0.2", *extra], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    proc = subprocess.Popen([console_script("pmr-ros"), "record", str(bag), "--flush-period", "0.2", *extra], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
     return proc, log
 
 
@@ -251,7 +239,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, stop):
     path = tmp_path / "stopped"
-    proc = subprocess.Popen([*_pmr_ros(), "run", "--samples", "500000", "--bag", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([console_script("pmr-ros"), "run", "--samples", "500000", "--bag", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         _wait_until_flushed(path, topic("measured_output").name, 1000, timeout_s=60.0)
         proc.send_signal(stop)

@@ -11,9 +11,7 @@ from functools import cache
 
 import numpy as np
 import pytest
-
-rclpy = pytest.importorskip("rclpy")
-
+import rclpy  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from rcl_interfaces.msg import ParameterType  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
