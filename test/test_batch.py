@@ -53,3 +53,9 @@ def test_mpc_matrices_are_read_only_copies(wood_berry):
     assert m.unconstrained_gain.shape == (Nc * n, Nc * n)
     with pytest.raises(ValueError):
         m.A[0, 0] = 1.0
+
+
+def test_worker_pools_start_from_a_fork_server():
+    from pmr_ros.core.batch import worker_context
+
+    assert worker_context().get_start_method() == "forkserver"

@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pmr_ros.core.batch import simulate_many
+from pmr_ros.core.batch import simulate_many, worker_context
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.config import load_config
 from pmr_ros.core.diagnosis import diagnose_with
@@ -62,7 +62,7 @@ def fifty_seeds():
     """Full and no-mismatch scenarios over 50 seeds, two processes."""
     seeds = list(range(1, SEEDS + 1))
     jobs = [(s, seeds[h::2]) for s in ("full", "none") for h in range(2)]
-    with ProcessPoolExecutor(2) as pool:
+    with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
         parts = list(pool.map(_campaign, jobs))
     return {"full": parts[0] + parts[1], "none": parts[2] + parts[3]}
 

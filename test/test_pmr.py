@@ -5,6 +5,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from pmr_ros.core.batch import worker_context
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.config import load_config
 from pmr_ros.core.pmr import InsufficientData, check_record, diagnose, estimate_pmr
@@ -46,7 +47,7 @@ def _run(args):
 def baseline_runs():
     """Every scenario x 5 seeds on Wood-Berry and on the 3x3, two processes at a time."""
     jobs = [(path, s, seed) for path in (None, "config/three_by_three.yaml") for s in ("none", "gain", "time_constant", "delay", "full") for seed in SEEDS]
-    with ProcessPoolExecutor(2) as pool:
+    with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
         results = list(pool.map(_run, jobs))
     out = {}
     for (path, _, _), (scenario, seed, d) in zip(jobs, results, strict=True):

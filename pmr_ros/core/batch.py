@@ -21,6 +21,7 @@ floating-point summation order (tested to 1e-9).
 
 from __future__ import annotations
 
+import multiprocessing
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -189,3 +190,15 @@ def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: in
 def simulate_many(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[RunRecord]:
     """The records of :func:`run_lockstep` (one per ``(scenario, seed)`` in ``runs``)."""
     return run_lockstep(config, runs, samples).records
+
+
+def worker_context() -> multiprocessing.context.BaseContext:
+    """The multiprocessing context for pools of batch runs: ``forkserver``.
+
+    A plain fork copies a process that may already hold ROS 2 middleware
+    threads (a node set run in the same process, as in the test suite or a
+    shell that also diagnoses); such a child can crash in C++ code it
+    inherited mid-operation.  Workers from a fork server start from a clean
+    process instead.
+    """
+    return multiprocessing.get_context("forkserver")

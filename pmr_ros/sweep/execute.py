@@ -9,7 +9,6 @@ interrupted sweep keeps them and ``resume`` skips the runs already there.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import signal
 import sys
@@ -20,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.batch import run_lockstep
+from ..core.batch import run_lockstep, worker_context
 from ..core.closed_loop import RunRecord
 from ..core.config import PmrConfig
 from ..core.diagnosis import diagnose_with
@@ -212,7 +211,7 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
             for task in ordered:
                 record(*_work(task))
         else:
-            pool = multiprocessing.get_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
+            pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
             try:
                 for task, rows, cpu_s in pool.imap_unordered(_work, ordered):
                     record(task, rows, cpu_s)
