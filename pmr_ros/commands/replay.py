@@ -10,7 +10,6 @@ The diagnostician's own outputs are left out unless ``--all-topics``: a live
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import time
 
@@ -51,35 +50,33 @@ def handle(args: argparse.Namespace) -> int:
 
         from ..nodes.bag_player import DEFAULT_MAX_SAMPLES_PER_S, BagPlayerNode
         from ..ros.contract import topic
+        from ..ros.signals import stop_requests
     except ImportError as exc:
         raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None
-    stop: list[int] = []
-    previous = {sig: signal.signal(sig, lambda number, frame: stop.append(number)) for sig in (signal.SIGINT, signal.SIGTERM)}
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    node = None
-    try:
+    with stop_requests() as stop:
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+        node = None
         try:
-            node = BagPlayerNode(bag, include_outputs=args.all_topics)
-        except BagError as exc:
-            raise CommandError(str(exc)) from None
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        signals = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
-        if args.wait and not node.wait_for_subscribers(signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)):
-            print(f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} after {args.wait} s; replaying anyway", file=sys.stderr)
-        started = time.monotonic()
-        limit = DEFAULT_MAX_SAMPLES_PER_S if args.max_samples_per_second is None else (args.max_samples_per_second or None)
-        count = node.play(rate=args.rate, max_samples_per_s=limit, should_stop=lambda: bool(stop))
-        wall = time.monotonic() - started
-        end = time.monotonic() + max(args.linger, 0.0)
-        while time.monotonic() < end and not stop:
-            executor.spin_once(timeout_sec=0.05)
-        total = sum(node.published.values())
-        print(f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s ({total / wall if wall > 0 else 0:.0f} msgs/s)", file=sys.stderr)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+            try:
+                node = BagPlayerNode(bag, include_outputs=args.all_topics)
+            except BagError as exc:
+                raise CommandError(str(exc)) from None
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            signals = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
+            if args.wait and not node.wait_for_subscribers(signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)):
+                print(f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} after {args.wait} s; replaying anyway", file=sys.stderr)
+            started = time.monotonic()
+            limit = DEFAULT_MAX_SAMPLES_PER_S if args.max_samples_per_second is None else (args.max_samples_per_second or None)
+            count = node.play(rate=args.rate, max_samples_per_s=limit, should_stop=lambda: bool(stop))
+            wall = time.monotonic() - started
+            end = time.monotonic() + max(args.linger, 0.0)
+            while time.monotonic() < end and not stop:
+                executor.spin_once(timeout_sec=0.05)
+            total = sum(node.published.values())
+            print(f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s ({total / wall if wall > 0 else 0:.0f} msgs/s)", file=sys.stderr)
+        finally:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
     return 130 if stop else 0

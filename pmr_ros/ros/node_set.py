@@ -10,9 +10,7 @@ the round trips allow and gives exactly the batch core's data.
 from __future__ import annotations
 
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,6 +27,7 @@ from ..core.pmr import Diagnosis
 from .contract import topic
 from .convert import diagnosis_from_array, read_estimates, read_signal
 from .parameters import parameter_overrides
+from .signals import stop_requests
 
 DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
@@ -201,71 +200,47 @@ def run_node_set(
     _init_context(context, domain_id, private)
     nodes: list[Node] = []
     executor = None
-    stop_requests: list[int] = []
-    previous_handlers = _defer_signals(stop_requests)
-    try:
-        nodes = build_nodes(config, context, extra)
-        diagnostician, plant = nodes[0], nodes[-1]
-        listener = _Listener(context, config, record)
-        nodes.append(listener)
-        if extra_nodes is not None:
-            flat = flatten_parameters(config.parameters)
-            flat.update(extra)
-            nodes.extend(extra_nodes(context, flat))
-        executor = make_executor(executor_kind, context)
-        for node in nodes:
-            executor.add_node(node)
-        started = None
-        last_progress, last_sample = time.monotonic(), plant.sample
-        while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
-            executor.spin_once(timeout_sec=0.05)
-            if stop_requests:
-                raise KeyboardInterrupt
-            now = time.monotonic()
-            if plant.sample != last_sample:
-                if started is None:
-                    started = now
-                last_progress, last_sample = now, plant.sample
-            elif now - last_progress > stall_timeout_s and not plant.finished:
-                raise NodeSetError(f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)")
-            elif plant.finished and now - last_progress > stall_timeout_s:
-                raise NodeSetError(f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample")
-        wall = time.monotonic() - (started or time.monotonic())
-        diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
-        record_out = None
-        if record:
-            record_out = RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"])
-        estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
-        return NodeSetRun(config, diagnosis, info, estimates, record_out, wall, list(diagnostician.warnings))
-    finally:
-        _restore_signals(previous_handlers)
-        if executor is not None:
-            executor.shutdown(timeout_sec=1.0)
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown(context=context)
-
-
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-
-def _defer_signals(requests: list[int]) -> dict:
-    """While the set spins, Ctrl-C/SIGTERM only note a request, checked between spins.
-
-    An exception raised by a signal inside the executor's C++ spin reaches
-    Python as a garbled RuntimeError; between spins it is a clean KeyboardInterrupt.
-    Returns the previous handlers (none when not on the main thread).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    return {sig: signal.signal(sig, lambda number, frame: requests.append(number)) for sig in STOP_SIGNALS}
-
-
-def _restore_signals(previous: dict) -> None:
-    defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
-    for sig, handler in previous.items():
-        # None: the handler was installed outside Python (rclpy's); fall back to the default
-        signal.signal(sig, handler if handler is not None else defaults[sig])
+    with stop_requests() as stop:
+        try:
+            nodes = build_nodes(config, context, extra)
+            diagnostician, plant = nodes[0], nodes[-1]
+            listener = _Listener(context, config, record)
+            nodes.append(listener)
+            if extra_nodes is not None:
+                flat = flatten_parameters(config.parameters)
+                flat.update(extra)
+                nodes.extend(extra_nodes(context, flat))
+            executor = make_executor(executor_kind, context)
+            for node in nodes:
+                executor.add_node(node)
+            started = None
+            last_progress, last_sample = time.monotonic(), plant.sample
+            while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
+                executor.spin_once(timeout_sec=0.05)
+                if stop:
+                    raise KeyboardInterrupt
+                now = time.monotonic()
+                if plant.sample != last_sample:
+                    if started is None:
+                        started = now
+                    last_progress, last_sample = now, plant.sample
+                elif now - last_progress > stall_timeout_s and not plant.finished:
+                    raise NodeSetError(f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)")
+                elif plant.finished and now - last_progress > stall_timeout_s:
+                    raise NodeSetError(f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample")
+            wall = time.monotonic() - (started or time.monotonic())
+            diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
+            record_out = None
+            if record:
+                record_out = RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"])
+            estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
+            return NodeSetRun(config, diagnosis, info, estimates, record_out, wall, list(diagnostician.warnings))
+        finally:
+            if executor is not None:
+                executor.shutdown(timeout_sec=1.0)
+            for node in nodes:
+                node.destroy_node()
+            rclpy.try_shutdown(context=context)
 
 
 def _init_context(context: Context, domain_id: int | None, private: bool) -> None:
