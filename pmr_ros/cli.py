@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .core.config import ConfigError
+from .ros.signals import RosInitError
 
 COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
@@ -51,7 +52,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _interrupt_on_sigterm()
     try:
         return args.handler(args)
-    except (ConfigError, CommandError) as exc:
+    except (ConfigError, CommandError, RosInitError) as exc:
         print(f"pmr-ros: error: {exc}", file=sys.stderr)
         return getattr(exc, "code", EXIT_USAGE)
     except KeyboardInterrupt:

@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from pmr_ros.ros.signals import STOP_SIGNALS, stop_requests
+from pmr_ros.ros.signals import STOP_SIGNALS, RosInitError, rclpy_session, stop_requests
 
 
 @pytest.mark.parametrize("number", STOP_SIGNALS)
@@ -37,3 +37,24 @@ def test_off_the_main_thread_nothing_is_installed():
     thread.start()
     thread.join()
     assert seen["handlers"] == before and seen["stop"] == []
+
+
+def test_an_rclpy_session_runs_rclpy_until_its_end_and_takes_sigterm_as_a_request(ros_domain):
+    import rclpy
+
+    with rclpy_session([]) as stop:
+        assert rclpy.ok()
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):
+            if stop:
+                break
+        assert stop == [signal.SIGTERM] and rclpy.ok()  # noted, rclpy left running
+    assert not rclpy.ok()
+
+
+def test_an_rclpy_session_that_cannot_start_says_why_and_leaves_the_handlers(ros_domain):
+    before = {sig: signal.getsignal(sig) for sig in STOP_SIGNALS}
+    with pytest.raises(RosInitError, match="nonexistent"):
+        with rclpy_session(["prog", "--ros-args", "--params-file", "/nonexistent/params.yaml"]):
+            pass
+    assert {sig: signal.getsignal(sig) for sig in STOP_SIGNALS} == before

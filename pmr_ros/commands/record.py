@@ -52,12 +52,10 @@ def handle(args: argparse.Namespace) -> int:
         config = load_config(args.config, run_overrides(args))
         run_config = RunConfig(config.parameters, source=str(config.source))
     try:
-        import rclpy
-        from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-        from rclpy.signals import SignalHandlerOptions
+        from rclpy.executors import SingleThreadedExecutor
 
         from ..nodes.bag_recorder import BagRecorderNode
-        from ..ros.signals import stop_requests
+        from ..ros.signals import rclpy_session
     except ImportError as exc:
         raise CommandError(f"recording needs rclpy ({exc}); install pmr_ros[ros]") from None
     flush = args.flush_period or DEFAULT_FLUSH_PERIOD_S
@@ -65,27 +63,22 @@ def handle(args: argparse.Namespace) -> int:
         writer = BagWriter(args.bag, storage=args.storage, force=args.force, flush_period_s=flush)
     except BagError as exc:
         raise CommandError(str(exc)) from None
-    with stop_requests() as stop:
-        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-        node = None
+    node = None
+    with rclpy_session() as stop:
         try:
             node = BagRecorderNode(writer, run_config=run_config, parameter_source=None if args.no_parameters else "pmr_diagnostician", flush_period_s=flush)
             executor = SingleThreadedExecutor()
             executor.add_node(node)
             print(f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
             deadline = time.monotonic() + args.duration if args.duration else None
-            try:
-                while not stop and (deadline is None or time.monotonic() < deadline):
-                    executor.spin_once(timeout_sec=0.1)
-            except ExternalShutdownException:
-                pass
+            while not stop and (deadline is None or time.monotonic() < deadline):
+                executor.spin_once(timeout_sec=0.1)
         finally:
             if node is not None:
                 node.close()
                 node.destroy_node()
             else:
                 writer.close()
-            rclpy.try_shutdown()
     counts = ", ".join(f"{name} {n}" for name, n in writer.counts.items())
     print(f"pmr-ros record: {writer.message_count} messages in {writer.path} ({counts})", file=sys.stderr)
     return 0

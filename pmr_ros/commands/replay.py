@@ -44,18 +44,15 @@ def handle(args: argparse.Namespace) -> int:
     except BagError as exc:
         raise CommandError(str(exc)) from None
     try:
-        import rclpy
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.signals import SignalHandlerOptions
 
         from ..nodes.bag_player import DEFAULT_MAX_SAMPLES_PER_S, BagPlayerNode
         from ..ros.contract import topic
-        from ..ros.signals import stop_requests
+        from ..ros.signals import rclpy_session
     except ImportError as exc:
         raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None
-    with stop_requests() as stop:
-        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-        node = None
+    node = None
+    with rclpy_session() as stop:
         try:
             try:
                 node = BagPlayerNode(bag, include_outputs=args.all_topics)
@@ -78,5 +75,4 @@ def handle(args: argparse.Namespace) -> int:
         finally:
             if node is not None:
                 node.destroy_node()
-            rclpy.try_shutdown()
     return 130 if stop else 0

@@ -6,18 +6,16 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.signals import SignalHandlerOptions
 
 from ..core.config import ConfigError
 from .contract import ContractError, topic
 from .parameters import FLOAT_RANGES, INT_RANGES, default_parameters, describe, ros_value, validate
-from .signals import stop_requests
+from .signals import RosInitError, rclpy_session
 
 SPIN_TIMEOUT_S = 0.1
 """Longest a node process takes to notice Ctrl-C or SIGTERM [s]."""
@@ -123,30 +121,21 @@ def run_node(factory: Callable[[], Node], program: str, args: list[str] | None =
     Configuration errors end with one line on stderr and exit code 2, never a
     traceback; Ctrl-C and SIGTERM end with 0 (see :mod:`pmr_ros.ros.signals`).
     """
-    with stop_requests() as stop:
-        try:
-            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except Exception as exc:  # rcl reports a bad --ros-args/params file as a generic RCLError
-            print(f"{program}: error: {exc}", file=sys.stderr)
-            return 2
-        node = None
-        executor = None
-        code = 0
-        try:
-            node = factory()
-            executor = SingleThreadedExecutor()
-            executor.add_node(node)
-            while not stop:
-                executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        except (ConfigError, ContractError) as exc:
-            print(f"{program}: error: {exc}", file=sys.stderr)
-            code = 2
-        finally:
-            if executor is not None:
-                executor.shutdown(timeout_sec=1.0)
-            if node is not None:
-                node.destroy_node()
-            rclpy.try_shutdown()
-    return code
+    node = executor = None
+    try:
+        with rclpy_session(args) as stop:
+            try:
+                node = factory()
+                executor = SingleThreadedExecutor()
+                executor.add_node(node)
+                while not stop:
+                    executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+            finally:
+                if executor is not None:
+                    executor.shutdown(timeout_sec=1.0)
+                if node is not None:
+                    node.destroy_node()
+    except (RosInitError, ConfigError, ContractError) as exc:
+        print(f"{program}: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
