@@ -1,8 +1,9 @@
 """``pmr-ros replay BAG``: publish a bag's messages on their topics for live nodes.
 
-Sample by sample in simulated-time lockstep (/clock first), by default as fast
-as subscribers in other processes safely keep up (acknowledged blocks, at most
-1000 samples/s, ``--max-samples-per-second``), or at the recorded pace times ``--rate``.
+Sample by sample in simulated-time lockstep (/clock first), by default paced so
+subscribers in other processes keep up (at most 1000 samples/s,
+``--max-samples-per-second``; see :data:`pmr_ros.nodes.bag_player.DEFAULT_MAX_SAMPLES_PER_S`
+for why acknowledgements cannot do it), or at the recorded pace times ``--rate``.
 The diagnostician's own outputs are left out unless ``--all-topics``: a live
 ``pmr_diagnostician`` listening to the replay reacts as it did to the run.
 """
@@ -22,11 +23,11 @@ def register(sub) -> None:
         help="publish a recorded bag's messages on their topics (lockstep simulated time)",
         description=(
             "Publish the messages of a pmr_ros bag on their topics with the contract's QoS: /clock and r, u, y sample by sample, "
-            "as fast as possible (lockstep, waiting for subscribers' acknowledgements) or at the recorded pace times --rate."
+            "in lockstep, paced by --max-samples-per-second so that subscribers in other processes keep up, or at the recorded pace times --rate."
         ),
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
-    p.add_argument("--rate", type=positive_float, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, as fast as possible)")
+    p.add_argument("--rate", type=positive_float, default=None, metavar="R", help="replay at R times the recorded pace (default: lockstep, paced by --max-samples-per-second)")
     p.add_argument("--max-samples-per-second", type=float, default=None, metavar="N",
                    help="lockstep pace limit (default: 1000; 0: unbounded, only if every subscriber keeps up)")
     p.add_argument("--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)")

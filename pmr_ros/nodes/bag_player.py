@@ -146,7 +146,7 @@ class BagPlayerNode(Node):
         Parameters
         ----------
         rate : float, optional
-            None: lockstep as fast as possible; else the recorded pace times ``rate``.
+            None: lockstep, paced by ``max_samples_per_s``; else the recorded pace times ``rate``.
         max_samples_per_s : float or None
             Lockstep: at most this many samples per second of wall time
             [samples/s]; None: unbounded (only for subscribers known to keep
