@@ -11,7 +11,6 @@ channel.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..resources import share_dir
 from .foptd import SCENARIOS, FoptdMatrix, Mismatch, element_name
 from .mpc import MpcTuning
 from .parametric import ParametricSettings
@@ -35,22 +35,6 @@ class ConfigError(ValueError):
     def __init__(self, source: str | Path, field: str, value: Any, reason: str) -> None:
         self.source, self.field, self.value, self.reason = str(source), field, value, reason
         super().__init__(f"{source}: {field} = {value!r}: {reason}")
-
-
-def share_dir(folder: str, marker: str) -> Path:
-    """A data folder of the package that holds the file ``marker``.
-
-    The source tree's ``<folder>/`` in an editable install, else the installed
-    ``share/pmr_ros/<folder>`` (where ``setup.py`` puts it, as colcon would).
-    """
-    here = Path(__file__).resolve().parents[2] / folder
-    if (here / marker).is_file():
-        return here
-    for prefix in (sys.prefix, sys.base_prefix):
-        candidate = Path(prefix) / "share" / "pmr_ros" / folder
-        if (candidate / marker).is_file():
-            return candidate
-    raise FileNotFoundError(f"cannot find pmr_ros's {folder}/ folder ({marker})")
 
 
 def config_dir() -> Path:
