@@ -82,12 +82,28 @@ Another method (e.g. a parametric fit) registers here and fills the same fields.
 
 @dataclass(frozen=True)
 class PointTask:
-    """The runs of one sweep point still to do."""
+    """The runs of one sweep point still to do, and what the point's MPC tuning depends on.
+
+    Attributes
+    ----------
+    point : SweepPoint
+    runs : tuple of (str, int)
+        The (scenario, seed) runs still to do; after an interruption only some of the plan's.
+    methods : tuple of str
+        Diagnosis methods applied to every run.
+    samples : int
+        Closed-loop samples per run [sample].
+    scenarios : tuple of str
+        Every scenario of the plan.  The MPC tuning is chosen to stabilise the
+        plants of all of them, not of ``runs`` only, so a point's tuning (and
+        every number of its runs) is the same however the sweep was interrupted.
+    """
 
     point: SweepPoint
     runs: tuple[tuple[str, int], ...]
     methods: tuple[str, ...]
     samples: int
+    scenarios: tuple[str, ...]
 
 
 def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
@@ -99,7 +115,7 @@ def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
     point = task.point
     model = point.model(config.model)
     base = replace(config, model=model)
-    chosen = stable_tuning(model, [base.plant(s) for s in sorted({s for s, _ in task.runs})], config.mpc)
+    chosen = stable_tuning(model, [base.plant(s) for s in task.scenarios], config.mpc)
     point_config = replace(base, mpc=chosen.tuning)
     result = run_lockstep(point_config, task.runs, task.samples)
     names = model.element_names()
@@ -150,7 +166,7 @@ def plan_tasks(config: PmrConfig, plan: SweepPlan, done: set[tuple]) -> list[Poi
             if any((m, point.sweep, round(point.nu, 9), run[0], run[1]) not in done for m in plan.methods)
         )
         if missing:
-            tasks.append(PointTask(point, missing, plan.methods, plan.samples))
+            tasks.append(PointTask(point, missing, plan.methods, plan.samples, plan.scenarios))
     return tasks
 
 
