@@ -6,6 +6,7 @@ import csv
 import io
 import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
 from pmr_ros.sweep.plan import PlanError, SweepPlan, SweepPoint, element_index, nu_grid, parse_nu_list, row_time_constant_ratio
 from pmr_ros.sweep.progress import ProgressBar, format_duration
+from pmr_ros.sweep.report import paper_comparison_applies
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
 SAMPLES = 2048
@@ -110,6 +112,9 @@ def test_small_sweep_csv_shape(small_sweep):
 def test_small_sweep_report(small_sweep):
     report = (small_sweep / "reproduction.md").read_text()
     assert "Breakdown points" in report and "eq. 16" in report
+    # The shipped Wood-Berry column: the paper's figures stand beside ours, and the configured loop is quoted.
+    assert "the paper reports ν ≈ 2.25" in report and "ν ≈ 2.5" in report and "Np = 40, Nc = 8" in report
+    assert "τ11/τ12 = 16.7ν/21 for the G11 sweep, τ21/τ22 = 10.9ν/14.4 for the G21 sweep" in report
     figures = sorted(p.name for p in (small_sweep / "figures").glob("*.png"))
     assert figures == sorted(f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric"))
     assert "Classic and parametric side by side" in report
@@ -273,6 +278,54 @@ def test_interrupt_keeps_finished_points(tmp_path, wood_berry, monkeypatch):
 def test_report_only_needs_results(tmp_path, capsys):
     assert main(["sweep", "--out", str(tmp_path), "--report-only"]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+# A 3x3 system with its own loop: none of the report's settings may be Wood-Berry's.
+OTHER_LOOP = """
+    mpc:
+      prediction_horizon: 50
+      control_horizon: 6
+    noise:
+      std: 0.15
+"""
+
+
+def test_report_of_another_system_quotes_its_own_configuration(tmp_path):
+    config_file = tmp_path / "three_by_three_np50.yaml"
+    config_file.write_text((Path("config") / "three_by_three.yaml").read_text() + OTHER_LOOP)
+    config = load_config(config_file)
+    assert (config.mpc.prediction_horizon, config.mpc.control_horizon, float(config.noise_std[0])) == (50, 6, 0.15)
+    out = tmp_path / "out"
+    argv = ["sweep", "--config", str(config_file), "--out", str(out), "--elements", "G11,G23", "--nu", "1,1.5", "--seeds", "1",
+            "--samples", str(SAMPLES), "--methods", "classic", "--jobs", "1", "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    report = (out / "reproduction.md").read_text()
+    expected = [
+        "three_by_three", "Np = 50", "Nc = 6", "σ = 0.15", "Ts = 1 t.u.", "τ of G11 = 10·ν t.u.", "τ of G23 = 11·ν t.u.",
+        f"τ11/(τ12·τ13)^(1/2) = 10ν/{np.sqrt(12.0 * 14.0):.4g}", f"τ23/(τ21·τ22)^(1/2) = 11ν/{np.sqrt(15.0 * 13.0):.4g}",
+        "ΔK = [10, 0, -12, 0, 15, 0, -10, 0, 12] %", "ΔD = [0, 0, 1, 2, 0, 0, 0, 1, 0] samples", "the paper comparison does not apply",
+        "| G33 |", "2048 samples per run",
+    ]  # fmt: skip
+    for text in expected:
+        assert text in report, text
+    # Wood-Berry's settings and the paper's published figures: none may appear for another system.
+    wood_berry = [
+        "16.7ν", "16.7·ν", "10.9ν", "10.9·ν", "/21 ", "14.4 for", "Np = 40", "Nc = 8", "Ts = 1 min", "·ν min", "eq. (15) on", "paper eq. 16",
+        "paper eq. 17", "paper ΔD", "the paper reports", "the paper:", "paper's breakdown", "Wood-Berry matrix", "eq. (19)", "beside the paper",
+        "the five of Table 2", "Reproduction:", "+20.85", "-37.49", "ν ≈ 2.25", "ν ≈ 2.5",
+    ]  # fmt: skip
+    for text in wood_berry:
+        assert text not in report, text
+
+
+def test_paper_comparison_applies_to_the_shipped_wood_berry_column_only(wood_berry):
+    assert paper_comparison_applies(wood_berry)
+    assert not paper_comparison_applies(load_config("config/three_by_three.yaml"))
+    # Still named wood_berry, but another system or mismatch than the paper's: its numbers do not compare.
+    assert not paper_comparison_applies(load_config(overrides={"system": {"time_constant": [16.7, 21.0, 10.9, 20.0]}}))
+    assert not paper_comparison_applies(load_config(overrides={"mismatch": {"gain_pct": 5.0}}))
+    # Settings of the loop do not change the system: the comparison still applies.
+    assert paper_comparison_applies(load_config(overrides={"mpc": {"prediction_horizon": 60}, "noise": {"std": 0.2}}))
 
 
 # --- pieces -------------------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.config import PmrConfig
+from ..core.config import PmrConfig, load_config
 from ..core.foptd import SCENARIOS
 from .analysis import (
     DIAGNOSES,
@@ -27,6 +27,8 @@ from .analysis import (
     run_correctness,
     summarize,
 )
+from .plan import row_time_constant_ratio
+from .tuning import HORIZON_STEP, STABILITY_LIMIT
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -40,6 +42,11 @@ PAPER_DELAY = {"G21": 2}
 PAPER_BREAKDOWN_NU = {"G11": 2.25, "G21": 2.5}
 """Section 3.6: "the PMR starts to fail for G11 at about nu = 2.25 and for G12 [G21] at about 2.5"."""
 PAPER_FIGURES = {("G11", "gain"): 2, ("G11", "tau"): 3, ("G11", "delay"): 4, ("G21", "gain"): 5, ("G21", "tau"): 6, ("G21", "delay"): 7}
+PAPER_SYSTEM = "wood_berry"
+"""``system.name`` of the paper's system; the PAPER_* numbers are its published figures."""
+
+PARAMETRIC_TARGET_SHARE = 0.90
+"""The parametric method's target: at least this share of a point's seeds right on gain, tau and delay."""
 
 SCENARIO_LABELS = {"none": "1 no MPM", "gain": "2 gain only", "time_constant": "3 time constant only", "delay": "4 delay only", "full": "5 full MPM"}
 QUANTITY = {
@@ -58,6 +65,39 @@ def _by(summary: list[PointSummary], **match) -> list[PointSummary]:
     return [p for p in summary if all(getattr(p, k) == v for k, v in match.items())]
 
 
+def paper_comparison_applies(config: PmrConfig) -> bool:
+    """Whether the paper's published numbers (``PAPER_*``) may stand beside this sweep's.
+
+    They are figures of the Wood-Berry column under the paper's eq. (15)
+    mismatch, so the configured system must be that one: named ``wood_berry``
+    with the model (K, tau, theta, Ts) and the mismatch of the shipped
+    ``wood_berry.yaml``, which holds the paper's values.  A Wood-Berry file
+    with other time constants or mismatch is another system.
+    """
+    if config.model.name != PAPER_SYSTEM:
+        return False
+    reference = load_config()  # the shipped Wood-Berry column
+    model, paper = config.model, reference.model
+    if model.gain.shape != paper.gain.shape or model.sample_time != paper.sample_time:
+        return False
+    same_model = all(np.array_equal(getattr(model, f), getattr(paper, f)) for f in ("gain", "time_constant", "delay"))
+    same_mismatch = all(np.array_equal(getattr(config.mismatch, f), getattr(reference.mismatch, f)) for f in ("gain_pct", "time_constant_pct", "delay_samples"))
+    return same_model and same_mismatch
+
+
+def _paper_breakdown(element_swept: str, paper: bool) -> float | None:
+    """The paper's breakdown nu of the sweep of ``element_swept``; None when the paper has none or does not apply."""
+    return PAPER_BREAKDOWN_NU.get(element_swept) if paper else None
+
+
+def _channels(values: np.ndarray | float) -> str:
+    """One number when every channel has the same, else the row-major list ``[a, b, ...]``."""
+    v = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
+    if np.all(v == v[0]):
+        return f"{v[0]:g}"
+    return "[" + ", ".join(f"{x:g}" for x in v) + "]"
+
+
 def _tau_axis(ax: Axes, points: list[PointSummary], element: str) -> None:
     """Linear while the indices stay small, symmetric-log once they explode (at large nu)."""
     from matplotlib.ticker import FixedLocator, FuncFormatter
@@ -73,7 +113,7 @@ def _tau_axis(ax: Axes, points: list[PointSummary], element: str) -> None:
 
 
 def plot_sweep(
-    summary: list[PointSummary], *, method: str, element_swept: str, quantity: str, path: Path, tau_threshold: float, elements: list[str], n: int
+    summary: list[PointSummary], *, method: str, element_swept: str, quantity: str, path: Path, tau_threshold: float, elements: list[str], shape: tuple[int, int], paper: bool
 ) -> Path:
     """One figure: ``quantity`` of every element versus nu, one line per scenario.
 
@@ -91,8 +131,10 @@ def plot_sweep(
         The classic time-constant flag threshold [-], drawn on classic tau figures.
     elements : list of str
         Element names, row-major.
-    n : int
-        Panels per row and column of the figure's grid.
+    shape : (int, int)
+        Outputs and inputs of the system: rows and columns of the figure's grid.
+    paper : bool
+        Mark the paper's breakdown nu and figure number (:func:`paper_comparison_applies`).
 
     Returns
     -------
@@ -106,15 +148,20 @@ def plot_sweep(
 
     points = _by(summary, method=method, element_swept=element_swept)
     axis_labels = PARAMETRIC_QUANTITY if method == "parametric" else QUANTITY
-    fig, axes = plt.subplots(n, n, figsize=(10, 7.2), sharex=True, squeeze=False)
+    n_rows, n_columns = shape
+    fig, axes = plt.subplots(n_rows, n_columns, figsize=(10, 7.2), sharex=True, squeeze=False)
+    paper_nu = _paper_breakdown(element_swept, paper)
     for j, element in enumerate(elements):
-        ax = axes[j // n][j % n]
+        row, column = divmod(j, n_columns)
+        ax = axes[row][column]
         _plot_scenarios(ax, _by(points, element=element), method=method, quantity=quantity, colors=plt.get_cmap("tab10").colors)
         _scale_quantity_axis(ax, points, method=method, quantity=quantity, element=element, tau_threshold=tau_threshold)
-        _decorate_panel(ax, points, element=element, element_swept=element_swept, row=j // n, column=j % n, n=n, y_label=axis_labels[quantity][1])
+        _decorate_panel(ax, points, element=element, element_swept=element_swept, bottom=row == n_rows - 1, left=column == 0, top=row == 0,
+                        y_label=axis_labels[quantity][1], paper_nu=paper_nu)  # fmt: skip
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    fig.suptitle(_figure_title(method=method, element_swept=element_swept, quantity=quantity, name=axis_labels[quantity][0]), fontsize=9)
+    title = _figure_title(method=method, element_swept=element_swept, quantity=quantity, name=axis_labels[quantity][0], paper=paper)
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
@@ -160,18 +207,19 @@ def _scale_quantity_axis(ax: Axes, points: list[PointSummary], *, method: str, q
         ax.set_ylim(max(lo, 0.5), min(hi, 1.5))
 
 
-def _decorate_panel(ax: Axes, points: list[PointSummary], *, element: str, element_swept: str, row: int, column: int, n: int, y_label: str) -> None:
-    """Title, grid, axis labels on the outer panels, the paper's breakdown nu and the top row-ratio axis."""
-    paper = PAPER_BREAKDOWN_NU.get(element_swept)
-    if paper is not None:
-        ax.axvline(paper, color="0.3", lw=0.8, ls=":")
+def _decorate_panel(
+    ax: Axes, points: list[PointSummary], *, element: str, element_swept: str, bottom: bool, left: bool, top: bool, y_label: str, paper_nu: float | None
+) -> None:
+    """Title, grid, axis labels on the outer panels, the paper's breakdown nu (if any) and the top row-ratio axis."""
+    if paper_nu is not None:
+        ax.axvline(paper_nu, color="0.3", lw=0.8, ls=":")
     ax.set_title(element + ("  (swept)" if element == element_swept else ""), fontsize=10)
     ax.grid(True, lw=0.3, alpha=0.5)
-    if row == n - 1:
+    if bottom:
         ax.set_xlabel("ν")
-    if column == 0:
+    if left:
         ax.set_ylabel(y_label, fontsize=8)
-    if row == 0:
+    if top:
         _ratio_axis(ax, points)
 
 
@@ -187,13 +235,14 @@ def _ratio_axis(ax: Axes, points: list[PointSummary]) -> None:
     top.set_xlabel("row time-constant ratio", fontsize=8)
 
 
-def _figure_title(*, method: str, element_swept: str, quantity: str, name: str) -> str:
-    """The figure's title: what is drawn, and the paper's figure it corresponds to."""
+def _figure_title(*, method: str, element_swept: str, quantity: str, name: str, paper: bool) -> str:
+    """The figure's title: what is drawn, and the paper's figure it corresponds to (if the paper applies)."""
     title = f"{name.capitalize()} diagnosis, τ of {element_swept} × ν ({method}); median and min-max over seeds"
-    figure = PAPER_FIGURES.get((element_swept, quantity))
+    figure = PAPER_FIGURES.get((element_swept, quantity)) if paper else None
     if figure:
         title += f" — cf. paper's Fig. {figure}"
-    return title + "\ndashed: injected value; dotted vertical: the paper's breakdown ν"
+    title += "\ndashed: injected value"
+    return title + ("; dotted vertical: the paper's breakdown ν" if _paper_breakdown(element_swept, paper) is not None else "")
 
 
 def write_summary_csv(summary: list[PointSummary], path: Path) -> None:
@@ -231,36 +280,37 @@ def write_report(rows: list[dict], report: Path, config: PmrConfig, manifest: di
     report : Path
         The markdown file to write.
     config : PmrConfig
-        The configuration the sweep ran with.
+        The configuration the sweep ran with: every setting the report quotes comes from it.
     manifest : dict
         The sweep folder's manifest (wall and CPU time, jobs).
 
     Returns
     -------
     list of Path
-        The figure paths.  Every number in the report comes from ``rows``.
+        The figure paths.  Every result in the report comes from ``rows``.
     """
     threshold = config.pmr.tau_index_threshold
     summary = summarize(rows, threshold)
     methods = sorted({p.method for p in summary})
     swept = list(dict.fromkeys(p.element_swept for p in summary))
+    paper = paper_comparison_applies(config)
     figures_dir = report.parent / "figures"
     written = [
         plot_sweep(
-            summary, method=method, element_swept=element_swept, quantity=quantity, tau_threshold=threshold,
+            summary, method=method, element_swept=element_swept, quantity=quantity, tau_threshold=threshold, paper=paper,
             path=figures_dir / f"sweep_{element_swept}_{quantity}{'' if method == 'classic' else f'_{method}'}.png",
-            elements=config.model.element_names(), n=config.model.n_outputs,
+            elements=config.model.element_names(), shape=(config.model.n_outputs, config.model.n_inputs),
         )
         for method in methods for element_swept in swept for quantity in DIAGNOSES
     ]  # fmt: skip
     write_summary_csv(summary, figures_dir / "sweep_summary.csv")
     report.parent.mkdir(parents=True, exist_ok=True)
-    report.write_text(_markdown(summary=summary, config=config, manifest=manifest, rows=rows, figures=written, report=report))
+    report.write_text(_markdown(summary=summary, config=config, manifest=manifest, rows=rows, figures=written, report=report, paper=paper))
     return written
 
 
-def _markdown(*, summary: list[PointSummary], config: PmrConfig, manifest: dict, rows: list[dict], figures: list[Path], report: Path) -> str:
-    """The report's text: one section after the other, every number from ``rows`` and ``config``."""
+def _markdown(*, summary: list[PointSummary], config: PmrConfig, manifest: dict, rows: list[dict], figures: list[Path], report: Path, paper: bool) -> str:
+    """The report's text: one section after the other, results from ``rows``, settings from ``config``."""
     breaks = breakdowns(summary)
     methods = sorted({p.method for p in summary})
     swept = list(dict.fromkeys(p.element_swept for p in summary))
@@ -269,51 +319,102 @@ def _markdown(*, summary: list[PointSummary], config: PmrConfig, manifest: dict,
     nus = sorted({round(r["nu"], 9) for r in rows})
     seeds = len({r["seed"] for r in rows})
     sections = [
-        _title_section(methods, report),
-        _run_section(config=config, manifest=manifest, rows=rows, methods=methods, swept=swept),
-        _baseline_section(summary, elements=elements, first_sweep=swept[0] if swept else None, base_nu=nus[0], seeds=seeds),
-        _findings_section(summary, breaks, methods=methods, swept=swept, elements=elements, threshold=threshold),
+        _title_section(methods, report, system=config.model.name, paper=paper),
+        _run_section(config=config, manifest=manifest, rows=rows, methods=methods, swept=swept, paper=paper),
+        _baseline_section(summary, config=config, first_sweep=swept[0] if swept else None, base_nu=nus[0], seeds=seeds, paper=paper),
+        _findings_section(summary, breaks, methods=methods, swept=swept, elements=elements, threshold=threshold, paper=paper),
         _definition_section(threshold),
         _side_by_side(rows, summary, methods=methods, swept=swept, elements=elements, threshold=threshold) if "parametric" in methods else [],
-        _breakdown_section(summary, breaks, methods=methods, swept=swept, elements=elements),
-        _figures_section(figures, report),
-        _mpc_section(summary, nus=nus, swept=swept, method=methods[0], first_element=elements[0]),
+        _breakdown_section(summary, breaks, methods=methods, swept=swept, elements=elements, paper=paper),
+        _figures_section(figures, report, paper=paper),
+        _mpc_section(summary, config=config, nus=nus, swept=swept, method=methods[0]),
     ]
     return "\n".join(line for section in sections for line in section) + "\n"
 
 
-def _title_section(methods: list[str], report: Path) -> list[str]:
+def _title_section(methods: list[str], report: Path, *, system: str, paper: bool) -> list[str]:
     """The title and how to rebuild the report."""
     methods_flag = "" if list(methods) == ["classic"] else f" --methods {','.join(methods)}"
+    title = "Reproduction: the time-constant study (paper's sections 3.4–3.6, Figs. 2–7)" if paper else (
+        f"The time-constant study of the paper's sections 3.4–3.6, on {system or 'the configured system'}")
     return [
-        "# Reproduction: the time-constant study (paper's sections 3.4–3.6, Figs. 2–7)\n",
+        f"# {title}\n",
         "Generated by `pmr-ros sweep` from its `results.csv`; every number below is computed from that file. "
         f"Rebuild with `pmr-ros sweep{methods_flag} --report {report.as_posix()}` (or `--report-only` on an existing sweep folder).\n",
     ]
 
 
-def _run_section(*, config: PmrConfig, manifest: dict, rows: list[dict], methods: list[str], swept: list[str]) -> list[str]:
-    """What was run: the system, the sweeps, the grid, seeds and samples, the time it took."""
+def _time_unit(paper: bool) -> str:
+    """The unit of time: minutes for the Wood-Berry column; a configuration does not state its unit otherwise."""
+    return "min" if paper else "t.u."
+
+
+def _run_section(*, config: PmrConfig, manifest: dict, rows: list[dict], methods: list[str], swept: list[str], paper: bool) -> list[str]:
+    """What was run: the system, the sweeps, the grid, seeds and samples, the loop's settings, the time it took."""
     model = config.model
-    elements = model.element_names()
-    seeds = sorted({r["seed"] for r in rows})
-    nus = sorted({round(r["nu"], 9) for r in rows})
-    samples = sorted({r["samples"] for r in rows})
-    lines = ["## What was run\n"]
-    lines.append(f"- System: {model.name or 'configured system'} ({config.source}), Ts = {model.sample_time:g} min; the mismatch of the paper's eq. (15) on the plant only.")
+    unit = _time_unit(paper)
+    ts_text = f"Ts = {model.sample_time:g} {unit}" + ("" if paper else " (t.u.: the configuration's time unit)")
+    lines = ["## What was run\n", f"- System: {model.name or 'configured system'} ({config.source}), {ts_text}; {_mismatch_text(config, paper)}."]
     for element in swept:
-        i, k = divmod(elements.index(element), model.n_inputs)
-        lines.append(f"- Sweep `tau_{element}`: τ of {element} = {model.time_constant[i, k]:g}·ν min in **both** the plant and the MPC's model (the MPC is rebuilt at every ν).")
-    lines.append(
-        f"- ν grid: {len(nus)} values from {nus[0]:g} to {nus[-1]:g}; scenarios: the five of Table 2; seeds: {', '.join(map(str, seeds))}; "
-        f"{', '.join(map(str, samples))} samples per run; {len(rows)} CSV rows ({len(rows) // len(elements)} closed-loop runs × {len(elements)} elements), methods: {', '.join(methods)}."
-    )
+        i, k = divmod(model.element_names().index(element), model.n_inputs)
+        lines.append(f"- Sweep `tau_{element}`: τ of {element} = {model.time_constant[i, k]:g}·ν {unit} in **both** the plant and the MPC's model (the MPC is rebuilt at every ν).")
+    lines.append(_grid_line(rows, methods=methods, n_elements=len(model.element_names())))
+    lines.append(_loop_line(config))
     if manifest.get("wall_time_s"):
         lines.append(_wall_time_line(manifest))
-    lines.append("- The paper's Figs. 5–7 are captioned G12, but its section 3.5 and eq. (19) change G21 = 6.6e^{-7s}/(10.9ν s + 1); "
-                 "10.9 min is τ21 of the standard Wood-Berry matrix (the text's eq. 14 prints rows 2 upside down). We sweep **G21**, as eq. (19) says.")
-    lines.append("- Row time-constant ratio: the swept τ over the other τ of its row (model values): τ11/τ12 = 16.7ν/21 for the G11 sweep, τ21/τ22 = 10.9ν/14.4 for the G21 sweep.\n")
+    if paper and "G21" in swept:
+        lines.append("- The paper's Figs. 5–7 are captioned G12, but its section 3.5 and eq. (19) change G21 = 6.6e^{-7s}/(10.9ν s + 1); "
+                     "10.9 min is τ21 of the standard Wood-Berry matrix (the text's eq. 14 prints rows 2 upside down). We sweep **G21**, as eq. (19) says.")
+    if not paper:
+        lines.append(f"- The paper's published numbers (eqs. 16–17, the breakdown ν of section 3.6, Figs. 2–7) are for the Wood-Berry column under its eq. (15) mismatch; "
+                     f"the configured system is {model.name or 'another'}, so the paper comparison does not apply and is left out.")
+    lines.append(_row_ratio_line(config, swept) + "\n")
     return lines
+
+
+def _mismatch_text(config: PmrConfig, paper: bool) -> str:
+    """The configured mismatch, which each scenario applies in part, on the plant only."""
+    m = config.mismatch
+    source = "the paper's eq. (15)" if paper else "configured"
+    return (f"the mismatch ({source}; row-major) ΔK = {_channels(m.gain_pct)} %, Δτ = {_channels(m.time_constant_pct)} %, "
+            f"ΔD = {_channels(m.delay_samples)} samples, on the plant only")
+
+
+def _grid_line(rows: list[dict], *, methods: list[str], n_elements: int) -> str:
+    """The nu grid, scenarios, seeds, samples and CSV size, as run."""
+    nus = sorted({round(r["nu"], 9) for r in rows})
+    present = {r["scenario"] for r in rows}
+    scenarios = [s for s in SCENARIOS if s in present] + sorted(present - set(SCENARIOS))
+    seeds = sorted({r["seed"] for r in rows})
+    samples = sorted({r["samples"] for r in rows})
+    return (f"- ν grid: {len(nus)} values from {nus[0]:g} to {nus[-1]:g}; scenarios: {', '.join(scenarios)} (the paper's Table 2); seeds: {', '.join(map(str, seeds))}; "
+            f"{', '.join(map(str, samples))} samples per run; {len(rows)} CSV rows ({len(rows) // n_elements} closed-loop runs × {n_elements} elements), methods: {', '.join(methods)}.")
+
+
+def _loop_line(config: PmrConfig) -> str:
+    """The loop's settings as configured: noise, PRBS setpoints, MPC tuning, the classic index's band."""
+    prbs, mpc = config.prbs, config.mpc
+    return (f"- Loop: measurement noise σ = {_channels(config.noise_std)}; PRBS setpoints ±{_channels(prbs.amplitude)} around {_channels(prbs.nominal)}, "
+            f"{prbs.clock_period} samples per bit, register length {prbs.register_length}; MPC Np = {mpc.prediction_horizon} (lengthened where needed, see below), "
+            f"Nc = {mpc.control_horizon}, Q = {_channels(mpc.output_weight)}, R = {_channels(mpc.move_weight)}, u ∈ [{_channels(mpc.u_min)}, {_channels(mpc.u_max)}], "
+            f"|Δu| ≤ {_channels(mpc.du_max)}; classic τ index on (0, {config.pmr.tau_band:g}] rad/sample, flagged above ±{config.pmr.tau_index_threshold:g}.")
+
+
+def _row_ratio_line(config: PmrConfig, swept: list[str]) -> str:
+    """How the row time-constant ratio of each sweep follows from the model's time constants."""
+    model = config.model
+    names = model.element_names()
+    parts = []
+    for element in swept:
+        i, k = divmod(names.index(element), model.n_inputs)
+        tau = float(model.time_constant[i, k])
+        others = [names[i * model.n_inputs + c] for c in range(model.n_inputs) if c != k]
+        denominator = "·".join(f"τ{o[1:]}" for o in others)
+        if len(others) > 1:
+            denominator = f"({denominator})^(1/{len(others)})"
+        parts.append(f"τ{element[1:]}/{denominator} = {tau:g}ν/{tau / row_time_constant_ratio(model, i, k):.4g} for the {element} sweep")
+    geometric = "; their geometric mean" if model.n_inputs > 2 else ""
+    return f"- Row time-constant ratio: the swept τ over the other τ of its row (model values{geometric}): " + ", ".join(parts) + "."
 
 
 def _wall_time_line(manifest: dict) -> str:
@@ -328,50 +429,61 @@ def _wall_time_line(manifest: dict) -> str:
             f"report built at code revision `{_git_revision(Path(__file__).parent)}`.")
 
 
-def _baseline_section(summary: list[PointSummary], *, elements: list[str], first_sweep: str | None, base_nu: float, seeds: int) -> list[str]:
-    """The full-mismatch baseline beside the paper's eqs. (16)-(17), and the baseline's wrong seeds."""
+def _baseline_section(summary: list[PointSummary], *, config: PmrConfig, first_sweep: str | None, base_nu: float, seeds: int, paper: bool) -> list[str]:
+    """The full-mismatch baseline (beside the paper's eqs. (16)-(17) where they apply), and the baseline's wrong seeds."""
+    elements = config.model.element_names()
+    paper_head = ("| paper eq. 16 ", "| paper eq. 17 ", "| paper ΔD ") if paper else ("", "", "")
     lines = [
-        f"## Baseline (ν = {base_nu:g}) beside the paper's eqs. (16)–(17)\n",
-        "Full-mismatch scenario, median over seeds [min … max]. The time-constant index is −100 × the slope of M(ω)/M(0) on (0, 0.4] rad/sample, the paper's eq. (17) measure.\n",
-        "| element | injected ΔK | paper eq. 16 | ours ΔK | injected Δτ | paper eq. 17 | ours τ index | injected ΔD | paper ΔD | ours ΔD |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        f"## Baseline (ν = {base_nu:g})" + (" beside the paper's eqs. (16)–(17)\n" if paper else "\n"),
+        "Full-mismatch scenario, median over seeds [min … max]. The time-constant index is −100 × the slope of M(ω)/M(0) "
+        f"on (0, {config.pmr.tau_band:g}] rad/sample, the paper's eq. (17) measure.\n",
+        f"| element | injected ΔK {paper_head[0]}| ours ΔK | injected Δτ {paper_head[1]}| ours τ index | injected ΔD {paper_head[2]}| ours ΔD |",
+        "|---|" + "---|" * (6 + 3 * paper),
     ]
     for element in elements:
         pts = _by(summary, method="classic", element_swept=first_sweep, nu=base_nu, scenario="full", element=element)
         if pts:
-            lines.append(_baseline_row(pts[0]))
+            lines.append(_baseline_row(pts[0], paper=paper))
     lines.append("")
+    baseline = _by(summary, method="classic", element_swept=first_sweep, nu=base_nu)
+    scenarios = [s for s in SCENARIOS if any(p.scenario == s for p in baseline)]
     wrong = [
         f"{scenario}/{p.element}/{d}: {getattr(p, f'{d}_wrong')} of {p.seeds}"
-        for scenario in SCENARIOS
-        for p in _by(summary, method="classic", element_swept=first_sweep, nu=base_nu, scenario=scenario)
-        for d in DIAGNOSES
-        if getattr(p, f"{d}_wrong")
-    ]
-    total = len(SCENARIOS) * len(elements) * len(DIAGNOSES)
-    lines.append(f"Baseline correctness over all five scenarios ({total} element-diagnosis pairs × {seeds} seeds, rules below): "
+        for scenario in scenarios for p in _by(baseline, scenario=scenario) for d in DIAGNOSES if getattr(p, f"{d}_wrong")
+    ]  # fmt: skip
+    total = len(scenarios) * len(elements) * len(DIAGNOSES)
+    lines.append(f"Baseline correctness over all {len(scenarios)} scenarios ({total} element-diagnosis pairs × {seeds} seeds, rules below): "
                  + ("all right." if not wrong else "wrong seeds — " + "; ".join(wrong) + ".") + "\n")
     return lines
 
 
-def _baseline_row(p: PointSummary) -> str:
-    """One element of the baseline table: injected, the paper's and our gain, tau and delay."""
+def _baseline_row(p: PointSummary, *, paper: bool) -> str:
+    """One element of the baseline table: injected, (the paper's,) and our gain, tau and delay."""
     paper_d = PAPER_DELAY.get(p.element)
-    return (
-        f"| {p.element} | {100 * (p.true_gain_ratio - 1):+.1f} % | {PAPER_GAIN_PCT.get(p.element, float('nan')):+.1f} % | "
-        f"{100 * (p.gain_median - 1):+.1f} % [{100 * (p.gain_low - 1):+.1f} … {100 * (p.gain_high - 1):+.1f}] | "
-        f"{p.true_time_constant_pct:+.0f} % | {PAPER_TAU_INDEX.get(p.element, float('nan')):+.2f} | "
-        f"{p.tau_median:+.1f} [{p.tau_low:+.1f} … {p.tau_high:+.1f}] | {p.true_delay_samples:+d} | "
-        f"{f'{paper_d:+d}' if paper_d is not None else 'not reported'} | {p.delay_median:+.0f} [{p.delay_low:+.0f} … {p.delay_high:+.0f}] |"
-    )
+    cells = [
+        p.element,
+        f"{100 * (p.true_gain_ratio - 1):+.1f} %",
+        f"{PAPER_GAIN_PCT.get(p.element, float('nan')):+.1f} %" if paper else None,
+        f"{100 * (p.gain_median - 1):+.1f} % [{100 * (p.gain_low - 1):+.1f} … {100 * (p.gain_high - 1):+.1f}]",
+        f"{p.true_time_constant_pct:+.0f} %",
+        f"{PAPER_TAU_INDEX.get(p.element, float('nan')):+.2f}" if paper else None,
+        f"{p.tau_median:+.1f} [{p.tau_low:+.1f} … {p.tau_high:+.1f}]",
+        f"{p.true_delay_samples:+d}",
+        (f"{paper_d:+d}" if paper_d is not None else "not reported") if paper else None,
+        f"{p.delay_median:+.0f} [{p.delay_low:+.0f} … {p.delay_high:+.0f}]",
+    ]
+    return "| " + " | ".join(c for c in cells if c is not None) + " |"
 
 
-def _findings_section(summary: list[PointSummary], breaks: list[Breakdown], *, methods: list[str], swept: list[str], elements: list[str], threshold: float) -> list[str]:
+def _findings_section(
+    summary: list[PointSummary], breaks: list[Breakdown], *, methods: list[str], swept: list[str], elements: list[str], threshold: float, paper: bool
+) -> list[str]:
     """The findings: bullet points per method and sweep."""
     lines = ["## Findings\n"]
     for method in methods:
         for element_swept in swept:
-            lines.extend(_findings(summary, breaks, method=method, element_swept=element_swept, elements=elements, threshold=threshold))
+            lines.extend(_findings(summary, breaks, method=method, element_swept=element_swept, elements=elements, threshold=threshold,
+                                   paper_nu=_paper_breakdown(element_swept, paper)))  # fmt: skip
     lines.append("")
     return lines
 
@@ -391,25 +503,24 @@ def _definition_section(threshold: float) -> list[str]:
     ]
 
 
-def _breakdown_section(summary: list[PointSummary], breaks: list[Breakdown], *, methods: list[str], swept: list[str], elements: list[str]) -> list[str]:
+def _breakdown_section(summary: list[PointSummary], breaks: list[Breakdown], *, methods: list[str], swept: list[str], elements: list[str], paper: bool) -> list[str]:
     """Where each diagnosis breaks down, per method and sweep."""
     lines = ["## Breakdown points\n"]
     for method in methods:
         for element_swept in swept:
             bs = [b for b in breaks if b.method == method and b.element_swept == element_swept]
-            lines.extend(_breakdown_sweep(summary, bs, method=method, element_swept=element_swept, elements=elements))
+            lines.extend(_breakdown_sweep(summary, bs, method=method, element_swept=element_swept, elements=elements, paper_nu=_paper_breakdown(element_swept, paper)))
     lines.append("\"base\": fails at the baseline ν already; \"never\": no failing point on the grid.\n")
     return lines
 
 
-def _breakdown_sweep(summary: list[PointSummary], bs: list[Breakdown], *, method: str, element_swept: str, elements: list[str]) -> list[str]:
+def _breakdown_sweep(summary: list[PointSummary], bs: list[Breakdown], *, method: str, element_swept: str, elements: list[str], paper_nu: float | None) -> list[str]:
     """One sweep's first failure (overall and in the swept row) and its table of breakdown nu."""
     first = earliest(bs)
-    paper = PAPER_BREAKDOWN_NU.get(element_swept)
     lines = [f"### Sweep of τ of {element_swept} ({method})\n"]
     if first is not None:
         lines.append(f"First failure of any diagnosis: **ν = {first.nu:g}** (row ratio {first.ratio:.2f}) — {first.element} {first.diagnosis}, scenario {first.scenario}"
-                     + (f"; the paper: ν ≈ {paper:g} (row ratio {_ratio_at(summary, element_swept, paper):.2f})." if paper else "."))
+                     + (f"; the paper: ν ≈ {paper_nu:g} (row ratio {_ratio_at(summary, element_swept, paper_nu):.2f})." if paper_nu else "."))
     else:
         lines.append("No diagnosis fails anywhere on the grid.")
     first_row = earliest([b for b in bs if b.element[1] == element_swept[1]])
@@ -434,11 +545,12 @@ def _breakdown_row(items: list[Breakdown], *, element: str, diagnosis: str) -> s
             f"{f'{e.failing_share:.2f}' if e else '—'} | {' / '.join(cells)} |")
 
 
-def _figures_section(figures: list[Path], report: Path) -> list[str]:
+def _figures_section(figures: list[Path], report: Path, *, paper: bool) -> list[str]:
     """The figures, linked relative to the report."""
+    paper_line = "dotted vertical line: the paper's breakdown ν; " if paper else ""
     lines = [
         "## Figures\n",
-        "Median over seeds (line) and min–max band; dashed lines: the injected value of each scenario; dotted vertical line: the paper's breakdown ν; "
+        f"Median over seeds (line) and min–max band; dashed lines: the injected value of each scenario; {paper_line}"
         "top axis: the row time-constant ratio. The time-constant index axis is symmetric-log.\n",
     ]
     for path in figures:
@@ -447,23 +559,40 @@ def _figures_section(figures: list[Path], report: Path) -> list[str]:
     return lines
 
 
-def _mpc_section(summary: list[PointSummary], *, nus: list[float], swept: list[str], method: str, first_element: str) -> list[str]:
+def _mpc_section(summary: list[PointSummary], *, config: PmrConfig, nus: list[float], swept: list[str], method: str) -> list[str]:
     """The MPC along the sweep: per nu the horizon, spectral radius, OSQP share and failures, tracking error."""
+    tuning = config.mpc
+    n_plants = len({p.scenario for p in summary})
     lines = [
         "## The MPC along the sweep\n",
-        "The configured MPC (Np = 40, Nc = 8) loses stability on the G11 sweep beyond ν ≈ 3 (a pole of the unconstrained loop leaves the unit circle even without "
-        "mismatch, and the constrained loop settles into a saturated limit cycle). At each ν the sweep therefore lengthens the prediction horizon in steps of 10 until "
-        "the unconstrained loop of all five plants has spectral radius < 0.999 (weights and Nc unchanged; at the baseline the configured tuning is kept). "
+        f"The configured MPC (Np = {tuning.prediction_horizon}, Nc = {tuning.control_horizon}) can lose stability as a time constant grows: once its horizon no longer covers "
+        "the slow element's response, a pole of the unconstrained loop leaves the unit circle even without mismatch, and the constrained loop settles into a saturated "
+        f"limit cycle. At each ν the sweep therefore lengthens the prediction horizon in steps of {HORIZON_STEP} until the unconstrained loop of all {n_plants} plants "
+        f"has spectral radius < {STABILITY_LIMIT:g} (weights and Nc unchanged). {_horizon_text(summary, swept=swept, method=method, configured=tuning.prediction_horizon)} "
         "Below: per ν, Np, that spectral radius ρ, the share of samples where a limit bound and OSQP ran, OSQP failures (summed over runs), and the median RMS tracking error.\n",
         "| ν | " + " | ".join(f"{e}: Np | ρ | OSQP share | failures | RMS e" for e in swept) + " |",
         "|" + "---|" * (1 + 5 * len(swept)),
     ]
+    first_element = config.model.element_names()[0]
     for nu in nus:
         cells = [_mpc_cells([p for p in summary if p.element_swept == e and p.nu == nu and p.method == method], first_element=first_element) for e in swept]
         lines.append(f"| {nu:g} | " + " | ".join(cells) + " |")
     lines.append("")
     lines.append("The per-point medians, spreads and wrong-seed counts are in `figures/sweep_summary.csv`; the record-level CSV (every estimate per element, ν, scenario and seed) is the sweep folder's `results.csv`.\n")
     return lines
+
+
+def _horizon_text(summary: list[PointSummary], *, swept: list[str], method: str, configured: int) -> str:
+    """Where the sweep had to lengthen the configured prediction horizon, per sweep."""
+    parts = []
+    for e in swept:
+        pts = _by(summary, method=method, element_swept=e)
+        longer = sorted({p.nu for p in pts if p.prediction_horizon > configured})
+        if longer:
+            parts.append(f"on the {e} sweep at {len(longer)} of {len({p.nu for p in pts})} ν, from ν = {longer[0]:g} (Np up to {max(p.prediction_horizon for p in pts)})")
+    if not parts:
+        return f"Here the configured Np = {configured} kept every loop stable at every ν of the grid."
+    return f"Here Np = {configured} was lengthened " + "; ".join(parts) + "."
 
 
 def _mpc_cells(pts: list[PointSummary], *, first_element: str) -> str:
@@ -520,20 +649,22 @@ def _method_totals(right: dict[tuple, list[dict[str, bool]]], methods: list[str]
 
 
 def _parametric_target(parametric: list[PointSummary]) -> list[str]:
-    """How many points meet the parametric target (>= 90 % of seeds right on all three), and which do not."""
+    """How many points meet the parametric target (:data:`PARAMETRIC_TARGET_SHARE` of seeds right on all three), and which do not."""
     if not parametric:
         return []
-    below = [p for p in parametric if any(getattr(p, f"{d}_wrong") / p.seeds > 0.10 for d in DIAGNOSES)]
+    below = [p for p in parametric if any(1.0 - getattr(p, f"{d}_wrong") / p.seeds < PARAMETRIC_TARGET_SHARE for d in DIAGNOSES)]
     others = "; ".join(
         f"{p.element_swept} ν={p.nu:g} {p.scenario} {p.element} (wrong seeds g/τ/D {p.gain_wrong}/{p.tau_wrong}/{p.delay_wrong} of {p.seeds})" for p in below[:12]
     )
-    return [f"- The parametric target (every element, every ν of both sweeps, ≥ 90 % of seeds within spec): "
+    return [f"- The parametric target (every element, every ν of every sweep, ≥ {100 * PARAMETRIC_TARGET_SHARE:g} % of seeds within spec): "
             f"{len(parametric) - len(below)} of {len(parametric)} (sweep, ν, scenario, element) points meet it"
             + ("." if not below else "; the others: " + others + (" …" if len(below) > 12 else "") + ".")]
 
 
-def _findings(summary: list[PointSummary], breaks: list[Breakdown], *, method: str, element_swept: str, elements: list[str], threshold: float) -> list[str]:
-    """Bullet points on one sweep, every number from the data."""
+def _findings(
+    summary: list[PointSummary], breaks: list[Breakdown], *, method: str, element_swept: str, elements: list[str], threshold: float, paper_nu: float | None
+) -> list[str]:
+    """Bullet points on one sweep, every number from the data (``paper_nu``: the paper's breakdown nu, if it applies)."""
     bs = [b for b in breaks if b.method == method and b.element_swept == element_swept]
     pts = _by(summary, method=method, element_swept=element_swept)
     if not pts:
@@ -541,11 +672,10 @@ def _findings(summary: list[PointSummary], breaks: list[Breakdown], *, method: s
     nus = sorted({p.nu for p in pts})
     ratio0 = next(p.row_time_constant_ratio for p in pts if p.nu == nus[0])
     first = earliest(bs)
-    paper = PAPER_BREAKDOWN_NU.get(element_swept)
     head = f"- **Sweep of τ of {element_swept}** ({method}; row ratio {ratio0:.2f} at ν = {nus[0]:g}): "
     if first is None:
-        return [head + "no diagnosis fails on the grid" + (f"; the paper reports a breakdown at ν ≈ {paper:g}." if paper else ".")]
-    paper_text = f"; the paper reports ν ≈ {paper:g} (row ratio {_ratio_at(summary, element_swept, paper):.2f})" if paper else ""
+        return [head + "no diagnosis fails on the grid" + (f"; the paper reports a breakdown at ν ≈ {paper_nu:g}." if paper_nu else ".")]
+    paper_text = f"; the paper reports ν ≈ {paper_nu:g} (row ratio {_ratio_at(summary, element_swept, paper_nu):.2f})" if paper_nu else ""
     return [
         head + _first_failure_text(pts, first, base_nu=nus[0], threshold=threshold, paper_text=paper_text),
         _never_failing_line(bs, elements),
