@@ -275,6 +275,15 @@ def test_interrupt_keeps_finished_points(tmp_path, wood_berry, monkeypatch):
     assert sorted(t.point.nu for t in left) == [1.0, 2.0]
 
 
+def test_report_only_refuses_another_configuration(small_sweep, tmp_path, capsys):
+    report = tmp_path / "report.md"
+    argv = ["sweep", "--out", str(small_sweep), "--report-only", "--report", str(report)]
+    assert main([*argv, "--config", "config/three_by_three.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert "another configuration" in err and "--config" in err and "Traceback" not in err and not report.exists()
+    assert main(argv) == 0 and "Np = 40" in report.read_text()
+
+
 def test_report_only_needs_results(tmp_path, capsys):
     assert main(["sweep", "--out", str(tmp_path), "--report-only"]) == 2
     assert "does not exist" in capsys.readouterr().err

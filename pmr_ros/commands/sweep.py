@@ -82,6 +82,7 @@ def _plan(args: argparse.Namespace, config):
 
 
 def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None:
+    """Check ``--out`` against ``--force``/``--resume``, clear it for ``--force``, create it."""
     from ..sweep import store
 
     if out.exists() and not out.is_dir():
@@ -95,60 +96,77 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
         for name in (store.RESULTS_FILE, store.MANIFEST_FILE):
             (out / name).unlink(missing_ok=True)
     if args.resume:
-        old = store.read_manifest(out)
-        if old is not None:
-            for key in ("config_fingerprint", "samples"):
-                if old.get(key) != manifest[key]:
-                    raise CommandError(
-                        f"--resume: {out} holds a sweep with a different {key.replace('_', ' ')} "
-                        f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
-                    )
-            manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
-            manifest["cpu_time_s"] = float(old.get("cpu_time_s", 0.0))
+        _continue_manifest(out, manifest)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise CommandError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
 
 
+def _continue_manifest(out: Path, manifest: dict) -> None:
+    """For ``--resume``: refuse a sweep of another configuration or sample count; carry its times on."""
+    from ..sweep import store
+
+    old = store.read_manifest(out)
+    if old is None:
+        return
+    for key in ("config_fingerprint", "samples"):
+        if old.get(key) != manifest[key]:
+            raise CommandError(
+                f"--resume: {out} holds a sweep with a different {key.replace('_', ' ')} "
+                f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
+            )
+    manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
+    manifest["cpu_time_s"] = float(old.get("cpu_time_s", 0.0))
+
+
 def handle(args: argparse.Namespace) -> int:
     from ..core.config import load_config
     from ..sweep import store
-    from ..sweep.execute import execute, plan_tasks
 
     config = load_config(args.config)
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE
     if args.report_only:
-        if not results.is_file():
-            raise CommandError(f"--report-only: {results} does not exist; run the sweep first")
-        _write_report(results, report_path, config, store.read_manifest(out) or {})
+        _report_only(results, report_path, config)
         return 0
+    manifest = _sweep(args, config, out, results)
+    if not args.no_report:
+        _write_report(results, report_path, config, manifest)
+    return 0
+
+
+def _report_only(results: Path, report_path: Path, config) -> None:
+    """``--report-only``: the report of the sweep in ``results``' folder, which must have run with ``config``."""
+    from ..sweep import store
+
+    if not results.is_file():
+        raise CommandError(f"--report-only: {results} does not exist; run the sweep first")
+    manifest = store.read_manifest(results.parent) or {}
+    recorded = manifest.get("config_fingerprint")
+    # The report quotes the configuration's settings beside the results: they must be the ones the sweep ran with.
+    if recorded is not None and recorded != store.config_fingerprint(config.parameters):
+        raise CommandError(
+            f"--report-only: {results.parent} was swept with another configuration ({manifest.get('config', 'see its manifest')}); "
+            "pass that file with --config"
+        )
+    _write_report(results, report_path, config, manifest)
+
+
+def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
+    """Run the runs of the plan not yet in ``results``; the manifest, written beside it."""
+    from ..sweep import store
+    from ..sweep.execute import execute, plan_tasks
 
     plan = _plan(args, config)
-    manifest = {
-        "config": config.source,
-        "config_fingerprint": store.config_fingerprint(config.parameters),
-        "samples": plan.samples,
-        "wall_time_s": 0.0,
-        "cpu_time_s": 0.0,
-    }
+    manifest = {"config": config.source, "config_fingerprint": store.config_fingerprint(config.parameters), "samples": plan.samples, "wall_time_s": 0.0, "cpu_time_s": 0.0}
     _prepare_folder(args, out, manifest)
-    done: set[tuple] = set()
-    n_elements = config.model.n_outputs * config.model.n_inputs
-    if results.is_file():
-        try:
-            rows = store.complete_rows(store.read_rows(results), n_elements)
-        except ValueError as exc:
-            raise CommandError(str(exc)) from None
-        store.rewrite(results, rows)
-        done = {store.run_key(r) for r in rows}
-    tasks = plan_tasks(config, plan, done)
+    tasks = plan_tasks(config, plan, _done_runs(results, config.model.n_outputs * config.model.n_inputs))
     manifest.update(
         elements=list(plan.elements), nu=list(plan.nu), seeds=list(plan.seeds), scenarios=list(plan.scenarios),
         methods=list(plan.methods), jobs=args.jobs, cpu_count=os.cpu_count(),
-    )
+    )  # fmt: skip
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
@@ -165,9 +183,21 @@ def handle(args: argparse.Namespace) -> int:
         store.write_manifest(out, manifest)
     if not args.quiet:
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
-    if not args.no_report:
-        _write_report(results, report_path, config, manifest)
-    return 0
+    return manifest
+
+
+def _done_runs(results: Path, n_elements: int) -> set[tuple]:
+    """Keys (:func:`store.run_key`) of the complete runs in ``results``, which is rewritten without torn ones."""
+    from ..sweep import store
+
+    if not results.is_file():
+        return set()
+    try:
+        rows = store.complete_rows(store.read_rows(results), n_elements)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    store.rewrite(results, rows)
+    return {store.run_key(r) for r in rows}
 
 
 def _write_report(results: Path, report_path: Path, config, manifest: dict) -> None:
