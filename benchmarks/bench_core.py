@@ -13,9 +13,9 @@ import platform
 import statistics
 import time
 
+from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
-from pmr_ros.core.diagnosis import diagnose_with
+from pmr_ros.core.diagnosis import diagnose
 from pmr_ros.core.mpc import LinearMpc
 from pmr_ros.core.plant import FoptdPlant
 from pmr_ros.core.prbs import PrbsGenerator
@@ -48,7 +48,7 @@ def main() -> None:
             times = []
             for _ in range(10):
                 t0 = time.perf_counter()
-                diagnose_with(record.r, record.u, record.y, cfg.model, cfg.pmr, cfg.parametric, method)
+                diagnose(record.r, record.u, record.y, model=cfg.model, pmr=cfg.pmr, parametric=cfg.parametric, method=method)
                 times.append(time.perf_counter() - t0)
             target = "  (target <= 50 ms)" if (label, method) == ("2x2", "classic") else ""
             print(f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms{target}")

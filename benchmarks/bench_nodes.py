@@ -23,8 +23,8 @@ NODES = ("pmr_diagnostician", "mpc_controller", "prbs_setpoint", "wood_berry_pla
 
 
 def one_process(samples: int, executor: str) -> float:
-    from pmr_ros.core.config import load_config
-    from pmr_ros.ros.node_set import run_node_set
+    from pmr_ros.config import load_config
+    from pmr_ros.node_set import run_node_set
 
     config = load_config(overrides={"run": {"samples": samples}})
     result = run_node_set(config, private=True, executor_kind=executor)
@@ -37,9 +37,10 @@ def four_processes(samples: int, domain_id: int) -> float:
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
 
-    from pmr_ros.core.config import config_dir
-    from pmr_ros.ros.contract import topic
-    from pmr_ros.ros.convert import diagnosis_from_array
+    from pmr_ros.config import config_dir
+    from pmr_ros.contract.layout import diagnosis_from_array
+    from pmr_ros.contract.topics import topic
+    from pmr_ros.ros.topics import message_class, qos_profile
 
     os.environ.update({"ROS_DOMAIN_ID": str(domain_id), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     folder = Path(tempfile.mkdtemp(prefix="bench_nodes_"))
@@ -64,7 +65,7 @@ def four_processes(samples: int, domain_id: int) -> float:
 
     for key, callback in (("measured_output", on_y), ("diagnostics", on_diagnostics)):
         t = topic(key)
-        node.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+        node.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     bindir = Path(sys.executable).parent

@@ -14,9 +14,9 @@ import tempfile
 import time
 
 from pmr_ros.cli import main as cli_main
+from pmr_ros.config import load_config
 from pmr_ros.core.batch import run_lockstep
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
 from pmr_ros.core.foptd import SCENARIOS
 
 

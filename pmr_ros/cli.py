@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
-from .core.config import ConfigError
+from .config import ConfigError
 from .ros.signals import RosInitError
 
 COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]

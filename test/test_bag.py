@@ -9,22 +9,24 @@ from __future__ import annotations
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
-from pmr_ros.bag.offline import bag_configuration, compare, diagnose_bag, required_topics, verdict_numbers
+from pmr_ros.bag.offline import bag_configuration, compare, diagnose_bag, required_topics
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.bag.schema import CUSTOM_DATA_KEYS, RUN_CONFIG_KEY, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 from pmr_ros.bag.writer import BagWriter, looks_like_bag, prepare_output
 from pmr_ros.cli import main
-from pmr_ros.core.config import load_config
-from pmr_ros.ros.alignment import SampleAligner
-from pmr_ros.ros.contract import topic
-from pmr_ros.ros.layout import diagnosis_from_array, level_name, parse_value, read_estimates, read_signal
-from pmr_ros.ros.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
+from pmr_ros.config import load_config
+from pmr_ros.contract.alignment import SampleAligner
+from pmr_ros.contract.layout import diagnosis_from_array, level_name, read_estimates, read_signal
+from pmr_ros.contract.topics import topic
+from pmr_ros.contract.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
+from pmr_ros.core.results import compare_diagnoses
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
@@ -164,8 +166,12 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
     final = result.final
     assert final.kind == VERDICT and final.window == {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
     assert final.window == expected["node_set"]["window"]
-    offline = verdict_numbers(final.diagnosis)
-    assert offline == {name: {k: v for k, v in e.items() if k != "summary"} for name, e in expected["elements"].items()}
+    # the reference report was written by pmr_ros 0.1 (flat classic fields) on another machine:
+    # flags, delays and verdicts exact, numbers within compare_diagnoses' tolerance
+    offline = {name: e["classic"] | {"verdict": e["verdict"]} for name, e in final.diagnosis.to_dict()["elements"].items()}
+    keys = ("gain_ratio", "tau_index", "delay_mismatch_samples", "gain_mismatch", "tau_mismatch", "delay_mismatch", "verdict")
+    reference = {name: {k: e[k] for k in keys} for name, e in expected["elements"].items()}
+    assert compare_diagnoses(offline, reference) == []
     # ... and exactly what the live diagnostician published on /diagnostics for the same window.
     assert result.comparisons and result.all_equal
     assert result.warnings == []
@@ -175,8 +181,9 @@ def test_reference_verdicts_match_the_injected_mismatch(reference_result, expect
     _, result = reference_result
     config = load_config()
     mismatch = config.mismatch.for_scenario("full")
-    for j, (name, element) in enumerate(result.final.diagnosis.elements.items()):
+    for j, (name, diagnosed) in enumerate(result.final.diagnosis.elements.items()):
         i, k = divmod(j, 2)
+        element = diagnosed.classic
         assert element.gain_mismatch and element.gain_direction == ("higher" if mismatch.gain_pct[i, k] > 0 else "lower"), name
         assert element.tau_mismatch and element.tau_direction == ("larger" if mismatch.time_constant_pct[i, k] > 0 else "smaller"), name
         assert element.delay_mismatch_samples == mismatch.delay_samples[i, k], name
@@ -228,7 +235,8 @@ def test_metadata_yaml_is_rosbag2_jazzy_metadata():
 def test_offline_diagnosis_of_a_bag_with_another_config(tmp_path, expected):
     # --config: a plain system file; the diagnostician's defaults (16384-sample window, 8192 minimum) apply.
     bag = open_bag(REFERENCE)
-    config, settings, origin = bag_configuration(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    config, origin = bag_configuration(bag, str(ROOT / "config" / "wood_berry.yaml"))
+    settings = config.diagnostician
     assert origin.endswith("wood_berry.yaml") and settings.window_samples == 16384 and settings.update_period_samples == 1024
     result = diagnose_bag(bag, str(ROOT / "config" / "wood_berry.yaml"), method="classic")
     assert [o.window["last_sample"] for o in result.outcomes] == list(range(1023, 8192, 1024))
@@ -242,15 +250,18 @@ def test_offline_diagnosis_of_a_bag_with_another_config(tmp_path, expected):
 
 def test_compare_flags_a_different_verdict(reference_result):
     _, result = reference_result
-    recorded = result.recorded
-    tampered = result.outcomes[-1].diagnosis.elements["G11"]
-    original = tampered.gain_ratio
-    tampered.gain_ratio = original + 1e-15
-    try:
-        (entry,) = compare(result.outcomes, recorded)
-        assert not entry["equal"] and entry["recorded"]["G11"]["gain_ratio"] == original
-    finally:
-        tampered.gain_ratio = original
+    final = result.outcomes[-1]
+
+    def with_g11_gain_ratio(factor):
+        element = final.diagnosis.elements["G11"]
+        classic = replace(element.classic, gain_ratio=element.classic.gain_ratio * factor)
+        diagnosis = replace(final.diagnosis, elements={**final.diagnosis.elements, "G11": replace(element, classic=classic)})
+        return [*result.outcomes[:-1], replace(final, diagnosis=diagnosis)]
+
+    (entry,) = compare(with_g11_gain_ratio(1 + 1e-12), result.recorded)
+    assert entry["equal"]  # another machine's last digits are no disagreement
+    (entry,) = compare(with_g11_gain_ratio(1 + 1e-4), result.recorded)
+    assert not entry["equal"] and entry["differences"][0].startswith("G11.classic.gain_ratio")
 
 
 def test_required_topics_are_r_u_y():
@@ -268,12 +279,13 @@ def test_shared_windowing_schedule_and_outcomes(wood_berry):
             due.append(offer_signal(aligner, s, float(k), names[s], [0.0, 0.0], 4).update_due)
     assert sum(due) == 2  # samples 3 and 7 complete
     assert window_info(aligner, 5) == {"window_samples": 5, "first_sample": 3, "last_sample": 7}
-    outcome = evaluate_window(aligner, wood_berry, 100, 50)
+    small = replace(wood_berry, diagnostician=replace(wood_berry.diagnostician, window_samples=100, min_samples=50))
+    outcome = evaluate_window(aligner, small)
     assert outcome.kind == INSUFFICIENT and "8 unbroken samples, need 50" in outcome.reason and outcome.stamp_s == 7.0
     for k in range(8, 13):
         offer = offer_signal(aligner, "y", float(k), names["y"], [0.0, 0.0], 4)
     assert offer.newly_lagging is None or "stopped" in offer.newly_lagging
-    assert evaluate_window(aligner, wood_berry, 100, 50).kind == STALE
+    assert evaluate_window(aligner, small).kind == STALE
 
 
 def test_layout_readers_work_on_rosbags_messages(reference_result):
@@ -284,7 +296,6 @@ def test_layout_readers_work_on_rosbags_messages(reference_result):
     (est,) = list(bag.messages({topic("estimates").name}))
     assert read_estimates(bag.decode(est))["G21"]["delay_mismatch_samples"] == 2.0
     assert level_name(b"\x01") == level_name(1) == "WARN"
-    assert [parse_value(v) for v in ("True", "None", "3", "0.5", "text")] == [True, None, 3, 0.5, "text"]
 
 
 # -- bad input: one line, non-zero exit, no traceback ---------------------------------------------
@@ -338,7 +349,7 @@ def test_bad_bags_give_one_clear_line_and_a_non_zero_exit(tmp_path, capsys, wood
 def test_diagnose_writes_json_and_needs_a_configuration(tmp_path, capsys, wood_berry):
     code = main(["diagnose", str(REFERENCE), "--json", str(tmp_path / "report.json")])
     out = capsys.readouterr().out
-    assert code == 0 and "1 of 1 windows give exactly the same verdicts offline" in out
+    assert code == 0 and "1 of 1 windows agree" in out
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["bag"]["configuration"] == "bag" and report["recorded_comparison"]["different"] == []
     _write_small_bag(tmp_path / "no_config", 20).close()

@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from pmr_ros.cli import main
-from pmr_ros.core.config import config_dir
+from pmr_ros.config import config_dir
 
 
 def test_run_prints_table_and_writes_json_report(tmp_path, capsys):
@@ -18,14 +18,17 @@ def test_run_prints_table_and_writes_json_report(tmp_path, capsys):
     assert "G21" in text and "scenario full" in text and "seed 2" in text
     report = json.loads(out.read_text())
     assert set(report["elements"]) == {"G11", "G12", "G21", "G22"}
+    assert report["method"] == "parametric"  # the declared default
     for element in report["elements"].values():
-        assert isinstance(element["gain_ratio"], float)
-        assert isinstance(element["gain_mismatch"], bool)
-        assert isinstance(element["tau_index"], float)
-        assert isinstance(element["tau_mismatch"], bool)
-        assert isinstance(element["delay_mismatch_samples"], int)
-        assert isinstance(element["delay_mismatch"], bool)
-    assert report["elements"]["G21"]["delay_mismatch_samples"] == 2
+        classic, parametric = element["classic"], element["parametric"]
+        assert isinstance(classic["gain_ratio"], float) and isinstance(classic["gain_mismatch"], bool)
+        assert isinstance(classic["tau_index"], float) and isinstance(classic["tau_mismatch"], bool)
+        assert isinstance(classic["delay_mismatch_samples"], int) and isinstance(classic["delay_mismatch"], bool)
+        assert isinstance(parametric["gain_mismatch_pct"], float) and len(parametric["gain_mismatch_pct_interval"]) == 2
+        assert element["verdict"] == parametric["verdict"] == "mismatch"
+        assert element["model"]["kind"] == "foptd"
+    assert report["elements"]["G21"]["parametric"]["delay_mismatch_samples"] == 2
+    assert report["elements"]["G21"]["classic"]["delay_mismatch_samples"] == 2
     assert report["injected"]["G12"] == {"gain_pct": 15.0, "time_constant_pct": 12.0, "delay_samples": 1}
     assert report["scenario"] == "full" and report["seed"] == 2 and report["status"] == "ok"
 

@@ -5,10 +5,16 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from pmr_ros.config import load_config
 from pmr_ros.core.batch import worker_context
+from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
-from pmr_ros.core.pmr import InsufficientData, check_record, diagnose, estimate_pmr
+from pmr_ros.core.implicit import estimate_pmr
+from pmr_ros.core.record import InsufficientData, check_record
+
+
+def diagnose(r, u, y, model, settings):
+    return diagnose_classic(r, u, y, model=model, settings=settings)
 
 SEEDS = range(1, 6)
 
@@ -16,21 +22,21 @@ SEEDS = range(1, 6)
 def test_noise_free_pmr_with_plant_equal_to_model_is_one_with_zero_delay():
     config = load_config(overrides={"noise": {"std": 0.0}, "run": {"scenario": "none"}})
     rec = simulate(config, samples=8192)
-    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, model=config.model, welch=config.pmr.welch)
     informative = estimate.omega <= 1.0
     np.testing.assert_allclose(estimate.ratio[informative], 1.0, atol=1e-3)
     diagnosis = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     for element in diagnosis.elements.values():
-        assert element.gain_ratio == pytest.approx(1.0, abs=1e-3)
-        assert abs(element.tau_index) < 0.5
-        assert element.delay_mismatch_samples == 0
+        assert element.classic.gain_ratio == pytest.approx(1.0, abs=1e-3)
+        assert abs(element.classic.tau_index) < 0.5
+        assert element.classic.delay_mismatch_samples == 0
         assert element.verdict == "ok"
 
 
 def test_noise_free_pmr_equals_the_true_ratio_under_mismatch():
     config = load_config(overrides={"noise": {"std": 0.0}})
     rec = simulate(config, samples=8192, scenario="full")
-    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, model=config.model, welch=config.pmr.welch)
     w = estimate.omega[estimate.omega <= 0.4]
     truth = config.plant("full").discretize().frequency_response(w) / config.model.discretize().frequency_response(w)
     np.testing.assert_allclose(estimate.ratio[: w.size], np.moveaxis(truth, -1, 0), rtol=0.02, atol=0.02)
@@ -56,7 +62,7 @@ def baseline_runs():
 
 
 def _matrix(d, key, n):
-    return np.array([d["elements"][name][key] for name in d["elements"]], dtype=float).reshape(n, n)
+    return np.array([d["elements"][name]["classic"][key] for name in d["elements"]], dtype=float).reshape(n, n)
 
 
 def test_full_mismatch_reproduces_section_3_3_on_wood_berry(baseline_runs, wood_berry):
@@ -93,7 +99,7 @@ def test_constant_setpoints_are_insufficient_data(wood_berry):
     rec = simulate(config, samples=4096)
     d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     assert d.status == "insufficient_data" and "no excitation" in d.reason
-    assert all(e.gain_ratio is None and e.verdict == "inconclusive" for e in d.elements.values())
+    assert all(e.classic is None and e.verdict == "inconclusive" for e in d.elements.values())
     assert d.elements["G11"].summary().startswith("insufficient data: no excitation")
     assert d.to_dict()["elements"]["G11"]["reasons"] == [d.reason]
 
@@ -116,9 +122,9 @@ def test_check_record_rejects_nan_and_wrong_shapes(wood_berry):
     y = rec.y.copy()
     y[100, 1] = np.nan
     with pytest.raises(InsufficientData, match="NaN"):
-        check_record(rec.r, rec.u, y, wood_berry.model, wood_berry.pmr)
+        check_record(rec.r, rec.u, y, model=wood_berry.model, welch=wood_berry.pmr.welch)
     with pytest.raises(InsufficientData, match="shape"):
-        check_record(rec.r, rec.u[:, :1], rec.y, wood_berry.model, wood_berry.pmr)
+        check_record(rec.r, rec.u[:, :1], rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)
     with pytest.raises(InsufficientData, match="lengths"):
-        check_record(rec.r, rec.u[:-1], rec.y, wood_berry.model, wood_berry.pmr)
-    check_record(rec.r, rec.u, rec.y, wood_berry.model, wood_berry.pmr)  # a good record passes
+        check_record(rec.r, rec.u[:-1], rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)
+    check_record(rec.r, rec.u, rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)  # a good record passes

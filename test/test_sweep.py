@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from pmr_ros.cli import main
+from pmr_ros.config import load_config
+from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
 from pmr_ros.core.foptd import SCENARIOS
-from pmr_ros.core.pmr import diagnose
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
@@ -120,10 +120,10 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
     rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["method"] == "classic"]
     for scenario in SCENARIOS:
         record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
-        diagnosis = diagnose(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr)
+        diagnosis = diagnose_classic(record.r, record.u, record.y, model=wood_berry.model, settings=wood_berry.pmr)
         for sweep in ("tau_G11", "tau_G21"):
             for row in (r for r in rows if r["scenario"] == scenario and r["sweep"] == sweep):
-                e = diagnosis.elements[row["element"]]
+                e = diagnosis.elements[row["element"]].classic
                 assert row["prediction_horizon"] == wood_berry.mpc.prediction_horizon
                 # exactly equal: same loop, same arithmetic, repr-exact CSV
                 assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (e.gain_ratio, e.tau_index, e.delay_mismatch_samples)
@@ -140,7 +140,7 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     classic = [r for r in rows if r["method"] == "classic"]
     assert len(classic) == 4
     for row in classic:
-        e = elements[row["element"]]
+        e = elements[row["element"]]["classic"]
         assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
         assert row["tau_index"] == pytest.approx(e["tau_index"], rel=1e-12)
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"]
@@ -148,8 +148,8 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     main([*argv, "--method", "parametric"])
     elements = json.loads(report.read_text())["elements"]
     for row in (r for r in rows if r["method"] == "parametric"):
-        e = elements[row["element"]]
-        assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
+        e = elements[row["element"]]["parametric"]
+        assert row["gain_ratio"] == pytest.approx(1 + e["gain_mismatch_pct"] / 100, rel=1e-12)
         assert row["tau_mismatch_pct"] == pytest.approx(e["tau_mismatch_pct"], rel=1e-12)
         assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(e["tau_mismatch_pct_interval"], rel=1e-12)
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"] and row["verdict"] == e["verdict"]

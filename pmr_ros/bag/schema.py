@@ -16,17 +16,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cache
+from typing import Any
 
 import yaml
 
 from .. import __version__
-from ..ros.contract import Topic, TopicQos, load_contract
+from ..contract.topics import Topic, TopicQos, load_contract
 
 RUN_CONFIG_KEY = "run_config"
 """Contract key of the latched topic with the run's configuration."""
-
-SIGNAL_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
-"""Contract keys of the diagnostician's signals."""
 
 CUSTOM_DATA_KEYS = ("pmr_ros.version", "pmr_ros.source", "pmr_ros.scenario", "pmr_ros.seed", "pmr_ros.samples", "pmr_ros.params")
 """Keys of the run's configuration in ``metadata.yaml`` ``custom_data`` (all strings)."""
@@ -52,15 +50,19 @@ def recorded_topics() -> dict[str, Topic]:
     return dict(load_contract())
 
 
-def rosbags_qos(qos: TopicQos):
-    """The contract's QoS as the ``rosbags`` QoS of a connection (``offered_qos_profiles``)."""
+def rosbags_qos(qos: TopicQos) -> Any:
+    """The contract's QoS as the ``rosbags`` QoS of a connection (``offered_qos_profiles``).
+
+    Policy names come from :meth:`TopicQos.policies`, as for rclpy's profile.
+    """
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
+    names = qos.policies()
     return Qos(
-        history=QosHistory.KEEP_LAST,
+        history=getattr(QosHistory, names["history"]),
         depth=qos.depth,
-        reliability=QosReliability.RELIABLE if qos.reliability == "reliable" else QosReliability.BEST_EFFORT,
-        durability=QosDurability.TRANSIENT_LOCAL if qos.durability == "transient_local" else QosDurability.VOLATILE,
+        reliability=getattr(QosReliability, names["reliability"]),
+        durability=getattr(QosDurability, names["durability"]),
         deadline=QosTime(0, 0),
         lifespan=QosTime(0, 0),
         liveliness=QosLiveliness.AUTOMATIC,

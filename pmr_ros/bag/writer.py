@@ -17,7 +17,7 @@ import shutil
 import time
 from pathlib import Path
 
-from ..ros.contract import Topic
+from ..contract.topics import Topic
 from .schema import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 
 ROSBAG2_VERSION = 9

@@ -71,7 +71,7 @@ def add_system_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_method_argument(parser: argparse.ArgumentParser) -> None:
     """--method classic|parametric, shared by commands that diagnose."""
-    from ..core.pmr import METHODS
+    from ..core.diagnosis import METHODS
 
     parser.add_argument(
         "--method",

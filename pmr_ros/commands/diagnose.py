@@ -3,7 +3,9 @@
 The bag's r, u and y go through the live diagnostician's alignment and window
 schedule (:mod:`pmr_ros.bag.offline`) with the recorded configuration (or
 ``--config``).  The table shows the last window; every window the live
-diagnostician published on /diagnostics is re-diagnosed and compared exactly.
+diagnostician published on /diagnostics is re-diagnosed and compared
+(:func:`pmr_ros.core.results.compare_diagnoses`: verdicts exact, numbers to a
+stated tolerance, since the bag may come from another machine).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ def register(sub) -> None:
 
 def offline_report(result, bag) -> dict:
     """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields)."""
-    from ..core.report import build_report
+    from ..report import build_report
 
     config = result.config
     recorded = bag.run_config()
@@ -67,7 +69,8 @@ def handle(args: argparse.Namespace) -> int:
     from ..bag.offline import diagnose_bag
     from ..bag.reader import open_bag
     from ..bag.schema import BagError
-    from ..core.report import format_table, write_json
+    from ..core.results import RELATIVE_TOLERANCE
+    from ..report import format_table, write_json
 
     try:
         bag = open_bag(args.bag)
@@ -85,7 +88,13 @@ def handle(args: argparse.Namespace) -> int:
         print(f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)")
     compared = report["recorded_comparison"]
     if compared["windows"]:
-        print(f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows give exactly the same verdicts offline")
+        print(
+            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows agree offline "
+            f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
+        )
+        for entry in compared["different"][:3]:
+            detail = "; ".join(entry.get("differences", [])[:3]) or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+            print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
     if args.json:
         try:
             write_json(report, args.json)

@@ -47,7 +47,7 @@ def handle(args: argparse.Namespace) -> int:
 
     run_config = None
     if args.config is not None or run_overrides(args):
-        from ..core.config import load_config
+        from ..config import load_config
 
         config = load_config(args.config, run_overrides(args))
         run_config = RunConfig(config.parameters, source=str(config.source))

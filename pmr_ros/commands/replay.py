@@ -47,8 +47,8 @@ def handle(args: argparse.Namespace) -> int:
     try:
         from rclpy.executors import SingleThreadedExecutor
 
+        from ..contract.topics import topic
         from ..nodes.bag_player import DEFAULT_MAX_SAMPLES_PER_S, BagPlayerNode
-        from ..ros.contract import topic
         from ..ros.signals import rclpy_session
     except ImportError as exc:
         raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None

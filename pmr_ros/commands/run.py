@@ -41,25 +41,25 @@ def register(sub) -> None:
 def _node_set_report(config):
     """Run the node set; the core diagnosis from /diagnostics and the extras the node path knows."""
     try:
-        from ..ros.node_set import NodeSetError, run_node_set
+        from ..node_set import NodeSetError, run_node_set
     except ImportError as exc:
         raise CommandError(f"the ROS 2 node set needs rclpy ({exc}); install pmr_ros[ros] or use --batch") from None
     return run_node_set, NodeSetError
 
 
 def handle(args: argparse.Namespace) -> int:
-    from ..core.config import load_config
-    from ..core.report import build_report, format_table
+    from ..config import load_config
+    from ..report import build_report, format_table
 
     config = load_config(args.config, run_overrides(args))
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     if args.batch:
         from ..core.closed_loop import simulate
-        from ..core.diagnosis import diagnose_with
+        from ..core.diagnosis import diagnose
 
         record = simulate(config)
-        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric)
+        diagnosis = diagnose(record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
@@ -89,7 +89,7 @@ def handle(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(report))
     if args.json:
         try:
-            from ..core.report import write_json
+            from ..report import write_json
 
             write_json(report, args.json)
         except OSError as exc:

@@ -58,7 +58,7 @@ def register(sub) -> None:
 
 
 def _plan(args: argparse.Namespace, config):
-    from ..core.pmr import METHODS
+    from ..core.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
     try:
@@ -112,7 +112,7 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
 
 
 def handle(args: argparse.Namespace) -> int:
-    from ..core.config import load_config
+    from ..config import load_config
     from ..sweep import store
     from ..sweep.execute import execute, plan_tasks
 

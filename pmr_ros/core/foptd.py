@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .results import ElementModel
+
 SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
 
@@ -46,11 +48,11 @@ class DiscreteFoptd:
 
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:
         """Complex response at ``omega`` [rad/sample], shape (n_out, n_in, len(omega))."""
-        z1 = np.exp(-1j * np.asarray(omega, dtype=float))
+        z_inv = np.exp(-1j * np.asarray(omega, dtype=float))
         a = self.pole[..., None]
         b = self.numerator[..., None]
         d = self.delay_samples[..., None]
-        return b * z1 ** (1 + d) / (1.0 - a * z1)
+        return b * z_inv ** (1 + d) / (1.0 - a * z_inv)
 
     def filter_coefficients(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``(b, a)`` polynomials in z^-1 of element (i, k) for ``scipy.signal.lfilter``."""
@@ -169,6 +171,16 @@ class FoptdMatrix:
         """Row-major element names ``G11, G12, ...``."""
         n = max(self.n_outputs, self.n_inputs)
         return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
+
+    def element_models(self) -> dict[str, tuple[int, int, ElementModel]]:
+        """Row-major element name to ``(row, column, ElementModel)``, as diagnoses report them."""
+        names = self.element_names()
+        delays = self.delay_samples
+        out = {}
+        for j, name in enumerate(names):
+            i, k = divmod(j, self.n_inputs)
+            out[name] = (i, k, ElementModel("foptd", float(self.gain[i, k]), float(self.time_constant[i, k]), int(delays[i, k])))
+        return out
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
         """Samples until every element forgets its initial state to ``exp(-time_constants)``.

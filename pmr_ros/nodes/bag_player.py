@@ -25,7 +25,8 @@ from rclpy.node import Node
 
 from ..bag.reader import Bag, BagMessage
 from ..bag.schema import RUN_CONFIG_KEY, BagError, typestore
-from ..ros.contract import load_contract
+from ..contract.topics import load_contract
+from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
 DEFAULT_MAX_SAMPLES_PER_S = 1000.0
@@ -100,7 +101,7 @@ class BagPlayerNode(Node):
         if not publish_config:
             self.topics.pop(self.config_topic, None)
         by_name = {t.name: t for t in contract.values()}
-        self._outlets = {name: self.create_publisher(by_name[name].message_class(), name, by_name[name].qos.profile()) for name in self.topics}
+        self._outlets = {name: self.create_publisher(message_class(by_name[name]), name, qos_profile(by_name[name].qos)) for name in self.topics}
         self.published = dict.fromkeys(self.topics, 0)
         self.clock_topic = contract["clock"].name
         if publish_config:
@@ -117,7 +118,7 @@ class BagPlayerNode(Node):
             return
         t = load_contract()[RUN_CONFIG_KEY]
         if self.config_topic not in self._outlets:
-            self._outlets[self.config_topic] = self.create_publisher(t.message_class(), t.name, t.qos.profile())
+            self._outlets[self.config_topic] = self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
             self.published[self.config_topic] = 0
         data = typestore().serialize_cdr(typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String")
         self._send(self.config_topic, bytes(data))

@@ -17,15 +17,18 @@ from __future__ import annotations
 
 import time
 from contextlib import suppress
+from typing import Any
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from ..bag.schema import RUN_CONFIG_KEY, RunConfig, typestore
 from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
-from ..ros.contract import load_contract
-from ..ros.layout import diagnosis_from_array
-from ..ros.parameters import default_parameters, nested
+from ..config import nested
+from ..contract.layout import diagnosis_from_array
+from ..contract.topics import load_contract
+from ..ros.parameters import node_parameters, plain_value
+from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_recorder"
 PARAMETER_SOURCE_NODE = "pmr_diagnostician"
@@ -78,7 +81,7 @@ class BagRecorderNode(Node):
             self.has_config = True
         self._subs = []
         for t in writer.topics.values():
-            self._subs.append(self.create_subscription(t.message_class(), t.name, self._writer_of(t.name), t.qos.profile(), raw=True))
+            self._subs.append(self.create_subscription(message_class(t), t.name, self._writer_of(t.name), qos_profile(t.qos), raw=True))
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._flush_timer = self.create_timer(max(flush_period_s, 0.01), writer.flush, clock=wall)
         self._parameter_client = None
@@ -143,16 +146,18 @@ class BagRecorderNode(Node):
                 self._store_parameters(self._parameter_future.result())
             return
         if self._parameter_client.services_are_ready():
-            self._parameter_future = self._parameter_client.get_parameters(sorted(default_parameters()))
+            self._parameter_future = self._parameter_client.get_parameters(self._parameter_names())
 
-    def _store_parameters(self, response) -> None:
+    def _parameter_names(self) -> list[str]:
+        return [p.name for p in node_parameters(PARAMETER_SOURCE_NODE)]
+
+    def _store_parameters(self, response: Any) -> None:
         from rclpy.parameter import parameter_value_to_python
 
         if self.has_config or response is None:
             return
-        names = sorted(default_parameters())
-        values = [parameter_value_to_python(v) for v in response.values]
-        flat = {n: (list(v) if isinstance(v, (list, tuple)) or hasattr(v, "tolist") else v) for n, v in zip(names, values, strict=False) if v is not None}
+        values = [plain_value(parameter_value_to_python(v)) for v in response.values]
+        flat = {n: v for n, v in zip(self._parameter_names(), values, strict=False) if v is not None}
         self.writer.write_run_config(RunConfig(nested(flat), source=f"parameters of /{self._parameter_source}"), time.time_ns())
         self.counts[self._config_topic] += 1
         self.has_config = True
@@ -173,7 +178,7 @@ class RunRecording:
     """Records an in-process node-set run (``pmr-ros run --bag``) into a bag.
 
     :meth:`nodes` is the ``extra_nodes`` hook of
-    :func:`pmr_ros.ros.node_set.run_node_set`: it adds a recorder whose
+    :func:`pmr_ros.node_set.run_node_set`: it adds a recorder whose
     configuration is every parameter the nodes got, and whose ``done`` waits
     for the whole run and its final verdicts.
 

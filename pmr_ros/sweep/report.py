@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import PmrConfig
+from ..config import PmrConfig
 from ..core.foptd import SCENARIOS
 from .analysis import (
     DIAGNOSES,

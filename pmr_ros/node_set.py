@@ -21,13 +21,14 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from ..core.closed_loop import RunRecord
-from ..core.config import PmrConfig, flatten_parameters, load_config
-from ..core.pmr import Diagnosis
-from .contract import topic
-from .convert import diagnosis_from_array, read_estimates, read_signal
-from .parameters import parameter_overrides
-from .signals import stop_requests
+from .config import PmrConfig, flatten_parameters, load_config
+from .contract.layout import diagnosis_from_array, read_estimates, read_signal
+from .contract.topics import SIGNAL_TOPICS, topic
+from .core.closed_loop import RunRecord
+from .core.results import Diagnosis
+from .ros.parameters import parameter_overrides
+from .ros.signals import stop_requests
+from .ros.topics import message_class, qos_profile
 
 DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
@@ -84,15 +85,15 @@ class _Listener(Node):
         self.counts: dict[str, int] = {}
         for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
             t = topic(key)
-            self.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+            self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
         if record:
             n = config.run.samples
             widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
-            for signal, key in (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output")):
+            for signal, key in SIGNAL_TOPICS.items():
                 self.arrays[signal] = np.full((n, widths[signal]), np.nan)
                 self.counts[signal] = 0
                 t = topic(key)
-                self.create_subscription(t.message_class(), t.name, self._recorder(signal), t.qos.profile())
+                self.create_subscription(message_class(t), t.name, self._recorder(signal), qos_profile(t.qos))
 
     def _recorder(self, signal: str):
         def on_message(msg) -> None:
@@ -127,10 +128,10 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) 
 
     ``extra`` holds dotted parameter values laid over the configuration.
     """
-    from ..nodes.mpc_controller import MpcControllerNode
-    from ..nodes.pmr_diagnostician import PmrDiagnosticianNode
-    from ..nodes.prbs_setpoint import PrbsSetpointNode
-    from ..nodes.wood_berry_plant import PlantNode
+    from .nodes.mpc_controller import MpcControllerNode
+    from .nodes.plant import PlantNode
+    from .nodes.pmr_diagnostician import PmrDiagnosticianNode
+    from .nodes.prbs_setpoint import PrbsSetpointNode
 
     flat = flatten_parameters(config.parameters)
     flat.update(extra or {})

@@ -1,22 +1,39 @@
 """The topic contract of ``msg_defs/topics.yaml``: names, message types, QoS, field meanings.
 
-Nodes and tests take topic names, types and QoS from here, never from literals.
+Nodes, bags and tests take topic names, types and QoS from here, never from
+literals.  Plain data: the rclpy and ``rosbags`` forms of a QoS are made from
+:meth:`TopicQos.policies` by :mod:`pmr_ros.ros.topics` and :mod:`pmr_ros.bag.schema`.
 """
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
 import yaml
 
-from ..core.config import share_dir
+from ..resources import share_dir
+
+__all__ = [
+    "CONTRACT_FILE",
+    "SIGNAL_TOPICS",
+    "ContractError",
+    "Topic",
+    "TopicQos",
+    "load_contract",
+    "msg_defs_dir",
+    "parse_contract",
+    "topic",
+]
 
 CONTRACT_FILE = "topics.yaml"
 RELIABILITIES = ("reliable", "best_effort")
 DURABILITIES = ("transient_local", "volatile")
+HISTORIES = ("keep_last", "keep_all")
+
+SIGNAL_TOPICS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
+"""Contract keys of the signals the diagnostician aligns: setpoints r, inputs u, outputs y."""
 
 
 class ContractError(ValueError):
@@ -24,28 +41,34 @@ class ContractError(ValueError):
 
 
 def msg_defs_dir() -> Path:
-    """The folder with the topic contract (see :func:`pmr_ros.core.config.share_dir`)."""
+    """The folder with the topic contract (see :func:`pmr_ros.resources.share_dir`)."""
     return share_dir("msg_defs", CONTRACT_FILE)
 
 
 @dataclass(frozen=True)
 class TopicQos:
-    """QoS of a topic as written in the contract."""
+    """QoS of a topic as written in the contract.
+
+    Attributes
+    ----------
+    reliability : str
+        ``reliable`` or ``best_effort``.
+    durability : str
+        ``transient_local`` or ``volatile``.
+    depth : int
+        History depth (of ``keep_last``; the resource bound of ``keep_all``).
+    history : str
+        ``keep_last`` or ``keep_all``.
+    """
 
     reliability: str
     durability: str
     depth: int
+    history: str = "keep_last"
 
-    def profile(self):
-        """The rclpy ``QoSProfile`` (keep-last history of ``depth``)."""
-        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-        return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=self.depth,
-            reliability=ReliabilityPolicy.RELIABLE if self.reliability == "reliable" else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if self.durability == "transient_local" else DurabilityPolicy.VOLATILE,
-        )
+    def policies(self) -> dict[str, str]:
+        """Policy kind to its enum member name, as rclpy and rosbags both spell them (``KEEP_LAST``)."""
+        return {"history": self.history.upper(), "reliability": self.reliability.upper(), "durability": self.durability.upper()}
 
 
 @dataclass(frozen=True)
@@ -73,11 +96,6 @@ class Topic:
     description: str
     fields: dict
 
-    def message_class(self):
-        """The Python message class of :attr:`type` (imports the interface package)."""
-        package, _, cls = self.type.split("/")
-        return getattr(importlib.import_module(f"{package}.msg"), cls)
-
 
 def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
     """Validate a contract document into topics by key.
@@ -98,8 +116,8 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
             if field not in entry:
                 raise ContractError(f"{where}.{field}: missing")
         name, type_name, qos = entry["name"], entry["type"], entry["qos"]
-        if not isinstance(name, str) or not name.startswith("/"):
-            raise ContractError(f"{where}.name = {name!r}: must be an absolute topic name")
+        if not isinstance(name, str) or not name or name.startswith("~"):
+            raise ContractError(f"{where}.name = {name!r}: must be a topic name")
         if not isinstance(type_name, str) or type_name.count("/") != 2 or type_name.split("/")[1] != "msg":
             raise ContractError(f"{where}.type = {type_name!r}: must be 'package/msg/Type'")
         if not isinstance(qos, dict):
@@ -108,12 +126,15 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
             raise ContractError(f"{where}.qos.reliability = {qos.get('reliability')!r}: must be one of {', '.join(RELIABILITIES)}")
         if qos.get("durability") not in DURABILITIES:
             raise ContractError(f"{where}.qos.durability = {qos.get('durability')!r}: must be one of {', '.join(DURABILITIES)}")
+        history = qos.get("history", "keep_last")
+        if history not in HISTORIES:
+            raise ContractError(f"{where}.qos.history = {history!r}: must be one of {', '.join(HISTORIES)}")
         depth = qos.get("depth")
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
             raise ContractError(f"{where}.qos.depth = {depth!r}: must be a whole number >= 1")
         if not isinstance(entry["fields"], dict) or not entry["fields"]:
             raise ContractError(f"{where}.fields: must document every field")
-        topics[key] = Topic(key, name, type_name, TopicQos(qos["reliability"], qos["durability"], depth), str(entry["description"]), dict(entry["fields"]))
+        topics[key] = Topic(key, name, type_name, TopicQos(qos["reliability"], qos["durability"], depth, history), str(entry["description"]), dict(entry["fields"]))
     return topics
 
 
