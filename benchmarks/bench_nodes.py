@@ -72,10 +72,20 @@ def four_processes(samples: int, domain_id: int) -> float:
     procs = []
     try:
         for name in NODES:
-            procs.append(subprocess.Popen(
-                [str(bindir / name), "--ros-args", "--params-file", str(config_dir() / "wood_berry.yaml"), "--params-file", str(run_file)],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            ))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        str(bindir / name),
+                        "--ros-args",
+                        "--params-file",
+                        str(config_dir() / "wood_berry.yaml"),
+                        "--params-file",
+                        str(run_file),
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
         deadline = time.monotonic() + 600
         while "final" not in times and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
@@ -102,8 +112,12 @@ def main() -> None:
     args = parser.parse_args()
     print(f"lockstep node set, {args.samples} samples, Wood-Berry full mismatch, {os.cpu_count()} cores")
     for executor in ("events", "single"):
-        print(f"  one process, {executor:6s} executor : {one_process(args.samples, executor):7.0f} samples/s", flush=True)
-    print(f"  four processes                : {four_processes(args.samples, args.domain_id):7.0f} samples/s", flush=True)
+        print(
+            f"  one process, {executor:6s} executor : {one_process(args.samples, executor):7.0f} samples/s", flush=True
+        )
+    print(
+        f"  four processes                : {four_processes(args.samples, args.domain_id):7.0f} samples/s", flush=True
+    )
 
 
 if __name__ == "__main__":

@@ -195,7 +195,13 @@ def run_node_set(
     n = config.run.samples
     extra = {}
     if diagnose_once:
-        extra.update({"diagnostician.window_samples": n, "diagnostician.update_period_samples": n, "diagnostician.min_samples": n})
+        extra.update(
+            {
+                "diagnostician.window_samples": n,
+                "diagnostician.update_period_samples": n,
+                "diagnostician.min_samples": n,
+            }
+        )
     extra.update(extra_parameters or {})
     context = Context()
     _init_context(context, domain_id, private)
@@ -226,9 +232,13 @@ def run_node_set(
                         started = now
                     last_progress, last_sample = now, plant.sample
                 elif now - last_progress > stall_timeout_s and not plant.finished:
-                    raise NodeSetError(f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)")
+                    raise NodeSetError(
+                        f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)"
+                    )
                 elif plant.finished and now - last_progress > stall_timeout_s:
-                    raise NodeSetError(f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample")
+                    raise NodeSetError(
+                        f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample"
+                    )
             wall = time.monotonic() - (started or time.monotonic())
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
             record_out = None

@@ -53,7 +53,9 @@ CLASSIC_KEYS = ("gain_ratio", "tau_index", "delay_mismatch_samples", "gain_misma
 
 def classic_numbers(elements: dict) -> dict:
     """The classic numbers, flags and verdict of each element of a serialised diagnosis."""
-    return {name: {**{k: e["classic"][k] for k in CLASSIC_KEYS}, "verdict": e["verdict"]} for name, e in elements.items()}
+    return {
+        name: {**{k: e["classic"][k] for k in CLASSIC_KEYS}, "verdict": e["verdict"]} for name, e in elements.items()
+    }
 
 
 # The reference report was written by pmr_ros 0.1 (flat classic fields) on another machine.
@@ -74,7 +76,10 @@ def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expecte
     try:
         assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
         # Strict lockstep: after each sample the diagnostician takes its r, u and y before the next goes out.
-        count = player.play(max_samples_per_s=None, after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0))
+        count = player.play(
+            max_samples_per_s=None,
+            after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0),
+        )
         assert count == EXPECTED["samples"]
         assert spin_until(executor, lambda: diagnostician.last_published is not None, 10.0)
         numbers, info = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
@@ -95,7 +100,12 @@ def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_pat
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(diagnostician)
     log = open(tmp_path / "replay.log", "w+")  # noqa: SIM115 - closed in finally
-    proc = subprocess.Popen([console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    proc = subprocess.Popen(
+        [console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=dict(os.environ),
+    )
     try:
         done = lambda: diagnostician.last_published is not None or proc.poll() is not None  # noqa: E731
         assert spin_until(executor, done, 120.0)
@@ -115,7 +125,17 @@ def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_pat
 def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_path, capsys):
     samples = 1500
     path = tmp_path / "run_bag"
-    argv = ["run", "--samples", str(samples), "--bag", str(path), "--storage", "sqlite3", "--json", str(tmp_path / "run.json")]
+    argv = [
+        "run",
+        "--samples",
+        str(samples),
+        "--bag",
+        str(path),
+        "--storage",
+        "sqlite3",
+        "--json",
+        str(tmp_path / "run.json"),
+    ]
     assert main(argv) == 0
     capsys.readouterr()
     bag = open_bag(path)
@@ -148,7 +168,12 @@ def _stop(proc: subprocess.Popen, log) -> None:
 
 def _start_recorder(tmp_path: Path, bag: Path, *extra: str) -> tuple[subprocess.Popen, object]:
     log = open(tmp_path / "record.log", "w+")  # noqa: SIM115 - closed by the caller
-    proc = subprocess.Popen([console_script("pmr-ros"), "record", str(bag), "--flush-period", "0.2", *extra], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ))
+    proc = subprocess.Popen(
+        [console_script("pmr-ros"), "record", str(bag), "--flush-period", "0.2", *extra],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=dict(os.environ),
+    )
     return proc, log
 
 
@@ -163,10 +188,14 @@ def _publish_to_recorder(ros_context, samples: int, *, publish_config: bool, ext
     executor = SingleThreadedExecutor(context=ros_context)
     for node in (player, *extra_nodes):
         executor.add_node(node)
-    assert player.wait_for_subscribers([*SIGNAL_TOPICS, topic("clock").name], 30.0, lambda: executor.spin_once(timeout_sec=0.02)), "the recorder did not subscribe"
+    assert player.wait_for_subscribers(
+        [*SIGNAL_TOPICS, topic("clock").name], 30.0, lambda: executor.spin_once(timeout_sec=0.02)
+    ), "the recorder did not subscribe"
     # Pace the samples a little so the recorder (one Python process) never falls a history depth behind.
-    player.play(should_stop=lambda: sum(player.published.values()) >= 4 * samples + publish_config,
-                after_sample=lambda n: executor.spin_once(timeout_sec=0) if n % 50 == 0 else None)
+    player.play(
+        should_stop=lambda: sum(player.published.values()) >= 4 * samples + publish_config,
+        after_sample=lambda n: executor.spin_once(timeout_sec=0) if n % 50 == 0 else None,
+    )
     return player, executor
 
 
@@ -179,7 +208,9 @@ def test_recorder_process_stopped_by_a_signal_closes_the_bag(ros_context, tmp_pa
     extra = [diagnostician] if diagnostician else []
     proc, log = _start_recorder(tmp_path, path)
     try:
-        player, executor = _publish_to_recorder(ros_context, samples, publish_config=how == signal.SIGINT, extra_nodes=extra)
+        player, executor = _publish_to_recorder(
+            ros_context, samples, publish_config=how == signal.SIGINT, extra_nodes=extra
+        )
         deadline = time.monotonic() + 1.5
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)  # serve the diagnostician's parameter services
@@ -249,7 +280,12 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, stop):
     path = tmp_path / "stopped"
-    proc = subprocess.Popen([console_script("pmr-ros"), "run", "--samples", "500000", "--bag", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [console_script("pmr-ros"), "run", "--samples", "500000", "--bag", str(path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         _wait_until_flushed(path, topic("measured_output").name, 1000, timeout_s=60.0)
         proc.send_signal(stop)

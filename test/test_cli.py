@@ -42,7 +42,9 @@ def test_insufficient_data_is_a_verdict_and_exit_3(tmp_path, capsys):
 
 def test_bad_config_is_one_line_naming_file_and_field(tmp_path, capsys):
     cfg = tmp_path / "bad.yaml"
-    cfg.write_text((config_dir() / "wood_berry.yaml").read_text().replace("[16.7, 21.0, 10.9, 14.4]", "[16.7, 21.0, -10.9, 14.4]"))
+    cfg.write_text(
+        (config_dir() / "wood_berry.yaml").read_text().replace("[16.7, 21.0, 10.9, 14.4]", "[16.7, 21.0, -10.9, 14.4]")
+    )
     assert main(["run", "--batch", "--config", str(cfg)]) == 2
     err = capsys.readouterr().err
     assert str(cfg) in err and "system.time_constant[2] (G21)" in err and "-10.9" in err
@@ -53,7 +55,10 @@ def test_missing_config_file(capsys):
     assert "/no/such/file.yaml" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv,words", [(["run", "--scenario", "bogus"], "invalid choice: 'bogus'"), (["run", "--samples", "-5"], "must be > 0")])
+@pytest.mark.parametrize(
+    "argv,words",
+    [(["run", "--scenario", "bogus"], "invalid choice: 'bogus'"), (["run", "--samples", "-5"], "must be > 0")],
+)
 def test_bad_options_exit_2(argv, words, capsys):
     with pytest.raises(SystemExit) as info:
         main(argv)
@@ -62,7 +67,16 @@ def test_bad_options_exit_2(argv, words, capsys):
 
 def test_console_script_error_has_no_traceback(tmp_path):
     cfg = tmp_path / "bad.yaml"
-    cfg.write_text((config_dir() / "wood_berry.yaml").read_text().replace("[1.0, 3.0, 7.0, 3.0]", "[1.0, 3.0, 7.5, 3.0]"))
-    proc = subprocess.run([sys.executable, "-m", "pmr_ros.cli", "run", "--batch", "--config", str(cfg)], capture_output=True, text=True, timeout=120)
+    cfg.write_text(
+        (config_dir() / "wood_berry.yaml").read_text().replace("[1.0, 3.0, 7.0, 3.0]", "[1.0, 3.0, 7.5, 3.0]")
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "pmr_ros.cli", "run", "--batch", "--config", str(cfg)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr and "system.delay[2]" in proc.stderr and "whole number of samples" in proc.stderr
+    assert (
+        "Traceback" not in proc.stderr and "system.delay[2]" in proc.stderr and "whole number of samples" in proc.stderr
+    )

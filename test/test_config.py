@@ -120,9 +120,17 @@ def test_declared_scenarios_are_the_cores():
 @pytest.mark.parametrize(
     "change,field,words",
     [
-        ({"mpc": {"predicton_horizon": 5}}, "mpc.predicton_horizon", "unknown parameter; did you mean mpc.prediction_horizon?"),
+        (
+            {"mpc": {"predicton_horizon": 5}},
+            "mpc.predicton_horizon",
+            "unknown parameter; did you mean mpc.prediction_horizon?",
+        ),
         ({"system": {"gian": [1.0, 2.0, 3.0, 4.0]}}, "system.gian", "did you mean system.gain?"),
-        ({"diagnostician": {"windw_samples": 10}}, "diagnostician.windw_samples", "did you mean diagnostician.window_samples?"),
+        (
+            {"diagnostician": {"windw_samples": 10}},
+            "diagnostician.windw_samples",
+            "did you mean diagnostician.window_samples?",
+        ),
         ({"mcp": {"prediction_horizon": 5}}, "mcp", "unknown block"),
     ],
 )

@@ -37,8 +37,17 @@ def test_contract_lists_every_topic_with_type_qos_and_fields():
 
 
 def test_parse_contract_rejects_malformed_entries():
-    good = {"topics": {"x": {"name": "/x", "type": "std_msgs/msg/Float64", "qos": {"reliability": "reliable", "durability": "volatile", "depth": 1},
-                             "description": "d", "fields": {"data": "value"}}}}
+    good = {
+        "topics": {
+            "x": {
+                "name": "/x",
+                "type": "std_msgs/msg/Float64",
+                "qos": {"reliability": "reliable", "durability": "volatile", "depth": 1},
+                "description": "d",
+                "fields": {"data": "value"},
+            }
+        }
+    }
     assert parse_contract(good)["x"].qos.depth == 1
     cases = [
         (("name",), "", "must be a topic name"),

@@ -9,8 +9,22 @@ import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 
-from pmr_ros.contract.layout import decode_value, diagnosis_from_array, encode_value, read_estimates, read_signal, status_values  # noqa: E402
-from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult, compare_diagnoses  # noqa: E402
+from pmr_ros.contract.layout import (
+    decode_value,
+    diagnosis_from_array,
+    encode_value,
+    read_estimates,
+    read_signal,
+    status_values,
+)  # noqa: E402
+from pmr_ros.core.results import (
+    ClassicResult,
+    Diagnosis,
+    ElementDiagnosis,
+    ElementModel,
+    ParametricResult,
+    compare_diagnoses,
+)  # noqa: E402
 from pmr_ros.ros import convert  # noqa: E402
 
 MODEL = ElementModel("foptd", 12.8, 16.7, 1)
@@ -28,23 +42,39 @@ def _diagnosis() -> Diagnosis:
         "G21": _classic(0.85, True, -3.0, False, 0),
         "G22": _classic(0.9, True, -18.0, True, 0),
     }
-    elements = {name: ElementDiagnosis(name, j // 2, j % 2, MODEL, "classic", classic=part) for j, (name, part) in enumerate(parts.items())}
+    elements = {
+        name: ElementDiagnosis(name, j // 2, j % 2, MODEL, "classic", classic=part)
+        for j, (name, part) in enumerate(parts.items())
+    }
     return Diagnosis("classic", "ok", "", 4096, elements)
 
 
 def _parametric() -> Diagnosis:
     p = ParametricResult(
-        gain_mismatch_pct=15.3, gain_mismatch_pct_interval=(14.8, 15.9), tau_mismatch_pct=-0.2, tau_mismatch_pct_interval=(-0.8, 0.4),
-        delay_mismatch_samples=2, delay_confidence=0.999, gain_verdict="mismatch", tau_verdict="ok", delay_verdict="mismatch",
-        reasons=("a | reason",), warnings=("row 1 mixes time constants",), quality={"coherence": 0.9, "segment_length": 1024},
+        gain_mismatch_pct=15.3,
+        gain_mismatch_pct_interval=(14.8, 15.9),
+        tau_mismatch_pct=-0.2,
+        tau_mismatch_pct_interval=(-0.8, 0.4),
+        delay_mismatch_samples=2,
+        delay_confidence=0.999,
+        gain_verdict="mismatch",
+        tau_verdict="ok",
+        delay_verdict="mismatch",
+        reasons=("a | reason",),
+        warnings=("row 1 mixes time constants",),
+        quality={"coherence": 0.9, "segment_length": 1024},
     )
-    element = ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=_classic(1.16, True, 21.0, True, 2), parametric=p)
+    element = ElementDiagnosis(
+        "G21", 1, 0, MODEL, "parametric", classic=_classic(1.16, True, 21.0, True, 2), parametric=p
+    )
     return Diagnosis("parametric", "ok", "", 4096, {"G21": element})
 
 
 def test_stamps_round_trip_to_the_nanosecond():
     for seconds in (0.0, 1.0, 16383.0, 12.5, 1e-9 * 7):
-        assert convert.stamp_from_seconds(seconds).sec + convert.stamp_from_seconds(seconds).nanosec * 1e-9 == pytest.approx(seconds, abs=1e-12)
+        assert convert.stamp_from_seconds(seconds).sec + convert.stamp_from_seconds(
+            seconds
+        ).nanosec * 1e-9 == pytest.approx(seconds, abs=1e-12)
     stamp = convert.stamp_from_seconds(3.25)
     assert (stamp.sec, stamp.nanosec) == (3, 250_000_000)
 
@@ -68,7 +98,9 @@ def test_element_level_counts_mismatched_properties():
 @pytest.mark.parametrize("make", [_diagnosis, _parametric], ids=["classic", "parametric"])
 def test_verdicts_round_trip_exactly_through_diagnostic_array(make):
     diagnosis = make()
-    statuses = convert.diagnosis_statuses(diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=WINDOW)
+    statuses = convert.diagnosis_statuses(
+        diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=WINDOW
+    )
     assert [s.name for s in statuses] == [f"pmr_diagnostician: {name}" for name in diagnosis.elements]
     msg = convert.diagnostic_array(statuses, 4105.0)
     back, info = diagnosis_from_array(msg, "pmr_diagnostician")
@@ -82,15 +114,25 @@ def test_status_message_and_values_are_readable():
     statuses = convert.diagnosis_statuses(_diagnosis(), node_name="d", hardware_id="s", window=WINDOW)
     assert statuses[1].message == "gain +15 %, τ larger (index +20), delay +1 samples"
     values = status_values(statuses[0])
-    assert values["classic.gain_ratio"] == 1.0123456789012345 and values["verdict"] == "ok" and values["model.kind"] == "foptd"
-    parametric = status_values(convert.diagnosis_statuses(_parametric(), node_name="d", hardware_id="s", window=WINDOW)[0])
-    assert parametric["parametric.gain_mismatch_pct_interval"] == [14.8, 15.9] and parametric["parametric.reasons"] == ["a | reason"]
+    assert (
+        values["classic.gain_ratio"] == 1.0123456789012345
+        and values["verdict"] == "ok"
+        and values["model.kind"] == "foptd"
+    )
+    parametric = status_values(
+        convert.diagnosis_statuses(_parametric(), node_name="d", hardware_id="s", window=WINDOW)[0]
+    )
+    assert parametric["parametric.gain_mismatch_pct_interval"] == [14.8, 15.9] and parametric["parametric.reasons"] == [
+        "a | reason"
+    ]
 
 
 def test_no_verdict_statuses_carry_the_reason_and_no_numbers():
     models = {"G11": (0, 0, MODEL), "G12": (0, 1, MODEL)}
     empty = Diagnosis.insufficient(method="parametric", models=models, reason="u stopped", samples=0)
-    statuses = convert.diagnosis_statuses(empty, node_name="diag", hardware_id="sys", window={"window_samples": 0}, state="stale")
+    statuses = convert.diagnosis_statuses(
+        empty, node_name="diag", hardware_id="sys", window={"window_samples": 0}, state="stale"
+    )
     assert all(s.level == DiagnosticStatus.STALE and s.message == "stale: u stopped" for s in statuses)
     values = status_values(statuses[0])
     assert values["classic"] is None and values["parametric"] is None and values["reason"] == "u stopped"
@@ -108,10 +150,17 @@ def test_estimates_message_round_trip():
     est = read_estimates(msg)
     assert est["G12"] == {"classic.gain_ratio": 1.15, "classic.tau_index": 20.0, "classic.delay_mismatch_samples": 1.0}
     parametric = read_estimates(convert.estimates_message(_parametric(), 99.0, ""))["G21"]
-    assert parametric["parametric.gain_mismatch_pct_interval.low"] == 14.8 and parametric["parametric.delay_confidence"] == 0.999
+    assert (
+        parametric["parametric.gain_mismatch_pct_interval.low"] == 14.8
+        and parametric["parametric.delay_confidence"] == 0.999
+    )
     empty = ElementDiagnosis("G11", 0, 0, MODEL, "parametric", parametric=ParametricResult(reasons=("no fit",)))
-    values = read_estimates(convert.estimates_message(Diagnosis("parametric", "ok", "", 1, {"G11": empty}), 0.0, ""))["G11"]
-    assert set(values) == set(parametric) and all(math.isnan(v) for v in values.values())  # same names, NaN where no number
+    values = read_estimates(convert.estimates_message(Diagnosis("parametric", "ok", "", 1, {"G11": empty}), 0.0, ""))[
+        "G11"
+    ]
+    assert set(values) == set(parametric) and all(
+        math.isnan(v) for v in values.values()
+    )  # same names, NaN where no number
 
 
 def test_key_value_encoding_is_lossless_and_keeps_strings():
@@ -124,11 +173,39 @@ def test_compare_diagnoses_is_exact_for_verdicts_and_tolerant_for_floats():
     a = _parametric()
     p = a.elements["G21"].parametric
     close = ParametricResult(**{**p.__dict__, "gain_mismatch_pct": p.gain_mismatch_pct * (1 + 1e-12)})
-    b = Diagnosis("parametric", "ok", "", 4096, {"G21": ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=close)})
+    b = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {
+            "G21": ElementDiagnosis(
+                "G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=close
+            )
+        },
+    )
     assert compare_diagnoses(a, b) == []
     far = ParametricResult(**{**p.__dict__, "gain_mismatch_pct": p.gain_mismatch_pct * (1 + 1e-4)})
-    c = Diagnosis("parametric", "ok", "", 4096, {"G21": ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=far)})
+    c = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {"G21": ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=far)},
+    )
     assert [d.split(":")[0] for d in compare_diagnoses(a, c)] == ["elements.G21.parametric.gain_mismatch_pct"]
     other = ParametricResult(**{**p.__dict__, "tau_verdict": "mismatch"})
-    d = Diagnosis("parametric", "ok", "", 4096, {"G21": ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=other)})
-    assert [line.split(":")[0] for line in compare_diagnoses(a, d)] == ["elements.G21.parametric.tau_verdict"]  # the verdict stays mismatch
+    d = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {
+            "G21": ElementDiagnosis(
+                "G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=other
+            )
+        },
+    )
+    assert [line.split(":")[0] for line in compare_diagnoses(a, d)] == [
+        "elements.G21.parametric.tau_verdict"
+    ]  # the verdict stays mismatch

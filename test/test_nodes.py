@@ -112,7 +112,11 @@ def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros_context
         result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
         assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
         result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
-        assert not result.successful and "pmr.method" in result.reason and node.get_parameter("pmr.method").value == "parametric"
+        assert (
+            not result.successful
+            and "pmr.method" in result.reason
+            and node.get_parameter("pmr.method").value == "parametric"
+        )
         result = node.set_parameters([Parameter("diagnostician.window_samples", value=4096)])[0]
         assert not result.successful and "must not exceed diagnostician.window_samples (4096)" in result.reason
         ok = node.set_parameters([Parameter("diagnostician.window_samples", value=10000)])[0]
@@ -156,15 +160,22 @@ def test_a_node_without_a_model_refuses_to_start(ros_context):
     with pytest.raises(ConfigError, match="system: missing: a configuration needs the controller's model"):
         PmrDiagnosticianNode(context=ros_context)
     # a misspelt system block: the typo is named, and the node does not fall back to a built-in model
-    misspelt = [Parameter(name.replace("system.", "sytem."), value=p.value) if name.startswith("system.") else p
-                for name, p in ((p.name, p) for p in _params())]
+    misspelt = [
+        Parameter(name.replace("system.", "sytem."), value=p.value) if name.startswith("system.") else p
+        for name, p in ((p.name, p) for p in _params())
+    ]
     with pytest.raises(ConfigError, match=r"sytem\.\w+ = .*unknown parameter; did you mean system\.\w+\?"):
         PmrDiagnosticianNode(context=ros_context, parameter_overrides=misspelt)
 
 
 def test_a_misspelt_parameter_is_refused_with_the_nearest_name(ros_context):
-    with pytest.raises(ConfigError, match="diagnostician.windw_samples = 10: unknown parameter; did you mean diagnostician.window_samples"):
-        PmrDiagnosticianNode(context=ros_context, parameter_overrides=[*_params(), Parameter("diagnostician.windw_samples", value=10)])
+    with pytest.raises(
+        ConfigError,
+        match="diagnostician.windw_samples = 10: unknown parameter; did you mean diagnostician.window_samples",
+    ):
+        PmrDiagnosticianNode(
+            context=ros_context, parameter_overrides=[*_params(), Parameter("diagnostician.windw_samples", value=10)]
+        )
 
 
 # -- the diagnostician against bad traffic -----------------------------------
@@ -226,6 +237,7 @@ class Harness:
 
     def settle(self) -> None:
         """Spin until the diagnostician has taken every message sent so far."""
+
         def taken():
             return self.diag.messages_received >= self._sent
 
@@ -321,7 +333,9 @@ def test_duplicated_and_out_of_order_stamps_are_dropped_and_change_nothing(harne
     r, u, y, first = h.diag.aligner.window(600)
     assert first == 400 and np.array_equal(y, rec.y[400:]) and np.array_equal(u, rec.u[400:])
     final, info = h.statuses()[-1]
-    expected = diagnose(rec.r[400:], rec.u[400:], rec.y[400:], model=h.config.model, pmr=h.config.pmr, parametric=h.config.parametric)
+    expected = diagnose(
+        rec.r[400:], rec.u[400:], rec.y[400:], model=h.config.model, pmr=h.config.pmr, parametric=h.config.parametric
+    )
     assert final.elements == expected.elements
 
 
@@ -336,6 +350,7 @@ def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
     assert stale, "no STALE diagnostics while u is missing"
     assert "u on /pmr/manipulated_input stopped at sample 299" in stale[0][0].reason
     assert all(e.result is None for e in stale[0][0].elements.values())
+
     # Then everything stops: after diagnostician.stale_timeout_s of silence, STALE again from the wall-clock check.
     def silent_r_reported():
         return any("no r on /pmr/setpoint for" in d.reason and _levels(i) == {"STALE"} for d, i in h.statuses())
@@ -347,7 +362,9 @@ def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
 
 def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
-    result = run_node_set(config, domain_id=ros_domain, record=True, extra_parameters={"simulation.real_time_rate_hz": 400.0})
+    result = run_node_set(
+        config, domain_id=ros_domain, record=True, extra_parameters={"simulation.real_time_rate_hz": 400.0}
+    )
     assert result.info["last_sample"] == 599
     assert result.wall_time_s >= 0.9 * 600 / 400
     assert np.isfinite(result.record.y).all() and np.isfinite(result.record.u).all()
@@ -357,7 +374,9 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
 def test_diagnostician_subscribes_to_r_u_y_only(ros_context):
     node = PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params())
     try:
-        assert {s.topic_name for s in node.subscriptions} == {topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")}
+        assert {s.topic_name for s in node.subscriptions} == {
+            topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")
+        }
     finally:
         node.destroy_node()
 

@@ -9,10 +9,16 @@ from pmr_ros.ros import parameters as p
 
 
 def test_each_node_declares_the_blocks_it_uses():
-    names = {node: {q.name for q in p.node_parameters(node)} for node in ("wood_berry_plant", "prbs_setpoint", "mpc_controller", "pmr_diagnostician")}
+    names = {
+        node: {q.name for q in p.node_parameters(node)}
+        for node in ("wood_berry_plant", "prbs_setpoint", "mpc_controller", "pmr_diagnostician")
+    }
     system = {q.name for q in schema.blocks()["system"].parameters}
     assert all(system <= declared for declared in names.values())
-    assert "mpc.prediction_horizon" in names["mpc_controller"] and "mpc.prediction_horizon" not in names["pmr_diagnostician"]
+    assert (
+        "mpc.prediction_horizon" in names["mpc_controller"]
+        and "mpc.prediction_horizon" not in names["pmr_diagnostician"]
+    )
     assert "pmr.method" in names["pmr_diagnostician"] and "pmr.method" not in names["wood_berry_plant"]
     assert "run.seed" in names["prbs_setpoint"] and "run.samples" not in names["prbs_setpoint"]
     assert "mismatch.gain_pct" in names["wood_berry_plant"] and "mismatch.gain_pct" not in names["mpc_controller"]
@@ -25,7 +31,11 @@ def test_descriptors_carry_the_declared_description_range_and_read_only_flag():
     assert "LFSR" in desc.description and desc.read_only
     assert (desc.integer_range[0].from_value, desc.integer_range[0].to_value) == (3, 24)
     tau_band = p.descriptor(schema.parameter("pmr.tau_band"), read_only=False)
-    assert not tau_band.read_only and "<= 3.14159" in tau_band.additional_constraints and "> 0" in tau_band.additional_constraints
+    assert (
+        not tau_band.read_only
+        and "<= 3.14159" in tau_band.additional_constraints
+        and "> 0" in tau_band.additional_constraints
+    )
     assert p.descriptor(schema.parameter("system.gain"), read_only=False).dynamic_typing
 
 
@@ -38,13 +48,16 @@ def test_ros_value_and_parameter_overrides():
     assert [(x.name, x.value) for x in params] == [("system.gain", [1.0, 2.5]), ("run.seed", 4)]
 
 
-@pytest.mark.parametrize(("name", "value", "words"), [
-    ("diagnostician.window_samples", 2.5, "whole number"),
-    ("diagnostician.stale_timeout_s", 0.0, "must be > 0"),
-    ("simulation.real_time_rate_hz", -1.0, "must be >= 0"),
-    ("pmr.overlap", 1.0, "< 1"),
-    ("pmr.method", "bayes", "one of classic, parametric"),
-])
+@pytest.mark.parametrize(
+    ("name", "value", "words"),
+    [
+        ("diagnostician.window_samples", 2.5, "whole number"),
+        ("diagnostician.stale_timeout_s", 0.0, "must be > 0"),
+        ("simulation.real_time_rate_hz", -1.0, "must be >= 0"),
+        ("pmr.overlap", 1.0, "< 1"),
+        ("pmr.method", "bayes", "one of classic, parametric"),
+    ],
+)
 def test_declared_checks_name_the_parameter(name, value, words):
     with pytest.raises(schema.ConfigError, match=words) as err:
         schema.parameter(name).check(value, source="node")

@@ -71,9 +71,13 @@ def test_four_processes_give_the_batch_verdicts_and_stop_cleanly(tmp_path, ros_c
             logs[name] = open(tmp_path / f"{name}.log", "w+")  # noqa: SIM115 - closed in finally
             procs[name] = subprocess.Popen(
                 [console_script(name), "--ros-args", "--params-file", str(system_file), "--params-file", str(run_file)],
-                stdout=logs[name], stderr=subprocess.STDOUT, env=dict(os.environ),
+                stdout=logs[name],
+                stderr=subprocess.STDOUT,
+                env=dict(os.environ),
             )
-        assert spin_until(executor, lambda: bool(final) or any(p.poll() is not None for p in procs.values()), 120.0), "no final verdicts in 120 s"
+        assert spin_until(executor, lambda: bool(final) or any(p.poll() is not None for p in procs.values()), 120.0), (
+            "no final verdicts in 120 s"
+        )
         assert final, {n: (tmp_path / f"{n}.log").read_text()[-2000:] for n in NODES}
         diagnosis, info = final[0]
         config = load_config(overrides={"run": {"samples": SAMPLES}})
@@ -114,7 +118,10 @@ def test_a_node_with_bad_parameters_exits_with_one_clear_line(ros_domain, argume
     system = [] if not arguments else ["--params-file", str(config_dir() / "wood_berry.yaml")]
     proc = subprocess.run(
         [console_script("pmr_diagnostician"), "--ros-args", *system, *arguments],
-        capture_output=True, text=True, timeout=60, env=dict(os.environ),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=dict(os.environ),
     )
     assert proc.returncode == 2, proc.stderr
     assert words in proc.stderr

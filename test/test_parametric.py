@@ -19,7 +19,9 @@ SEEDS = 50
 
 def _parametric(config, record, settings=None):
     """``(status, reason, element -> ParametricResult)`` of the parametric diagnosis of a record."""
-    d = diagnose_parametric(record.r, record.u, record.y, model=config.model, classic=config.pmr, settings=settings or config.parametric)
+    d = diagnose_parametric(
+        record.r, record.u, record.y, model=config.model, classic=config.pmr, settings=settings or config.parametric
+    )
     return d.status, d.reason, {name: e.parametric if e.parametric is not None else e for name, e in d.elements.items()}
 
 
@@ -37,7 +39,9 @@ def test_shape_is_the_exact_ratio_of_two_sampled_elements(wood_berry):
         for k in range(2):
             dD = int(plant.delay_samples[i, k] - model.delay_samples[i, k])
             rho = wood_berry.mismatch.gain_ratio[i, k]
-            np.testing.assert_allclose(rho * ratio_shape(z_inv, model.pole[i, k], plant.pole[i, k], dD), truth[i, k], rtol=1e-12)
+            np.testing.assert_allclose(
+                rho * ratio_shape(z_inv, model.pole[i, k], plant.pole[i, k], dD), truth[i, k], rtol=1e-12
+            )
 
 
 def test_noise_free_fit_recovers_the_injected_mismatch_exactly():
@@ -81,8 +85,12 @@ def test_95_percent_intervals_cover_the_injected_mismatch_in_90_percent_of_seeds
         for j, name in enumerate(wood_berry.model.element_names()):
             i, k = divmod(j, 2)
             runs = [run[name] for run in fifty_seeds[scenario]]
-            gain = np.mean([lo <= truth.gain_pct[i, k] <= hi for lo, hi in (e.gain_mismatch_pct_interval for e in runs)])
-            tau = np.mean([lo <= truth.time_constant_pct[i, k] <= hi for lo, hi in (e.tau_mismatch_pct_interval for e in runs)])
+            gain = np.mean(
+                [lo <= truth.gain_pct[i, k] <= hi for lo, hi in (e.gain_mismatch_pct_interval for e in runs)]
+            )
+            tau = np.mean(
+                [lo <= truth.time_constant_pct[i, k] <= hi for lo, hi in (e.tau_mismatch_pct_interval for e in runs)]
+            )
             assert gain >= 0.90, f"{scenario} {name} gain coverage {gain}"
             assert tau >= 0.90, f"{scenario} {name} tau coverage {tau}"
 
@@ -130,12 +138,14 @@ def _point(element, nu):
 
 @pytest.mark.parametrize("element", ["G11", "G21"])
 def test_stays_right_where_the_classic_method_breaks(element):
-    """nu = 10: a row whose time constants are 8-10x apart (the paper's limit is 1.8)."""
+    """Nu = 10: a row whose time constants are 8-10x apart (the paper's limit is 1.8)."""
     config = _point(element, 10.0)
     mm = config.mismatch
     classic_gain_errors = []
     for record in simulate_many(config, [("full", s) for s in (1, 2, 3)]):
-        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric")
+        diagnosis = diagnose_with(
+            record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric"
+        )
         _assert_within_specification(diagnosis, mm)
         for j, (name, e) in enumerate(diagnosis.elements.items()):
             i, k = divmod(j, 2)
@@ -150,7 +160,9 @@ def test_constant_setpoints_are_inconclusive_with_the_reason():
     config = load_config(overrides={"prbs": {"amplitude": 0.0}})
     status, reason, elements = _parametric(config, simulate(config, samples=4096))
     assert status == "insufficient_data" and "no excitation" in reason
-    assert all(e.verdict == "inconclusive" and e.parametric is None and reason in e.all_reasons for e in elements.values())
+    assert all(
+        e.verdict == "inconclusive" and e.parametric is None and reason in e.all_reasons for e in elements.values()
+    )
 
 
 def test_a_short_window_is_inconclusive(wood_berry):
@@ -161,7 +173,13 @@ def test_a_short_window_is_inconclusive(wood_berry):
 
 def test_drowned_outputs_are_inconclusive_not_wrong():
     config = load_config(overrides={"noise": {"std": 200.0}})
-    diagnosis = diagnose_with(*_signals(simulate(config, samples=8192, scenario="none")), config.model, config.pmr, config.parametric, "parametric")
+    diagnosis = diagnose_with(
+        *_signals(simulate(config, samples=8192, scenario="none")),
+        config.model,
+        config.pmr,
+        config.parametric,
+        "parametric",
+    )
     for e in diagnosis.elements.values():
         assert e.verdict == "inconclusive"
         assert any("coherence" in r or "too wide" in r for r in e.all_reasons), e.all_reasons
@@ -185,7 +203,12 @@ def test_nearly_collinear_setpoints_make_an_ill_conditioned_row_inconclusive(woo
 
 def test_an_element_that_is_not_excited_is_inconclusive():
     # G12's gain 100x below G11's: the first row's output hardly sees u2 through G12
-    config = load_config(overrides={"system": {"gain": [12.8, -0.189, 6.6, -19.4]}, "mismatch": {"gain_pct": 0.0, "time_constant_pct": 0.0, "delay_samples": 0}})
+    config = load_config(
+        overrides={
+            "system": {"gain": [12.8, -0.189, 6.6, -19.4]},
+            "mismatch": {"gain_pct": 0.0, "time_constant_pct": 0.0, "delay_samples": 0},
+        }
+    )
     status, _, elements = _parametric(config, simulate(config, samples=8192))
     assert status == "ok"
     assert elements["G12"].verdict == "inconclusive" and any("barely excited" in r for r in elements["G12"].reasons)
@@ -223,7 +246,9 @@ def test_three_by_three_within_specification():
     config = load_config("config/three_by_three.yaml")
     mm = config.mismatch
     for record in simulate_many(config, [("full", 1), ("full", 2)]):
-        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric")
+        diagnosis = diagnose_with(
+            record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric"
+        )
         _assert_within_specification(diagnosis, mm)
         for j, (name, e) in enumerate(diagnosis.elements.items()):
             i, k = divmod(j, 3)
@@ -234,4 +259,6 @@ def test_three_by_three_within_specification():
 def test_unknown_method_is_refused(wood_berry):
     record = simulate(wood_berry, samples=4096)
     with pytest.raises(ValueError, match="unknown diagnosis method 'bayes'"):
-        diagnose_with(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr, wood_berry.parametric, method="bayes")
+        diagnose_with(
+            record.r, record.u, record.y, wood_berry.model, wood_berry.pmr, wood_berry.parametric, method="bayes"
+        )

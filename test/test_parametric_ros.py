@@ -19,12 +19,22 @@ from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_le
 def parametric_diagnosis():
     config = load_config()
     record = simulate(config, samples=8192)
-    return diagnose(record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric, method="parametric")
+    return diagnose(
+        record.r,
+        record.u,
+        record.y,
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        method="parametric",
+    )
 
 
 def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
     window = {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
-    statuses = diagnosis_statuses(parametric_diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=window)
+    statuses = diagnosis_statuses(
+        parametric_diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=window
+    )
     msg = diagnostic_array(statuses, 8191.0)
     g21 = next(s for s in msg.status if s.name == "pmr_diagnostician: G21")
     assert "[" in g21.message and "MISMATCH" in g21.message  # numbers with intervals, for people
@@ -37,7 +47,11 @@ def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosi
 def test_estimates_topic_has_the_intervals(parametric_diagnosis):
     values = read_estimates(estimates_message(parametric_diagnosis, 8191.0, "wood_berry"))
     g12 = values["G12"]
-    assert g12["parametric.gain_mismatch_pct_interval.low"] < g12["parametric.gain_mismatch_pct"] < g12["parametric.gain_mismatch_pct_interval.high"]
+    assert (
+        g12["parametric.gain_mismatch_pct_interval.low"]
+        < g12["parametric.gain_mismatch_pct"]
+        < g12["parametric.gain_mismatch_pct_interval.high"]
+    )
     assert g12["parametric.delay_mismatch_samples"] == 1 and g12["parametric.delay_confidence"] > 0.95
 
 
@@ -45,7 +59,9 @@ def test_inconclusive_without_mismatch_is_a_warning(parametric_diagnosis):
     element = parametric_diagnosis.elements["G11"]
 
     def with_verdicts(gain, tau, delay):
-        p = ParametricResult(**{**element.parametric.__dict__, "gain_verdict": gain, "tau_verdict": tau, "delay_verdict": delay})
+        p = ParametricResult(
+            **{**element.parametric.__dict__, "gain_verdict": gain, "tau_verdict": tau, "delay_verdict": delay}
+        )
         return ElementDiagnosis(**{**element.__dict__, "parametric": p})
 
     inconclusive = with_verdicts("ok", "inconclusive", "ok")
@@ -70,7 +86,9 @@ def test_diagnostician_method_parameter_is_described_and_checked(ros_context):
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
     from pmr_ros.ros.parameters import parameter_overrides
 
-    node = PmrDiagnosticianNode(context=ros_context, parameter_overrides=parameter_overrides(flatten_parameters(load_config().parameters)))
+    node = PmrDiagnosticianNode(
+        context=ros_context, parameter_overrides=parameter_overrides(flatten_parameters(load_config().parameters))
+    )
     try:
         assert "parametric" in node.describe_parameter("pmr.method").description
         assert node.describe_parameter("parametric.gain_tolerance_pct").description

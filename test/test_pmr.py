@@ -16,6 +16,7 @@ from pmr_ros.core.record import InsufficientData, check_record
 def diagnose(r, u, y, model, settings):
     return diagnose_classic(r, u, y, model=model, settings=settings)
 
+
 SEEDS = range(1, 6)
 
 
@@ -52,7 +53,12 @@ def _run(args):
 @pytest.fixture(scope="module")
 def baseline_runs():
     """Every scenario x 5 seeds on Wood-Berry and on the 3x3, two processes at a time."""
-    jobs = [(path, s, seed) for path in (None, "config/three_by_three.yaml") for s in ("none", "gain", "time_constant", "delay", "full") for seed in SEEDS]
+    jobs = [
+        (path, s, seed)
+        for path in (None, "config/three_by_three.yaml")
+        for s in ("none", "gain", "time_constant", "delay", "full")
+        for seed in SEEDS
+    ]
     with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
         results = list(pool.map(_run, jobs))
     out = {}
@@ -84,14 +90,30 @@ def test_each_scenario_flags_exactly_its_own_parameters(baseline_runs, path, sce
     for seed in SEEDS:
         d = baseline_runs[(path, scenario, seed)]
         assert d["status"] == "ok"
-        np.testing.assert_array_equal(_matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "tau_mismatch", n).astype(bool), injected.time_constant_pct != 0, err_msg=f"tau flags, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "delay_mismatch", n).astype(bool), injected.delay_samples != 0, err_msg=f"delay flags, seed {seed}")
-        np.testing.assert_allclose(_matrix(d, "gain_ratio", n), injected.gain_ratio, atol=0.03, err_msg=f"gain ratios, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "delay_mismatch_samples", n), injected.delay_samples, err_msg=f"delays, seed {seed}")
+        np.testing.assert_array_equal(
+            _matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}"
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "tau_mismatch", n).astype(bool),
+            injected.time_constant_pct != 0,
+            err_msg=f"tau flags, seed {seed}",
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "delay_mismatch", n).astype(bool),
+            injected.delay_samples != 0,
+            err_msg=f"delay flags, seed {seed}",
+        )
+        np.testing.assert_allclose(
+            _matrix(d, "gain_ratio", n), injected.gain_ratio, atol=0.03, err_msg=f"gain ratios, seed {seed}"
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "delay_mismatch_samples", n), injected.delay_samples, err_msg=f"delays, seed {seed}"
+        )
         tau = _matrix(d, "tau_index", n)
         moved = injected.time_constant_pct != 0
-        np.testing.assert_array_equal(np.sign(tau[moved]), np.sign(injected.time_constant_pct[moved]), err_msg=f"tau signs, seed {seed}")
+        np.testing.assert_array_equal(
+            np.sign(tau[moved]), np.sign(injected.time_constant_pct[moved]), err_msg=f"tau signs, seed {seed}"
+        )
 
 
 def test_constant_setpoints_are_insufficient_data(wood_berry):

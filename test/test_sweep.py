@@ -17,7 +17,15 @@ from pmr_ros.core.foptd import SCENARIOS
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
-from pmr_ros.sweep.plan import PlanError, SweepPlan, SweepPoint, element_index, nu_grid, parse_nu_list, row_time_constant_ratio
+from pmr_ros.sweep.plan import (
+    PlanError,
+    SweepPlan,
+    SweepPoint,
+    element_index,
+    nu_grid,
+    parse_nu_list,
+    row_time_constant_ratio,
+)
 from pmr_ros.sweep.progress import ProgressBar, format_duration
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
@@ -33,7 +41,9 @@ def test_default_nu_grid_is_the_papers():
     assert len(grid) == 37 and grid[0] == 1.0 and grid[-1] == 10.0 and grid[5] == 2.25
 
 
-@pytest.mark.parametrize("args", [(5.0, 2.0, 0.25), (0.0, 2.0, 0.5), (1.0, 2.0, 0.0), (1.0, 2.0, -1.0), (1.0, float("inf"), 1.0)])
+@pytest.mark.parametrize(
+    "args", [(5.0, 2.0, 0.25), (0.0, 2.0, 0.5), (1.0, 2.0, 0.0), (1.0, 2.0, -1.0), (1.0, float("inf"), 1.0)]
+)
 def test_bad_nu_grid(args):
     with pytest.raises(PlanError):
         nu_grid(*args)
@@ -97,9 +107,14 @@ def test_small_sweep_csv_shape(small_sweep):
     assert len(rows) == 2 * 2 * 2 * 5 * 1 * 4
     assert {r["sweep"] for r in rows} == {"tau_G11", "tau_G21"}
     assert {r["method"] for r in rows} == {"classic", "parametric"}
-    assert {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(rows)
+    assert {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(
+        rows
+    )
     parametric = [r for r in rows if r["method"] == "parametric"]
-    assert all(r["tau_mismatch_pct"] and float(r["gain_mismatch_pct_low"]) <= float(r["gain_mismatch_pct_high"]) for r in parametric)
+    assert all(
+        r["tau_mismatch_pct"] and float(r["gain_mismatch_pct_low"]) <= float(r["gain_mismatch_pct_high"])
+        for r in parametric
+    )
     assert {r["verdict"] for r in rows} <= {"ok", "mismatch", "inconclusive"}
     assert all(r["status"] == "ok" for r in rows)
     g11 = [r for r in rows if r["sweep"] == "tau_G11" and r["nu"] == "3.0"]
@@ -110,7 +125,9 @@ def test_small_sweep_report(small_sweep):
     report = (small_sweep / "reproduction.md").read_text()
     assert "Breakdown points" in report and "eq. 16" in report
     figures = sorted(p.name for p in (small_sweep / "figures").glob("*.png"))
-    assert figures == sorted(f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric"))
+    assert figures == sorted(
+        f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric")
+    )
     assert "Classic and parametric side by side" in report
     assert all((small_sweep / "figures" / f).stat().st_size < 300_000 for f in figures)
     assert json.loads((small_sweep / store.MANIFEST_FILE).read_text())["samples"] == SAMPLES
@@ -126,8 +143,16 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
                 e = diagnosis.elements[row["element"]].classic
                 assert row["prediction_horizon"] == wood_berry.mpc.prediction_horizon
                 # exactly equal: same loop, same arithmetic, repr-exact CSV
-                assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (e.gain_ratio, e.tau_index, e.delay_mismatch_samples)
-                assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (e.gain_mismatch, e.tau_mismatch, e.delay_mismatch)
+                assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (
+                    e.gain_ratio,
+                    e.tau_index,
+                    e.delay_mismatch_samples,
+                )
+                assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (
+                    e.gain_mismatch,
+                    e.tau_mismatch,
+                    e.delay_mismatch,
+                )
 
 
 def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
@@ -136,7 +161,11 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     argv = ["run", "--batch", "--scenario", "full", "--seed", "1", "--samples", str(SAMPLES), "--json", str(report)]
     main([*argv, "--method", "classic"])
     elements = json.loads(report.read_text())["elements"]
-    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"]
+    rows = [
+        r
+        for r in store.read_rows(small_sweep / store.RESULTS_FILE)
+        if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"
+    ]
     classic = [r for r in rows if r["method"] == "classic"]
     assert len(classic) == 4
     for row in classic:
@@ -151,7 +180,9 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
         e = elements[row["element"]]["parametric"]
         assert row["gain_ratio"] == pytest.approx(1 + e["gain_mismatch_pct"] / 100, rel=1e-12)
         assert row["tau_mismatch_pct"] == pytest.approx(e["tau_mismatch_pct"], rel=1e-12)
-        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(e["tau_mismatch_pct_interval"], rel=1e-12)
+        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(
+            e["tau_mismatch_pct_interval"], rel=1e-12
+        )
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"] and row["verdict"] == e["verdict"]
 
 
@@ -209,7 +240,25 @@ def test_resume_after_interruption(small_sweep, tmp_path):
 
 
 def test_resume_refuses_other_samples(small_sweep, capsys):
-    assert main(["sweep", "--out", str(small_sweep), "--resume", "--nu", "1", "--seeds", "1", "--samples", "4096", "--quiet", "--no-report"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                "--out",
+                str(small_sweep),
+                "--resume",
+                "--nu",
+                "1",
+                "--seeds",
+                "1",
+                "--samples",
+                "4096",
+                "--quiet",
+                "--no-report",
+            ]
+        )
+        == 2
+    )
     assert "different samples" in capsys.readouterr().err
 
 
@@ -245,9 +294,25 @@ def test_report_only_needs_results(tmp_path, capsys):
 
 def test_store_round_trip(tmp_path):
     row = dict.fromkeys(store.COLUMNS)
-    row.update(method="classic", sweep="tau_G11", element_swept="G11", nu=2.25, scenario="full", seed=3, element="G12",
-               gain_ratio=1.0 / 3.0, tau_index=float("nan"), gain_mismatch=True, tau_mismatch=False, status="ok",
-               delay_mismatch_samples=-2, samples=16384, mpc_solves=7, mpc_failures=0, tracking_rms=0.5)
+    row.update(
+        method="classic",
+        sweep="tau_G11",
+        element_swept="G11",
+        nu=2.25,
+        scenario="full",
+        seed=3,
+        element="G12",
+        gain_ratio=1.0 / 3.0,
+        tau_index=float("nan"),
+        gain_mismatch=True,
+        tau_mismatch=False,
+        status="ok",
+        delay_mismatch_samples=-2,
+        samples=16384,
+        mpc_solves=7,
+        mpc_failures=0,
+        tracking_rms=0.5,
+    )
     path = tmp_path / "r.csv"
     store.append_rows(path, [row])
     store.append_rows(path, [row])
@@ -258,7 +323,9 @@ def test_store_round_trip(tmp_path):
     assert store.complete_rows(back, 2) == back and store.complete_rows(back[:1], 2) == []
     store.rewrite(path, back[:1])
     assert len(store.read_rows(path)) == 1
-    assert store.config_fingerprint({"a": 1}) == store.config_fingerprint({"a": 1}) != store.config_fingerprint({"a": 2})
+    assert (
+        store.config_fingerprint({"a": 1}) == store.config_fingerprint({"a": 1}) != store.config_fingerprint({"a": 2})
+    )
     store.write_manifest(tmp_path, {"samples": 5})
     assert store.read_manifest(tmp_path) == {"samples": 5}
     (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
@@ -267,8 +334,15 @@ def test_store_round_trip(tmp_path):
 
 
 def _row(**kw):
-    row = {"status": "ok", "gain_ratio": 1.1, "true_gain_ratio": 1.1, "tau_index": 20.0, "true_time_constant_pct": 10.0,
-           "delay_mismatch_samples": 0, "true_delay_samples": 0}
+    row = {
+        "status": "ok",
+        "gain_ratio": 1.1,
+        "true_gain_ratio": 1.1,
+        "tau_index": 20.0,
+        "true_time_constant_pct": 10.0,
+        "delay_mismatch_samples": 0,
+        "true_delay_samples": 0,
+    }
     row.update(kw)
     return row
 
@@ -281,21 +355,46 @@ def test_run_correctness():
     assert run_correctness(_row(tau_index=5.0, true_time_constant_pct=0.0), 8.0)["tau"] is True
     assert run_correctness(_row(tau_index=9.0, true_time_constant_pct=0.0), 8.0)["tau"] is False
     assert run_correctness(_row(delay_mismatch_samples=1), 8.0)["delay"] is False
-    assert run_correctness(_row(status="insufficient_data", gain_ratio=None), 8.0) == {"gain": False, "tau": False, "delay": False}
+    assert run_correctness(_row(status="insufficient_data", gain_ratio=None), 8.0) == {
+        "gain": False,
+        "tau": False,
+        "delay": False,
+    }
 
 
 def _synthetic(nu, seed, gain):
     base = {c: None for c in store.COLUMNS}
-    base.update(method="classic", sweep="tau_G11", element_swept="G11", nu=nu, scenario="gain", seed=seed, element="G11",
-                row_time_constant_ratio=nu * 0.8, prediction_horizon=40, loop_spectral_radius=0.97, mpc_solves=10,
-                mpc_failures=0, samples=100, tracking_rms=1.0, true_time_constant_pct=0.0, tau_index=0.0)
+    base.update(
+        method="classic",
+        sweep="tau_G11",
+        element_swept="G11",
+        nu=nu,
+        scenario="gain",
+        seed=seed,
+        element="G11",
+        row_time_constant_ratio=nu * 0.8,
+        prediction_horizon=40,
+        loop_spectral_radius=0.97,
+        mpc_solves=10,
+        mpc_failures=0,
+        samples=100,
+        tracking_rms=1.0,
+        true_time_constant_pct=0.0,
+        tau_index=0.0,
+    )
     base.update(_row(gain_ratio=gain, tau_index=0.0, true_time_constant_pct=0.0))
     return base
 
 
 def test_summary_and_breakdown():
     rows = []
-    for nu, gains in ((1.0, (1.1, 1.1, 1.1)), (2.0, (1.1, 1.5, 1.1)), (3.0, (1.5, 1.5, 1.1)), (4.0, (1.1, 1.1, 1.1)), (5.0, (1.5, 1.5, 1.5))):
+    for nu, gains in (
+        (1.0, (1.1, 1.1, 1.1)),
+        (2.0, (1.1, 1.5, 1.1)),
+        (3.0, (1.5, 1.5, 1.1)),
+        (4.0, (1.1, 1.1, 1.1)),
+        (5.0, (1.5, 1.5, 1.5)),
+    ):
         rows += [_synthetic(nu, s, g) for s, g in enumerate(gains)]
     summary = summarize(rows, 8.0)
     assert [p.gain_wrong for p in summary] == [0, 1, 2, 0, 3]

@@ -96,7 +96,12 @@ class OfflineResult:
         outcome = self.final
         if outcome is None:
             models = self.config.model.element_models()
-            return Diagnosis.insufficient(method=self.config.pmr.method, models=models, reason="no diagnostician update in the bag's data", samples=0)
+            return Diagnosis.insufficient(
+                method=self.config.pmr.method,
+                models=models,
+                reason="no diagnostician update in the bag's data",
+                samples=0,
+            )
         return outcome.diagnosis
 
     @property
@@ -122,7 +127,9 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
         return load_config(config_path), str(config_path)
     recorded = bag.run_config()
     if recorded is None:
-        raise BagError(f"{bag.path}: the bag holds no run configuration; pass --config FILE with the controller's model")
+        raise BagError(
+            f"{bag.path}: the bag holds no run configuration; pass --config FILE with the controller's model"
+        )
     return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
 
 
@@ -166,7 +173,9 @@ def _replay(bag: Bag, config: PmrConfig) -> tuple[list[WindowOutcome], list[str]
         if offer.update_due:
             outcomes.append(evaluate_window(aligner, config))
     end_of_bag = False
-    if aligner.stretch_last is not None and (not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last):
+    if aligner.stretch_last is not None and (
+        not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last
+    ):
         # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
         outcomes.append(evaluate_window(aligner, config))
         end_of_bag = True
@@ -189,15 +198,28 @@ def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = 
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
     outcomes, warnings, counts, end_of_bag = _replay(bag, config)
-    result = OfflineResult(config, origin, outcomes, _recorded_verdicts(bag, config), warnings=warnings, messages=counts, end_of_bag=end_of_bag)
+    result = OfflineResult(
+        config,
+        origin,
+        outcomes,
+        _recorded_verdicts(bag, config),
+        warnings=warnings,
+        messages=counts,
+        end_of_bag=end_of_bag,
+    )
     result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
     if others:
-        result.warnings.insert(0, f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})")
+        result.warnings.insert(
+            0,
+            f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})",
+        )
     return result
 
 
-def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None) -> list[dict[str, Any]]:
+def compare(
+    outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None
+) -> list[dict[str, Any]]:
     """For every recorded verdict with a window, whether the offline one for that window agrees.
 
     With ``method``, recorded verdicts made with another method are left out.
@@ -213,17 +235,25 @@ def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], meth
     out = []
     for verdict in recorded:
         window = verdict.window
-        if window is None or (method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method):
+        if window is None or (
+            method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method
+        ):
             continue
         mine = offline.get(window)
-        entry: dict[str, Any] = {"first_sample": window[0], "last_sample": window[1], "recorded_status": verdict.diagnosis.status}
+        entry: dict[str, Any] = {
+            "first_sample": window[0],
+            "last_sample": window[1],
+            "recorded_status": verdict.diagnosis.status,
+        }
         if mine is None:
             entry.update(equal=False, offline_status="not diagnosed offline")
         else:
             mine_ok = mine.kind == VERDICT
             entry["offline_status"] = "ok" if mine_ok else mine.kind
             if verdict.diagnosis.status == "ok" and mine_ok:
-                entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"])
+                entry["differences"] = compare_diagnoses(
+                    verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"]
+                )
                 entry["equal"] = not entry["differences"]
             else:
                 entry["equal"] = verdict.diagnosis.status != "ok" and not mine_ok

@@ -83,7 +83,9 @@ class Bag:
         try:
             return typestore().deserialize_cdr(message.data, message.msgtype)
         except Exception as exc:  # any decoding failure of stored bytes means a corrupted record
-            raise BagError(f"{self.path}: a {message.msgtype} message on {message.topic} cannot be decoded ({type(exc).__name__}: {exc}); the bag is corrupted") from None
+            raise BagError(
+                f"{self.path}: a {message.msgtype} message on {message.topic} cannot be decoded ({type(exc).__name__}: {exc}); the bag is corrupted"
+            ) from None
 
     def run_config(self) -> RunConfig | None:
         """The recorded configuration: metadata.yaml custom_data, else the run_config topic."""
@@ -107,7 +109,9 @@ class Bag:
         """
         for name, msgtype in topic_names.items():
             if name not in self.topics:
-                raise BagError(f"{self.path}: topic {name} ({msgtype}) is not in the bag (it has {', '.join(sorted(self.topics)) or 'no topics'})")
+                raise BagError(
+                    f"{self.path}: topic {name} ({msgtype}) is not in the bag (it has {', '.join(sorted(self.topics)) or 'no topics'})"
+                )
             if self.topics[name] != msgtype:
                 raise BagError(f"{self.path}: topic {name} has type {self.topics[name]}, expected {msgtype}")
             if not self.counts.get(name):
@@ -116,10 +120,24 @@ class Bag:
 
 def _reader_error_types():
     """What reading a damaged file raises: rosbags' ReaderError, but also whatever a garbage
-    length or offset makes the parser hit (OverflowError, AssertionError, struct.error, ...)."""
+    length or offset makes the parser hit (OverflowError, AssertionError, struct.error, ...).
+    """
     from rosbags.rosbag2.errors import ReaderError
 
-    return (ReaderError, OSError, struct.error, ValueError, KeyError, IndexError, EOFError, ArithmeticError, AssertionError, TypeError, AttributeError, MemoryError)
+    return (
+        ReaderError,
+        OSError,
+        struct.error,
+        ValueError,
+        KeyError,
+        IndexError,
+        EOFError,
+        ArithmeticError,
+        AssertionError,
+        TypeError,
+        AttributeError,
+        MemoryError,
+    )
 
 
 def _read_rosbag2(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
@@ -161,7 +179,9 @@ def open_bag(path: str | Path) -> Bag:
         if len(mcaps) == 1:
             return _recover_mcap(path, mcaps[0])
         if any(f.suffix == ".db3" for f in files):
-            raise BagError(f"{path}: no metadata.yaml (the recorder did not close this sqlite3 bag); run 'ros2 bag reindex {path}' first")
+            raise BagError(
+                f"{path}: no metadata.yaml (the recorder did not close this sqlite3 bag); run 'ros2 bag reindex {path}' first"
+            )
         raise BagError(f"{path}: not a rosbag2 bag (no metadata.yaml and no .mcap file)")
     return _open_complete(path)
 
@@ -226,4 +246,6 @@ def _recover_mcap(path: Path, mcap_file: Path) -> Bag:
     counts: dict[str, int] = dict.fromkeys(topics, 0)
     for m in messages:
         counts[m.topic] += 1
-    return Bag(path, "mcap", footer and path.is_dir() and (path / "metadata.yaml").is_file(), topics, counts, {}, messages)
+    return Bag(
+        path, "mcap", footer and path.is_dir() and (path / "metadata.yaml").is_file(), topics, counts, {}, messages
+    )

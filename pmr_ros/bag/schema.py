@@ -26,7 +26,14 @@ from ..contract.topics import Topic, TopicQos, load_contract
 RUN_CONFIG_KEY = "run_config"
 """Contract key of the latched topic with the run's configuration."""
 
-CUSTOM_DATA_KEYS = ("pmr_ros.version", "pmr_ros.source", "pmr_ros.scenario", "pmr_ros.seed", "pmr_ros.samples", "pmr_ros.params")
+CUSTOM_DATA_KEYS = (
+    "pmr_ros.version",
+    "pmr_ros.source",
+    "pmr_ros.scenario",
+    "pmr_ros.seed",
+    "pmr_ros.samples",
+    "pmr_ros.params",
+)
 """Keys of the run's configuration in ``metadata.yaml`` ``custom_data`` (all strings)."""
 
 STORAGES = ("mcap", "sqlite3")
@@ -108,7 +115,13 @@ class RunConfig:
 
     def to_text(self) -> str:
         """The document published on the ``run_config`` topic (YAML)."""
-        return yaml.safe_dump({"pmr_ros_run_config": {"version": self.version, "source": self.source}, "/**": {"ros__parameters": self.params}}, sort_keys=False)
+        return yaml.safe_dump(
+            {
+                "pmr_ros_run_config": {"version": self.version, "source": self.source},
+                "/**": {"ros__parameters": self.params},
+            },
+            sort_keys=False,
+        )
 
     def custom_data(self) -> dict[str, str]:
         """``metadata.yaml`` custom_data entries (rosbag2 allows strings only)."""
@@ -123,7 +136,9 @@ class RunConfig:
             params = doc["/**"]["ros__parameters"]
             head = doc.get("pmr_ros_run_config", {}) or {}
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})") from None
+            raise BagError(
+                f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})"
+            ) from None
         if not isinstance(params, dict):
             raise BagError("the recorded run configuration has no parameter mapping under '/**: ros__parameters'")
         return cls(params, str(head.get("source", "")), str(head.get("version", "")))
@@ -137,5 +152,7 @@ class RunConfig:
         try:
             params = yaml.safe_load(text)["/**"]["ros__parameters"]
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})") from None
+            raise BagError(
+                f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})"
+            ) from None
         return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""))

@@ -29,7 +29,11 @@ def register(sub) -> None:
         ),
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
-    p.add_argument("--config", metavar="FILE", help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)")
+    p.add_argument(
+        "--config",
+        metavar="FILE",
+        help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)",
+    )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_method_argument(p)
     p.set_defaults(handler=handle)
@@ -81,11 +85,17 @@ def handle(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(report))
     window = report["window"]
     if window.get("window_samples"):
-        print(f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} samples), configuration from {result.config_origin}")
+        print(
+            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} samples), configuration from {result.config_origin}"
+        )
     if result.end_of_bag:
-        print("note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag")
+        print(
+            "note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag"
+        )
     if not bag.complete:
-        print(f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)")
+        print(
+            f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)"
+        )
     compared = report["recorded_comparison"]
     if compared["windows"]:
         print(
@@ -93,7 +103,10 @@ def handle(args: argparse.Namespace) -> int:
             f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
         )
         for entry in compared["different"][:3]:
-            detail = "; ".join(entry.get("differences", [])[:3]) or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+            detail = (
+                "; ".join(entry.get("differences", [])[:3])
+                or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+            )
             print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
     if args.json:
         try:

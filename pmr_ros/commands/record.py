@@ -18,7 +18,9 @@ from . import CommandError, add_system_arguments, positive_float, run_overrides
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
     """--storage/--force, shared with ``pmr-ros run --bag``."""
-    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage plugin (default: mcap)")
+    parser.add_argument(
+        "--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage plugin (default: mcap)"
+    )
     parser.add_argument("--force", action="store_true", help="overwrite an existing bag at the path")
 
 
@@ -35,9 +37,19 @@ def register(sub) -> None:
     p.add_argument("bag", metavar="DIR", help="bag directory to create")
     add_storage_arguments(p)
     add_system_arguments(p)
-    p.add_argument("--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician")
-    p.add_argument("--flush-period", type=positive_float, default=None, metavar="S", help="seconds between flushes to disk (default: 0.5)")
-    p.add_argument("--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time")
+    p.add_argument(
+        "--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician"
+    )
+    p.add_argument(
+        "--flush-period",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="seconds between flushes to disk (default: 0.5)",
+    )
+    p.add_argument(
+        "--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time"
+    )
     p.set_defaults(handler=handle)
 
 
@@ -66,10 +78,19 @@ def handle(args: argparse.Namespace) -> int:
     node = None
     with rclpy_session() as stop:
         try:
-            node = BagRecorderNode(writer, run_config=run_config, parameter_source=None if args.no_parameters else "pmr_diagnostician", flush_period_s=flush)
+            node = BagRecorderNode(
+                writer,
+                run_config=run_config,
+                parameter_source=None if args.no_parameters else "pmr_diagnostician",
+                flush_period_s=flush,
+            )
             executor = SingleThreadedExecutor()
             executor.add_node(node)
-            print(f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+            print(
+                f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop",
+                file=sys.stderr,
+                flush=True,
+            )
             deadline = time.monotonic() + args.duration if args.duration else None
             while not stop and (deadline is None or time.monotonic() < deadline):
                 executor.spin_once(timeout_sec=0.1)

@@ -33,7 +33,11 @@ def register(sub) -> None:
         action="store_true",
         help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); default: private to this process",
     )
-    p.add_argument("--bag", metavar="DIR", help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)")
+    p.add_argument(
+        "--bag",
+        metavar="DIR",
+        help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
+    )
     add_storage_arguments(p)
     p.set_defaults(handler=handle)
 
@@ -59,7 +63,9 @@ def handle(args: argparse.Namespace) -> int:
         from ..core.diagnosis import diagnose
 
         record = simulate(config)
-        diagnosis = diagnose(record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+        diagnosis = diagnose(
+            record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
+        )
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
@@ -85,7 +91,11 @@ def handle(args: argparse.Namespace) -> int:
             "diagnostician_warnings": result.warnings,
         }
         if recording is not None:
-            report["bag"] = {"path": str(recording.writer.path), "storage": recording.writer.storage, "messages": recording.writer.counts}
+            report["bag"] = {
+                "path": str(recording.writer.path),
+                "storage": recording.writer.storage,
+                "messages": recording.writer.counts,
+            }
     sys.stdout.write(format_table(report))
     if args.json:
         try:

@@ -13,8 +13,6 @@ from . import CommandError, nonnegative_int, number, positive_int
 DEFAULT_OUT = "out/sweep"
 
 
-
-
 def register(sub) -> None:
     p = sub.add_parser(
         "sweep",
@@ -27,14 +25,26 @@ def register(sub) -> None:
             "tau21 = 10.9 nu (eq. 19; the paper's figures call it G12), nu = 1, 1.25, ..., 10, 5 seeds."
         ),
     )
-    p.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
-    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})")
+    p.add_argument(
+        "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
+    )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        default=DEFAULT_OUT,
+        help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})",
+    )
     grid = p.add_argument_group("nu grid (--nu or a range)")
     grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
     grid.add_argument("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)")
     grid.add_argument("--nu-stop", type=number, default=10.0, metavar="X", help="last nu, included (default: 10)")
     grid.add_argument("--nu-step", type=number, default=0.25, metavar="X", help="nu step (default: 0.25)")
-    p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each (default: G11,G21)")
+    p.add_argument(
+        "--elements",
+        default="G11,G21",
+        metavar="LIST",
+        help="elements whose time constant is swept, one sweep each (default: G11,G21)",
+    )
     p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
     p.add_argument(
         "--methods",
@@ -45,14 +55,40 @@ def register(sub) -> None:
         help="diagnosis methods applied to every run, side by side in the report: classic, parametric "
         "(default: classic, the paper's study; classic,parametric adds the parametric fit, about 1.3x the time)",
     )
-    p.add_argument("--first-seed", type=nonnegative_int, metavar="S", help="seeds are S, S+1, ... (default: run.seed of the config)")
-    p.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples per run (default: run.samples of the config)")
-    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes (default: the number of cores)")
+    p.add_argument(
+        "--first-seed",
+        type=nonnegative_int,
+        metavar="S",
+        help="seeds are S, S+1, ... (default: run.seed of the config)",
+    )
+    p.add_argument(
+        "--samples",
+        type=positive_int,
+        metavar="N",
+        help="closed-loop samples per run (default: run.samples of the config)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="worker processes (default: the number of cores)",
+    )
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
-    p.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --out: skip the runs already in results.csv")
-    p.add_argument("--report", metavar="FILE", help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted sweep in --out: skip the runs already in results.csv",
+    )
+    p.add_argument(
+        "--report",
+        metavar="FILE",
+        help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)",
+    )
     p.add_argument("--no-report", action="store_true", help="only write results.csv")
-    p.add_argument("--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv")
+    p.add_argument(
+        "--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=handle)
 
@@ -78,7 +114,9 @@ def _plan(args: argparse.Namespace, config):
         raise CommandError(str(exc)) from None
     first = config.run.seed if args.first_seed is None else args.first_seed
     samples = config.run.samples if args.samples is None else args.samples
-    return SweepPlan(elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods)
+    return SweepPlan(
+        elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods
+    )
 
 
 def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None:
@@ -90,7 +128,9 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
     if args.force and args.resume:
         raise CommandError("--force and --resume contradict each other: choose one")
     if has_sweep and not (args.force or args.resume):
-        raise CommandError(f"--out {out}: folder exists and is not empty; use --force to start afresh or --resume to continue")
+        raise CommandError(
+            f"--out {out}: folder exists and is not empty; use --force to start afresh or --resume to continue"
+        )
     if args.force:
         for name in (store.RESULTS_FILE, store.MANIFEST_FILE):
             (out / name).unlink(missing_ok=True)
@@ -146,14 +186,22 @@ def handle(args: argparse.Namespace) -> int:
         done = {store.run_key(r) for r in rows}
     tasks = plan_tasks(config, plan, done)
     manifest.update(
-        elements=list(plan.elements), nu=list(plan.nu), seeds=list(plan.seeds), scenarios=list(plan.scenarios),
-        methods=list(plan.methods), jobs=args.jobs, cpu_count=os.cpu_count(),
+        elements=list(plan.elements),
+        nu=list(plan.nu),
+        seeds=list(plan.seeds),
+        scenarios=list(plan.scenarios),
+        methods=list(plan.methods),
+        jobs=args.jobs,
+        cpu_count=os.cpu_count(),
     )
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
-        print(f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
-              f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)", file=sys.stderr)
+        print(
+            f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
+            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)",
+            file=sys.stderr,
+        )
     t0 = time.perf_counter()
     outcome = None
     try:

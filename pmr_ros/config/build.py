@@ -141,12 +141,22 @@ def check_tree(tree: Any, source: str) -> dict[str, dict[str, Any]]:
             raise ConfigError(source, str(block), None, f"unknown block (known: {', '.join(known_blocks)}){guess}")
         if not isinstance(values, Mapping):
             names = ", ".join(p.name for p in known_blocks[block].parameters[:3])
-            raise ConfigError(source, str(block), values, f"must be a mapping of parameters ({names}, ...), not a {type(values).__name__}")
+            raise ConfigError(
+                source,
+                str(block),
+                values,
+                f"must be a mapping of parameters ({names}, ...), not a {type(values).__name__}",
+            )
         declared = [p.name for p in known_blocks[block].parameters]
         for key in values:
             name = f"{block}.{key}"
             if name not in declared:
-                raise ConfigError(source, name, None, f"unknown parameter{_did_you_mean(name, declared) or _did_you_mean(name, list(parameters()))}")
+                raise ConfigError(
+                    source,
+                    name,
+                    None,
+                    f"unknown parameter{_did_you_mean(name, declared) or _did_you_mean(name, list(parameters()))}",
+                )
     return {str(block): dict(values) for block, values in tree.items()}
 
 
@@ -185,12 +195,18 @@ def _model(v: _Values) -> FoptdMatrix:
     given = v.tree.get(SYSTEM_BLOCK, {})
     if not any(p.name.split(".", 1)[1] in given for p in blocks()[SYSTEM_BLOCK].parameters if p.required):
         raise ConfigError(
-            v.source, SYSTEM_BLOCK, None,
+            v.source,
+            SYSTEM_BLOCK,
+            None,
             "missing: a configuration needs the controller's model (system: sample_time, output_names, input_names, gain, time_constant, delay)",
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
     if len(outputs) != len(inputs):
-        raise v.error("system.input_names", list(inputs), f"the matrix must be square: {len(outputs)} outputs but {len(inputs)} inputs")
+        raise v.error(
+            "system.input_names",
+            list(inputs),
+            f"the matrix must be square: {len(outputs)} outputs but {len(inputs)} inputs",
+        )
     v.shape = Shape(len(outputs), len(inputs))
     ts = v["system.sample_time"]
     gain = v["system.gain"]
@@ -202,7 +218,9 @@ def _model(v: _Values) -> FoptdMatrix:
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
     if bad.size:
         j = int(bad[0])
-        raise v.error(f"system.delay[{j}]", float(delay.ravel()[j]), f"must be a whole number of samples (sample_time = {ts:g})")
+        raise v.error(
+            f"system.delay[{j}]", float(delay.ravel()[j]), f"must be a whole number of samples (sample_time = {ts:g})"
+        )
     return FoptdMatrix(gain, v["system.time_constant"], np.rint(whole) * ts, ts, outputs, inputs, v["system.name"])
 
 
@@ -227,7 +245,9 @@ def _mpc(v: _Values, model: FoptdMatrix) -> MpcTuning:
     if nc_h > np_h:
         raise v.error("mpc.control_horizon", nc_h, f"must not exceed mpc.prediction_horizon ({np_h})")
     if np_h <= int(model.delay_samples.max()):
-        raise v.error("mpc.prediction_horizon", np_h, f"must exceed the largest delay ({int(model.delay_samples.max())} samples)")
+        raise v.error(
+            "mpc.prediction_horizon", np_h, f"must exceed the largest delay ({int(model.delay_samples.max())} samples)"
+        )
     u_min, u_max = v["mpc.u_min"], v["mpc.u_max"]
     if np.any(u_min >= u_max):
         raise v.error("mpc.u_min", u_min.tolist(), "must be below mpc.u_max")
@@ -250,7 +270,17 @@ def _pmr(v: _Values) -> PmrSettings:
         get_window(window, 8)
     except ValueError:
         raise v.error("pmr.window", window, "not a scipy.signal window name (e.g. hann, hamming, blackman)") from None
-    keys = ("method", "window", "segment_length", "overlap", "tau_band", "gain_tolerance", "tau_index_threshold", "max_delay_samples", "coherence_min")
+    keys = (
+        "method",
+        "window",
+        "segment_length",
+        "overlap",
+        "tau_band",
+        "gain_tolerance",
+        "tau_index_threshold",
+        "max_delay_samples",
+        "coherence_min",
+    )
     return PmrSettings(**{key: v[f"pmr.{key}"] for key in keys})
 
 
@@ -266,7 +296,11 @@ def _diagnostician(v: _Values) -> DiagnosticianSettings:
     keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("diagnostician.")]
     settings = DiagnosticianSettings(**{key: v[f"diagnostician.{key}"] for key in keys})
     if settings.min_samples > settings.window_samples:
-        raise v.error("diagnostician.min_samples", settings.min_samples, f"must not exceed diagnostician.window_samples ({settings.window_samples})")
+        raise v.error(
+            "diagnostician.min_samples",
+            settings.min_samples,
+            f"must not exceed diagnostician.window_samples ({settings.window_samples})",
+        )
     return settings
 
 

@@ -26,7 +26,9 @@ class ConfigError(ValueError):
     def __init__(self, source: str | Path, field: str, value: Any, reason: str) -> None:
         self.source, self.field, self.value, self.reason = str(source), field, value, reason
         shown = _shorten(repr(value))
-        super().__init__(f"{source}: {field} = {shown}: {reason}" if value is not None else f"{source}: {field}: {reason}")
+        super().__init__(
+            f"{source}: {field} = {shown}: {reason}" if value is not None else f"{source}: {field}: {reason}"
+        )
 
 
 def _shorten(text: str, limit: int = 120) -> str:

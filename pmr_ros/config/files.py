@@ -37,7 +37,9 @@ def yaml_text(path: Path) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
-        raise ConfigError(path, "<file>", None, f"not UTF-8 text: byte 0x{data[exc.start]:02x} on line {line}; save the file as UTF-8") from None
+        raise ConfigError(
+            path, "<file>", None, f"not UTF-8 text: byte 0x{data[exc.start]:02x} on line {line}; save the file as UTF-8"
+        ) from None
 
 
 def _yaml_problem(exc: yaml.YAMLError) -> str:
@@ -82,7 +84,9 @@ def params_tree(doc: Any, source: str | Path) -> dict[str, Any]:
     elif len(sections) == 1:
         params = sections[0]["ros__parameters"]
     else:
-        raise ConfigError(source, "/**.ros__parameters", None, "missing: put the parameters under '/**: ros__parameters:'")
+        raise ConfigError(
+            source, "/**.ros__parameters", None, "missing: put the parameters under '/**: ros__parameters:'"
+        )
     if not isinstance(params, dict):
         raise ConfigError(source, "ros__parameters", params, "must be a mapping of parameter blocks")
     return params

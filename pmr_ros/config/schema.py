@@ -205,8 +205,13 @@ class Parameter:
                 raise self._error(source, value, f"must be {n_out} rows of {n_in} (got rows of {lengths})")
             value = [x for row in value for x in row]
         if len(value) != n_out * n_in:
-            raise self._error(source, value, f"needs {n_out * n_in} entries ({n_out}x{n_in}, row by row), got {len(value)}")
-        items = [self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape)})", integer=self.integer) for j, v in enumerate(value)]
+            raise self._error(
+                source, value, f"needs {n_out * n_in} entries ({n_out}x{n_in}, row by row), got {len(value)}"
+            )
+        items = [
+            self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape)})", integer=self.integer)
+            for j, v in enumerate(value)
+        ]
         return np.array(items, dtype=float).reshape(n_out, n_in)
 
 

@@ -135,7 +135,9 @@ def status_values(status: Any) -> dict[str, Any]:
     return {kv.key: decode_value(kv.value) for kv in status.values}
 
 
-def _legacy_element(values: Mapping[str, Any], name: str, models: Mapping[str, tuple[int, int, ElementModel]] | None) -> ElementDiagnosis:
+def _legacy_element(
+    values: Mapping[str, Any], name: str, models: Mapping[str, tuple[int, int, ElementModel]] | None
+) -> ElementDiagnosis:
     """An element of a pmr_ros 0.1 status (flat ``gain_ratio``, ``gain_mismatch_pct_low`` ...)."""
     i, k, model = (models or {}).get(name, (-1, -1, ElementModel("foptd", float("nan"), None, 0)))
     method = "parametric" if values.get("method") == "parametric" else "classic"
@@ -153,6 +155,7 @@ def _legacy_element(values: Mapping[str, Any], name: str, models: Mapping[str, t
     )
     parametric = None
     if method == "parametric":
+
         def interval(key: str) -> tuple[float, float] | None:
             low, high = values.get(f"{key}_low"), values.get(f"{key}_high")
             return None if low is None or high is None else (float(low), float(high))
@@ -173,7 +176,7 @@ def _legacy_element(values: Mapping[str, Any], name: str, models: Mapping[str, t
             delay_verdict=str(values.get("delay_verdict", "inconclusive")),
             reasons=listed("reasons"),
             warnings=listed("warnings"),
-            quality={key[len("quality."):]: v for key, v in values.items() if key.startswith("quality.")},
+            quality={key[len("quality.") :]: v for key, v in values.items() if key.startswith("quality.")},
         )
     return ElementDiagnosis(name, i, k, model, method, classic=classic, parametric=parametric)
 
@@ -192,12 +195,20 @@ def _legacy_value(text: str) -> Any:
     return text
 
 
-def _status_element(status: Any, name: str, models: Mapping[str, tuple[int, int, ElementModel]] | None) -> tuple[ElementDiagnosis, dict[str, Any]]:
+def _status_element(
+    status: Any, name: str, models: Mapping[str, tuple[int, int, ElementModel]] | None
+) -> tuple[ElementDiagnosis, dict[str, Any]]:
     raw = {kv.key: kv.value for kv in status.values}
     if "element" not in raw:  # a pmr_ros 0.1 status
         values = {key: _legacy_value(text) for key, text in raw.items()}
-        status_word = "ok" if values.get("verdict") != "insufficient_data" else str(values.get("status", "insufficient_data"))
-        common = {"status": status_word, "reason": str(values.get("reason", "")), **{k: values[k] for k in WINDOW_KEYS if k in values}}
+        status_word = (
+            "ok" if values.get("verdict") != "insufficient_data" else str(values.get("status", "insufficient_data"))
+        )
+        common = {
+            "status": status_word,
+            "reason": str(values.get("reason", "")),
+            **{k: values[k] for k in WINDOW_KEYS if k in values},
+        }
         return _legacy_element(values, name, models), common
     values = {key: decode_value(text) for key, text in raw.items()}
     common = {key: values.pop(key) for key in STATUS_KEYS if key in values}
@@ -245,7 +256,9 @@ def diagnosis_from_array(
     method = next((e.method for e in elements.values()), "classic")
     window = {k: common[k] for k in WINDOW_KEYS if k in common}
     samples = int(window.get("window_samples", 0) or 0)
-    diagnosis = Diagnosis(method, "ok" if state == "ok" else "insufficient_data", str(common.get("reason", "")), samples, elements)
+    diagnosis = Diagnosis(
+        method, "ok" if state == "ok" else "insufficient_data", str(common.get("reason", "")), samples, elements
+    )
     return diagnosis, {"levels": levels, "messages": messages, "status": state, **window}
 
 

@@ -68,7 +68,11 @@ class TopicQos:
 
     def policies(self) -> dict[str, str]:
         """Policy kind to its enum member name, as rclpy and rosbags both spell them (``KEEP_LAST``)."""
-        return {"history": self.history.upper(), "reliability": self.reliability.upper(), "durability": self.durability.upper()}
+        return {
+            "history": self.history.upper(),
+            "reliability": self.reliability.upper(),
+            "durability": self.durability.upper(),
+        }
 
 
 @dataclass(frozen=True)
@@ -123,9 +127,13 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
         if not isinstance(qos, dict):
             raise ContractError(f"{where}.qos: must be a mapping")
         if qos.get("reliability") not in RELIABILITIES:
-            raise ContractError(f"{where}.qos.reliability = {qos.get('reliability')!r}: must be one of {', '.join(RELIABILITIES)}")
+            raise ContractError(
+                f"{where}.qos.reliability = {qos.get('reliability')!r}: must be one of {', '.join(RELIABILITIES)}"
+            )
         if qos.get("durability") not in DURABILITIES:
-            raise ContractError(f"{where}.qos.durability = {qos.get('durability')!r}: must be one of {', '.join(DURABILITIES)}")
+            raise ContractError(
+                f"{where}.qos.durability = {qos.get('durability')!r}: must be one of {', '.join(DURABILITIES)}"
+            )
         history = qos.get("history", "keep_last")
         if history not in HISTORIES:
             raise ContractError(f"{where}.qos.history = {history!r}: must be one of {', '.join(HISTORIES)}")
@@ -134,7 +142,14 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
             raise ContractError(f"{where}.qos.depth = {depth!r}: must be a whole number >= 1")
         if not isinstance(entry["fields"], dict) or not entry["fields"]:
             raise ContractError(f"{where}.fields: must document every field")
-        topics[key] = Topic(key, name, type_name, TopicQos(qos["reliability"], qos["durability"], depth, history), str(entry["description"]), dict(entry["fields"]))
+        topics[key] = Topic(
+            key,
+            name,
+            type_name,
+            TopicQos(qos["reliability"], qos["durability"], depth, history),
+            str(entry["description"]),
+            dict(entry["fields"]),
+        )
     return topics
 
 

@@ -41,7 +41,14 @@ class Offer:
     update_due: bool
 
 
-def offer_signal(aligner: SampleAligner, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float], update_period_samples: int) -> Offer:
+def offer_signal(
+    aligner: SampleAligner,
+    signal: str,
+    stamp_s: float,
+    names: Sequence[str],
+    values: Sequence[float],
+    update_period_samples: int,
+) -> Offer:
     """Add one message to ``aligner`` and say whether diagnostics are due.
 
     An update is due when a sample ``k`` with ``(k + 1) % period == 0`` became
@@ -59,7 +66,9 @@ def offer_signal(aligner: SampleAligner, signal: str, stamp_s: float, names: Seq
     return Offer(result, newly, due)
 
 
-def window_info(aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None) -> dict:
+def window_info(
+    aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None
+) -> dict:
     """``window_samples``, ``first_sample``, ``last_sample`` of the current window [samples]."""
     if aligner.stretch_last is None:
         return {"window_samples": 0}
@@ -113,7 +122,13 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
     def without_verdict(kind: str, reason: str) -> WindowOutcome:
         models = config.model.element_models()
         samples = int(window.get("window_samples", 0))
-        return WindowOutcome(kind, Diagnosis.insufficient(method=config.pmr.method, models=models, reason=reason, samples=samples), reason, window, stamp)
+        return WindowOutcome(
+            kind,
+            Diagnosis.insufficient(method=config.pmr.method, models=models, reason=reason, samples=samples),
+            reason,
+            window,
+            stamp,
+        )
 
     stale = aligner.lagging()
     if stale:

@@ -163,7 +163,9 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         u_rep = np.tile(u_prev, (1, Nc))
         moves = _mv(mats.unconstrained_gain, q)
         u_path = u_rep + _mv(mats.cumulative, moves)
-        feasible = np.all(np.abs(moves) <= du_bound, axis=1) & np.all((u_path >= u_min_path) & (u_path <= u_max_path), axis=1)
+        feasible = np.all(np.abs(moves) <= du_bound, axis=1) & np.all(
+            (u_path >= u_min_path) & (u_path <= u_max_path), axis=1
+        )
         move = moves[:, :n_in].copy()
         for j in np.flatnonzero(~feasible):
             lower = np.concatenate([u_min_path - u_rep[j], -du_bound])
@@ -180,7 +182,9 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     for c in controllers:
         c.statistics.steps += samples
     records = [
-        RunRecord(np.ascontiguousarray(setpoints[:, j]), np.ascontiguousarray(u_rec[:, j]), np.ascontiguousarray(y_rec[:, j]))
+        RunRecord(
+            np.ascontiguousarray(setpoints[:, j]), np.ascontiguousarray(u_rec[:, j]), np.ascontiguousarray(y_rec[:, j])
+        )
         for j in range(n_runs)
     ]
     return LockstepResult(records, [c.statistics for c in controllers])

@@ -105,7 +105,9 @@ def classic_results(estimate: PmrEstimate, model: FoptdMatrix, settings: PmrSett
     return out
 
 
-def classic_estimate(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings) -> PmrEstimate:
+def classic_estimate(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings
+) -> PmrEstimate:
     """The PMR estimate of the classic method, refused when a row regression is ill-conditioned.
 
     Raises
@@ -124,7 +126,9 @@ def classic_estimate(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: Fopt
     return estimate
 
 
-def diagnose_classic(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings) -> Diagnosis:
+def diagnose_classic(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings
+) -> Diagnosis:
     """Classic (Table 1) diagnosis of every element from closed-loop records.
 
     Parameters
@@ -148,5 +152,8 @@ def diagnose_classic(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: Fopt
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="classic", models=models, reason=str(exc), samples=samples)
     results = classic_results(estimate, model, settings)
-    elements = {name: ElementDiagnosis(name, i, k, element, "classic", classic=results[name]) for name, (i, k, element) in models.items()}
+    elements = {
+        name: ElementDiagnosis(name, i, k, element, "classic", classic=results[name])
+        for name, (i, k, element) in models.items()
+    }
     return Diagnosis("classic", "ok", "", samples, elements, estimate)

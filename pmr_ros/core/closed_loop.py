@@ -62,7 +62,9 @@ class RunRecord:
         return self.r.shape[0]
 
 
-def simulate(config: LoopConfig, samples: int | None = None, seed: int | None = None, scenario: str | None = None) -> RunRecord:
+def simulate(
+    config: LoopConfig, samples: int | None = None, seed: int | None = None, scenario: str | None = None
+) -> RunRecord:
     """Run the closed loop in batch.
 
     At each sample k: the setpoint r(k) is read, the plant is measured (y(k)),

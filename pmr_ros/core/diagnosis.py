@@ -14,11 +14,15 @@ from .results import Diagnosis
 __all__ = ["METHODS", "diagnose"]
 
 
-def _classic(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings) -> Diagnosis:
+def _classic(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
     return diagnose_classic(r, u, y, model=model, settings=pmr)
 
 
-def _parametric(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings) -> Diagnosis:
+def _parametric(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
     return diagnose_parametric(r, u, y, model=model, classic=pmr, settings=parametric)
 
 

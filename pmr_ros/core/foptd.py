@@ -179,7 +179,11 @@ class FoptdMatrix:
         out = {}
         for j, name in enumerate(names):
             i, k = divmod(j, self.n_inputs)
-            out[name] = (i, k, ElementModel("foptd", float(self.gain[i, k]), float(self.time_constant[i, k]), int(delays[i, k])))
+            out[name] = (
+                i,
+                k,
+                ElementModel("foptd", float(self.gain[i, k]), float(self.time_constant[i, k]), int(delays[i, k])),
+            )
         return out
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
@@ -187,7 +191,11 @@ class FoptdMatrix:
 
         ``time_constants`` x the largest tau plus the largest delay, in samples.
         """
-        return int(np.ceil(time_constants * self.time_constant.max() / self.sample_time)) + int(self.delay_samples.max()) + 1
+        return (
+            int(np.ceil(time_constants * self.time_constant.max() / self.sample_time))
+            + int(self.delay_samples.max())
+            + 1
+        )
 
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""

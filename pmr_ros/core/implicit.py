@@ -75,7 +75,9 @@ def implicit_estimate(spectra: RecordSpectra) -> PmrEstimate:
     return PmrEstimate(spectra.omega, ratio, coherence, condition, spectra.segments)
 
 
-def estimate_pmr(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, welch: WelchSettings) -> PmrEstimate:
+def estimate_pmr(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, welch: WelchSettings
+) -> PmrEstimate:
     """The implicit MIMO PMR estimate (eq. 13) from closed-loop records.
 
     Parameters

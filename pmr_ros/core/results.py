@@ -185,7 +185,12 @@ class ParametricResult:
     quality: Mapping[str, float] = field(default_factory=dict)
 
     NUMBERS: ClassVar[tuple[str, ...]] = (
-        "gain_mismatch_pct", "gain_mismatch_pct_interval", "tau_mismatch_pct", "tau_mismatch_pct_interval", "delay_mismatch_samples", "delay_confidence",
+        "gain_mismatch_pct",
+        "gain_mismatch_pct_interval",
+        "tau_mismatch_pct",
+        "tau_mismatch_pct_interval",
+        "delay_mismatch_samples",
+        "delay_confidence",
     )
     """The numeric fields (intervals are pairs), for plotting topics and tables."""
 
@@ -218,7 +223,9 @@ class ParametricResult:
             parts.append(f"τ {self.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {marks[self.tau_verdict]}")
         if self.delay_mismatch_samples is not None and self.delay_confidence is not None:
             confidence = 100 * self.delay_confidence
-            parts.append(f"delay {self.delay_mismatch_samples:+d} samples ({confidence:.0f} %) {marks[self.delay_verdict]}")
+            parts.append(
+                f"delay {self.delay_mismatch_samples:+d} samples ({confidence:.0f} %) {marks[self.delay_verdict]}"
+            )
         return ", ".join(parts)
 
 
@@ -382,10 +389,13 @@ class Diagnosis:
         return iter(self.elements.values())
 
     @classmethod
-    def insufficient(cls, *, method: str, models: Mapping[str, tuple[int, int, ElementModel]], reason: str, samples: int) -> Diagnosis:
+    def insufficient(
+        cls, *, method: str, models: Mapping[str, tuple[int, int, ElementModel]], reason: str, samples: int
+    ) -> Diagnosis:
         """A diagnosis without numbers: every element inconclusive for ``reason``."""
         elements = {
-            name: ElementDiagnosis(name, i, k, model, method, reasons=(reason,)) for name, (i, k, model) in models.items()
+            name: ElementDiagnosis(name, i, k, model, method, reasons=(reason,))
+            for name, (i, k, model) in models.items()
         }
         return cls(method, "insufficient_data", reason, samples, elements)
 
@@ -403,7 +413,9 @@ class Diagnosis:
     def from_dict(cls, data: Mapping[str, Any]) -> Diagnosis:
         """Inverse of :meth:`to_dict`."""
         elements = {name: ElementDiagnosis.from_dict(e) for name, e in data["elements"].items()}
-        return cls(str(data["method"]), str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0)), elements)
+        return cls(
+            str(data["method"]), str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0)), elements
+        )
 
 
 DERIVED_KEYS = ("summary",)

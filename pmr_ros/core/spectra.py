@@ -199,7 +199,9 @@ class RecordSpectra:
     settings: WelchSettings
 
 
-def record_spectra(r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, welch: WelchSettings) -> RecordSpectra:
+def record_spectra(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, welch: WelchSettings
+) -> RecordSpectra:
     """Spectra of setpoints, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
 
     The model's settling time (:meth:`FoptdMatrix.settling_samples`) is dropped

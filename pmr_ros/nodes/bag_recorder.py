@@ -61,8 +61,17 @@ class BagRecorderNode(Node):
         Topic name -> messages written.
     """
 
-    def __init__(self, writer: BagWriter, *, run_config: RunConfig | None = None, parameter_source: str | None = PARAMETER_SOURCE_NODE,
-                 flush_period_s: float = DEFAULT_FLUSH_PERIOD_S, expected_samples: int | None = None, node_name: str = NODE_NAME, **kwargs) -> None:
+    def __init__(
+        self,
+        writer: BagWriter,
+        *,
+        run_config: RunConfig | None = None,
+        parameter_source: str | None = PARAMETER_SOURCE_NODE,
+        flush_period_s: float = DEFAULT_FLUSH_PERIOD_S,
+        expected_samples: int | None = None,
+        node_name: str = NODE_NAME,
+        **kwargs,
+    ) -> None:
         super().__init__(node_name, start_parameter_services=False, **kwargs)
         self.writer = writer
         self.counts = dict.fromkeys((t.name for t in writer.topics.values()), 0)
@@ -72,7 +81,9 @@ class BagRecorderNode(Node):
         self.expected_samples = expected_samples
         self._final_seen = False
         self._final_has_verdict = False
-        self._signal_topics = [load_contract()[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")]
+        self._signal_topics = [
+            load_contract()[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")
+        ]
         self._diagnostics_topic = load_contract()["diagnostics"].name
         self._estimates_topic = load_contract()["estimates"].name
         if run_config is not None:
@@ -81,7 +92,11 @@ class BagRecorderNode(Node):
             self.has_config = True
         self._subs = []
         for t in writer.topics.values():
-            self._subs.append(self.create_subscription(message_class(t), t.name, self._writer_of(t.name), qos_profile(t.qos), raw=True))
+            self._subs.append(
+                self.create_subscription(
+                    message_class(t), t.name, self._writer_of(t.name), qos_profile(t.qos), raw=True
+                )
+            )
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._flush_timer = self.create_timer(max(flush_period_s, 0.01), writer.flush, clock=wall)
         self._parameter_client = None
@@ -158,7 +173,9 @@ class BagRecorderNode(Node):
             return
         values = [plain_value(parameter_value_to_python(v)) for v in response.values]
         flat = {n: v for n, v in zip(self._parameter_names(), values, strict=False) if v is not None}
-        self.writer.write_run_config(RunConfig(nested(flat), source=f"parameters of /{self._parameter_source}"), time.time_ns())
+        self.writer.write_run_config(
+            RunConfig(nested(flat), source=f"parameters of /{self._parameter_source}"), time.time_ns()
+        )
         self.counts[self._config_topic] += 1
         self.has_config = True
         self.get_logger().info("recorded the run configuration from the live diagnostician's parameters")
@@ -197,7 +214,9 @@ class RunRecording:
 
     def nodes(self, context, parameters: dict) -> list[Node]:
         config = RunConfig(nested(parameters), source=self.source)
-        self.recorder = BagRecorderNode(self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context)
+        self.recorder = BagRecorderNode(
+            self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context
+        )
         return [self.recorder]
 
     def close(self) -> None:

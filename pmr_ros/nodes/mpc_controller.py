@@ -63,7 +63,9 @@ class MpcControllerNode(ConfiguredNode):
             if k < self.next_sample:
                 continue
             if k > self.next_sample:
-                self.get_logger().warning(f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}")
+                self.get_logger().warning(
+                    f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}"
+                )
             u = self.controller.step(self._y.pop(k), self._r.pop(k))
             self.next_sample = k + 1
             self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))

@@ -58,12 +58,21 @@ class PlantNode(ConfiguredNode):
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._start_timer = self.create_timer(0.01, self._try_start, clock=wall)
         self._tick_timer = None
-        mode = "lockstep" if self.config.simulation.lockstep else f"real time at {self.config.simulation.real_time_rate_hz:g} samples/s"
-        self.get_logger().info(f"{self.model.name or 'plant'}: scenario {cfg.run.scenario}, {self.samples} samples, {mode}")
+        mode = (
+            "lockstep"
+            if self.config.simulation.lockstep
+            else f"real time at {self.config.simulation.real_time_rate_hz:g} samples/s"
+        )
+        self.get_logger().info(
+            f"{self.model.name or 'plant'}: scenario {cfg.run.scenario}, {self.samples} samples, {mode}"
+        )
 
     def _try_start(self) -> None:
         waited = time.monotonic() - self._started_at
-        ready = self._y_pub.get_subscription_count() >= self.config.simulation.wait_for_subscribers and self.count_publishers(topic("manipulated_input").name) >= 1
+        ready = (
+            self._y_pub.get_subscription_count() >= self.config.simulation.wait_for_subscribers
+            and self.count_publishers(topic("manipulated_input").name) >= 1
+        )
         if not ready and waited < self.config.simulation.startup_timeout_s:
             return
         if not ready:
@@ -77,7 +86,9 @@ class PlantNode(ConfiguredNode):
             self._publish_sample(0)
         else:
             wall = Clock(clock_type=ClockType.STEADY_TIME)
-            self._tick_timer = self.create_timer(1.0 / self.config.simulation.real_time_rate_hz, self._on_tick, clock=wall)
+            self._tick_timer = self.create_timer(
+                1.0 / self.config.simulation.real_time_rate_hz, self._on_tick, clock=wall
+            )
 
     def _publish_sample(self, k: int) -> None:
         """Publish /clock = k Ts, then the measurement y(k)."""
@@ -121,7 +132,9 @@ class PlantNode(ConfiguredNode):
             return
         u = self._u_received.pop(self.sample, None)
         if u is None:
-            self.get_logger().warning(f"{self._u_label}: u({self.sample}) late; holding the previous input", throttle_duration_sec=5.0)
+            self.get_logger().warning(
+                f"{self._u_label}: u({self.sample}) late; holding the previous input", throttle_duration_sec=5.0
+            )
             u = self._u_held
         self._u_received = {k: v for k, v in self._u_received.items() if k > self.sample}
         self._advance(u)

@@ -65,7 +65,13 @@ class PmrDiagnosticianNode(ConfiguredNode):
     def _new_aligner(self) -> SampleAligner:
         model = self.config.model
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-        return SampleAligner(model.sample_time, names, self._labels, self.config.diagnostician.window_samples, self.config.diagnostician.max_lag_samples)
+        return SampleAligner(
+            model.sample_time,
+            names,
+            self._labels,
+            self.config.diagnostician.window_samples,
+            self.config.diagnostician.max_lag_samples,
+        )
 
     def _stale_check_period(self) -> float:
         return min(1.0, self.config.diagnostician.stale_timeout_s / 4)
@@ -74,7 +80,11 @@ class PmrDiagnosticianNode(ConfiguredNode):
         """A new model or window applies from the next update; a new system restarts the window."""
         model = self.config.model
         al = self.aligner
-        if al.sample_time_s != model.sample_time or al.channel_names != {"r": model.output_names, "u": model.input_names, "y": model.output_names}:
+        if al.sample_time_s != model.sample_time or al.channel_names != {
+            "r": model.output_names,
+            "u": model.input_names,
+            "y": model.output_names,
+        }:
             self.aligner = self._new_aligner()
             self._warn("system channels or sample time changed: the window restarts")
         else:
@@ -82,7 +92,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
             al.max_lag_samples = self.config.diagnostician.max_lag_samples
         self._stale_timer.cancel()
         self.destroy_timer(self._stale_timer)
-        self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._stale_timer = self.create_timer(
+            self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
         self.get_logger().info(f"parameters changed: {', '.join(names)}")
 
     # -- input ---------------------------------------------------------------
@@ -100,7 +112,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
-        offer = offer_signal(self.aligner, signal, stamp, names, values, self.config.diagnostician.update_period_samples)
+        offer = offer_signal(
+            self.aligner, signal, stamp, names, values, self.config.diagnostician.update_period_samples
+        )
         for text in offer.result.warnings:
             self._warn(text)
         if offer.newly_lagging:
@@ -126,7 +140,10 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self._warn(reason)
         window = self._window_info()
         silent_diagnosis = Diagnosis.insufficient(
-            method=self.config.pmr.method, models=self.config.model.element_models(), reason=reason, samples=int(window.get("window_samples", 0))
+            method=self.config.pmr.method,
+            models=self.config.model.element_models(),
+            reason=reason,
+            samples=int(window.get("window_samples", 0)),
         )
         self._publish(silent_diagnosis, window, STALE_STATUS)
 
@@ -138,7 +155,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
         al = self.aligner
         newest = al.stretch_last if al.stretch_last is not None else 0
         model = self.config.model
-        statuses = diagnosis_statuses(diagnosis, node_name=self.get_name(), hardware_id=model.name, window=window, state=state)
+        statuses = diagnosis_statuses(
+            diagnosis, node_name=self.get_name(), hardware_id=model.name, window=window, state=state
+        )
         msg = diagnostic_array(statuses, newest * al.sample_time_s)
         self.last_published = msg
         self._diag_pub.publish(msg)

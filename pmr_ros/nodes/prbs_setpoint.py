@@ -36,7 +36,9 @@ class PrbsSetpointNode(ConfiguredNode):
         if k <= self.sample:
             return  # time stood still or went back (a restarted plant): nothing new to publish
         self.sample = k
-        self._pub.publish(signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name))
+        self._pub.publish(
+            signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name)
+        )
 
 
 def main(args: list[str] | None = None) -> int:

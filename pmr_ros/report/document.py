@@ -27,7 +27,9 @@ def injected_mismatch(config: PmrConfig, scenario: str) -> dict[str, dict[str, f
     return out
 
 
-def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scenario: str | None, seed: int | None) -> dict[str, Any]:
+def build_report(
+    config: PmrConfig, diagnosis: Diagnosis, *, command: str, scenario: str | None, seed: int | None
+) -> dict[str, Any]:
     """The JSON-ready report of a diagnosis.
 
     The diagnosis's :meth:`~pmr_ros.core.results.Diagnosis.to_dict` (status,
@@ -43,7 +45,10 @@ def build_report(config: PmrConfig, diagnosis: Diagnosis, *, command: str, scena
         "scenario": scenario,
         "seed": seed,
         "sample_time": config.model.sample_time,
-        "settings": {"pmr": asdict(config.pmr), "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None},
+        "settings": {
+            "pmr": asdict(config.pmr),
+            "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None,
+        },
     }
     report.update(diagnosis.to_dict())
     if scenario is not None:

@@ -23,11 +23,20 @@ def _injected(report: dict[str, Any], name: str) -> str:
 
 def _parametric_line(name: str, element: dict[str, Any]) -> str:
     p = element.get("parametric") or {}
-    gain = _interval(p.get("gain_mismatch_pct"), p.get("gain_mismatch_pct_interval")) + MARKS[p.get("gain_verdict", "inconclusive")]
-    tau = _interval(p.get("tau_mismatch_pct"), p.get("tau_mismatch_pct_interval")) + MARKS[p.get("tau_verdict", "inconclusive")]
+    gain = (
+        _interval(p.get("gain_mismatch_pct"), p.get("gain_mismatch_pct_interval"))
+        + MARKS[p.get("gain_verdict", "inconclusive")]
+    )
+    tau = (
+        _interval(p.get("tau_mismatch_pct"), p.get("tau_mismatch_pct_interval"))
+        + MARKS[p.get("tau_verdict", "inconclusive")]
+    )
     delay = "-"
     if p.get("delay_mismatch_samples") is not None:
-        delay = f"{p['delay_mismatch_samples']:+d} ({100 * p['delay_confidence']:.0f} %)" + MARKS[p.get("delay_verdict", "inconclusive")]
+        delay = (
+            f"{p['delay_mismatch_samples']:+d} ({100 * p['delay_confidence']:.0f} %)"
+            + MARKS[p.get("delay_verdict", "inconclusive")]
+        )
     return f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {element['verdict']:13s}"
 
 
@@ -61,7 +70,9 @@ def format_classic_table(report: dict[str, Any]) -> str:
         line = f"{name:8s} {c['gain_ratio']:10.3f}  {gain:14s} {c['tau_index']:+9.1f}  {tau:15s} {c['delay_mismatch_samples']:+5d}  {e['verdict']:9s}"
         lines.append(line + (" " + _injected(report, name) if injected else ""))
     lines.append("")
-    lines.append("gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; delay = D - Dhat [samples]")
+    lines.append(
+        "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; delay = D - Dhat [samples]"
+    )
     return "\n".join(lines) + "\n"
 
 

@@ -55,7 +55,9 @@ class ConfiguredNode(Node):
         the model (``system``) is missing, or a value is invalid.
     """
 
-    def __init__(self, node_name: str, *, executable: str, live_parameters: bool = False, sim_time: bool = False, **kwargs: Any) -> None:
+    def __init__(
+        self, node_name: str, *, executable: str, live_parameters: bool = False, sim_time: bool = False, **kwargs: Any
+    ) -> None:
         super().__init__(node_name, **kwargs)
         if sim_time and "use_sim_time" not in self._parameter_overrides:
             self.set_parameters([Parameter("use_sim_time", value=True)])

@@ -35,7 +35,12 @@ __all__ = [
     "stamp_from_seconds",
 ]
 
-LEVEL_NAMES = {DiagnosticStatus.OK: "OK", DiagnosticStatus.WARN: "WARN", DiagnosticStatus.ERROR: "ERROR", DiagnosticStatus.STALE: "STALE"}
+LEVEL_NAMES = {
+    DiagnosticStatus.OK: "OK",
+    DiagnosticStatus.WARN: "WARN",
+    DiagnosticStatus.ERROR: "ERROR",
+    DiagnosticStatus.STALE: "STALE",
+}
 
 
 def stamp_from_seconds(seconds: float) -> Time:
@@ -76,7 +81,9 @@ def _key_values(pairs: dict[str, str]) -> list[KeyValue]:
     return [KeyValue(key=k, value=v) for k, v in pairs.items()]
 
 
-def diagnosis_statuses(diagnosis: Diagnosis, *, node_name: str, hardware_id: str, window: dict[str, Any], state: str | None = None) -> list[DiagnosticStatus]:
+def diagnosis_statuses(
+    diagnosis: Diagnosis, *, node_name: str, hardware_id: str, window: dict[str, Any], state: str | None = None
+) -> list[DiagnosticStatus]:
     """One DiagnosticStatus per element of a diagnosis, with or without verdicts.
 
     Parameters
@@ -102,7 +109,15 @@ def diagnosis_statuses(diagnosis: Diagnosis, *, node_name: str, hardware_id: str
             level = DiagnosticStatus.STALE if state == STALE else DiagnosticStatus.WARN
             message = f"{'stale' if state == STALE else 'insufficient data'}: {diagnosis.reason}"
         pairs = {**common, **element_pairs(element)}
-        statuses.append(DiagnosticStatus(level=level, name=f"{node_name}: {name}", message=message, hardware_id=hardware_id, values=_key_values(pairs)))
+        statuses.append(
+            DiagnosticStatus(
+                level=level,
+                name=f"{node_name}: {name}",
+                message=message,
+                hardware_id=hardware_id,
+                values=_key_values(pairs),
+            )
+        )
     return statuses
 
 

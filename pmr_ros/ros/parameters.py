@@ -35,11 +35,18 @@ def descriptor(parameter: Parameter, *, read_only: bool) -> ParameterDescriptor:
     list of whole numbers may be read as integers;
     :func:`pmr_ros.config.parse_config` checks types and values instead.
     """
-    desc = ParameterDescriptor(name=parameter.name, description=parameter.describe(), dynamic_typing=True, read_only=read_only)
+    desc = ParameterDescriptor(
+        name=parameter.name, description=parameter.describe(), dynamic_typing=True, read_only=read_only
+    )
     low, high = parameter.minimum, parameter.maximum
     if parameter.kind == "int" and low is not None and high is not None:
         desc.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
-    elif parameter.kind == "float" and low is not None and high is not None and not (parameter.min_exclusive or parameter.max_exclusive):
+    elif (
+        parameter.kind == "float"
+        and low is not None
+        and high is not None
+        and not (parameter.min_exclusive or parameter.max_exclusive)
+    ):
         desc.floating_point_range = [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
     constraints = parameter.range_text()
     if constraints:
@@ -50,7 +57,9 @@ def descriptor(parameter: Parameter, *, read_only: bool) -> ParameterDescriptor:
 def ros_value(value: Any) -> Any:
     """A config value as a ROS parameter value: lists mixing ints and floats become floats."""
     if isinstance(value, (list, tuple)):
-        if any(isinstance(v, float) for v in value) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        if any(isinstance(v, float) for v in value) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+        ):
             return [float(v) for v in value]
         return list(value)
     return value

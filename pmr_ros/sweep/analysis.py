@@ -114,7 +114,9 @@ def summarize(rows: list[dict], tau_threshold: float) -> list[PointSummary]:
     """One :class:`PointSummary` per (method, sweep, nu, scenario, element), sorted."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
-        groups[(row["method"], row["sweep"], row["element_swept"], round(row["nu"], 9), row["scenario"], row["element"])].append(row)
+        groups[
+            (row["method"], row["sweep"], row["element_swept"], round(row["nu"], 9), row["scenario"], row["element"])
+        ].append(row)
     out = []
     for key in sorted(groups):
         g = groups[key]

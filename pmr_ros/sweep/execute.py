@@ -82,18 +82,30 @@ def parametric_fields(diagnosis: Diagnosis) -> dict[str, dict[str, Any]]:
 
 
 PARAMETRIC_ONLY = (
-    "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
+    "tau_mismatch_pct",
+    "gain_mismatch_pct_low",
+    "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low",
+    "tau_mismatch_pct_high",
+    "delay_confidence",
 )
 """CSV fields of the parametric method beyond the classic ones."""
 
 
-ROW_FIELDS: dict[str, Callable[[Diagnosis], dict[str, dict[str, Any]]]] = {"classic": classic_fields, "parametric": parametric_fields}
+ROW_FIELDS: dict[str, Callable[[Diagnosis], dict[str, dict[str, Any]]]] = {
+    "classic": classic_fields,
+    "parametric": parametric_fields,
+}
 """Per diagnosis method, the CSV fields of each element of its diagnosis."""
 
 
-def method_fields(method: str, record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict[str, Any]]]:
+def method_fields(
+    method: str, record: RunRecord, model: FoptdMatrix, config: PmrConfig
+) -> tuple[str, dict[str, dict[str, Any]]]:
     """Diagnose one run with ``method``: its status and each element's CSV fields."""
-    diagnosis = diagnose(record.r, record.u, record.y, model=model, pmr=config.pmr, parametric=config.parametric, method=method)
+    diagnosis = diagnose(
+        record.r, record.u, record.y, model=model, pmr=config.pmr, parametric=config.parametric, method=method
+    )
     return diagnosis.status, ROW_FIELDS[method](diagnosis)
 
 
@@ -145,16 +157,18 @@ def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
             status, numbers = method_fields(method, record, model, point_config)
             for j, name in enumerate(names):
                 i, k = divmod(j, n_in)
-                rows.append({
-                    **common,
-                    "method": method,
-                    "element": name,
-                    "true_gain_ratio": float(truth.gain_ratio[i, k]),
-                    "true_time_constant_pct": float(truth.time_constant_pct[i, k]),
-                    "true_delay_samples": int(truth.delay_samples[i, k]),
-                    "status": status,
-                    **numbers[name],
-                })
+                rows.append(
+                    {
+                        **common,
+                        "method": method,
+                        "element": name,
+                        "true_gain_ratio": float(truth.gain_ratio[i, k]),
+                        "true_time_constant_pct": float(truth.time_constant_pct[i, k]),
+                        "true_delay_samples": int(truth.delay_samples[i, k]),
+                        "status": status,
+                        **numbers[name],
+                    }
+                )
     return rows
 
 
@@ -163,7 +177,8 @@ def plan_tasks(config: PmrConfig, plan: SweepPlan, done: set[tuple]) -> list[Poi
     tasks = []
     for point in plan.points(config.model):
         missing = tuple(
-            run for run in plan.runs()
+            run
+            for run in plan.runs()
             if any((m, point.sweep, round(point.nu, 9), run[0], run[1]) not in done for m in plan.methods)
         )
         if missing:
@@ -197,7 +212,9 @@ class SweepOutcome:
     cpu_time_s: float = 0.0
 
 
-def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True) -> SweepOutcome:
+def execute(
+    config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True
+) -> SweepOutcome:
     """Run ``tasks`` on ``jobs`` processes, appending each point's rows to ``results``.
 
     ``jobs = 1`` runs in this process (no pool).  On Ctrl-C the pool is
@@ -241,7 +258,10 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
     except KeyboardInterrupt:
         if bar:
             bar.close()
-        print(f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with --resume", file=sys.stderr)
+        print(
+            f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with --resume",
+            file=sys.stderr,
+        )
         raise
     if bar:
         bar.close()

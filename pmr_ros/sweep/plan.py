@@ -77,7 +77,9 @@ def element_index(model: FoptdMatrix, element: str) -> tuple[int, int]:
     """
     names = model.element_names()
     if element not in names:
-        raise PlanError(f"unknown element {element!r} to sweep; this {model.n_outputs}x{model.n_inputs} system has {', '.join(names)}")
+        raise PlanError(
+            f"unknown element {element!r} to sweep; this {model.n_outputs}x{model.n_inputs} system has {', '.join(names)}"
+        )
     return divmod(names.index(element), model.n_inputs)
 
 

@@ -29,9 +29,33 @@ the parametric method's own (empty on classic rows, whose verdict is filled)."""
 RESULTS_FILE = "results.csv"
 MANIFEST_FILE = "sweep.json"
 
-_INT_COLUMNS = {"seed", "samples", "prediction_horizon", "control_horizon", "mpc_solves", "mpc_failures", "true_delay_samples", "delay_mismatch_samples"}
-_FLOAT_COLUMNS = {"nu", "time_constant_swept", "row_time_constant_ratio", "loop_spectral_radius", "tracking_rms", "true_gain_ratio", "true_time_constant_pct", "gain_ratio", "tau_index",
-                  "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence"}
+_INT_COLUMNS = {
+    "seed",
+    "samples",
+    "prediction_horizon",
+    "control_horizon",
+    "mpc_solves",
+    "mpc_failures",
+    "true_delay_samples",
+    "delay_mismatch_samples",
+}
+_FLOAT_COLUMNS = {
+    "nu",
+    "time_constant_swept",
+    "row_time_constant_ratio",
+    "loop_spectral_radius",
+    "tracking_rms",
+    "true_gain_ratio",
+    "true_time_constant_pct",
+    "gain_ratio",
+    "tau_index",
+    "tau_mismatch_pct",
+    "gain_mismatch_pct_low",
+    "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low",
+    "tau_mismatch_pct_high",
+    "delay_confidence",
+}
 _BOOL_COLUMNS = {"gain_mismatch", "tau_mismatch", "delay_mismatch"}
 
 

@@ -67,7 +67,9 @@ class RowFit:
 
 def delay_bounds(model: FoptdMatrix, i: int, max_delay_samples: int) -> list[tuple[int, int]]:
     """``(lowest, highest)`` dD of each element of row ``i``: ``+-max``, never below ``-Dhat`` (a plant delay is >= 0)."""
-    return [(max(-max_delay_samples, -int(model.delay_samples[i, k])), max_delay_samples) for k in range(model.n_inputs)]
+    return [
+        (max(-max_delay_samples, -int(model.delay_samples[i, k])), max_delay_samples) for k in range(model.n_inputs)
+    ]
 
 
 class _Trials:
@@ -84,7 +86,9 @@ class _Trials:
         return self._cache[key]
 
 
-def _coordinate_search(trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]) -> tuple[np.ndarray, Fit]:
+def _coordinate_search(
+    trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]
+) -> tuple[np.ndarray, Fit]:
     """Move one element's delay at a time, one sample per step, while the fit improves."""
     x, cost, _ = fit
     for _sweep in range(SEARCH_SWEEPS):
@@ -104,7 +108,9 @@ def _coordinate_search(trials: _Trials, delays: np.ndarray, fit: Fit, bounds: li
     return delays, fit
 
 
-def _profile(trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]) -> tuple[np.ndarray, Fit, tuple[dict[int, float], ...]]:
+def _profile(
+    trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]
+) -> tuple[np.ndarray, Fit, tuple[dict[int, float], ...]]:
     """Each element's delay profile, the others at their best; a better neighbour is taken."""
     profiles = []
     for k, (low, high) in enumerate(bounds):
@@ -171,7 +177,16 @@ def fit_row(
 
     def trials_for(noise: np.ndarray) -> _Trials:
         b, A = whitened_row(spectra, row, noise, bins)
-        return _Trials(RowProblem(b, A, z_inv=np.exp(-1j * omega), pole_model=pole_model, sample_time=model.sample_time, tau_model=model.time_constant[row]))
+        return _Trials(
+            RowProblem(
+                b,
+                A,
+                z_inv=np.exp(-1j * omega),
+                pole_model=pole_model,
+                sample_time=model.sample_time,
+                tau_model=model.time_constant[row],
+            )
+        )
 
     # pass 1: weights from the nonparametric estimate's residual, delays searched
     trials = trials_for(noise_spectrum(spectra, row, theta_start))

@@ -92,7 +92,9 @@ def row_quality(
     condition = float(np.median(estimate.condition[bins, i]))
     reasons = []
     if bins.size < 2 * n_in + 2:
-        reasons.append(f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below {classic.coherence_min:g}")
+        reasons.append(
+            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below {classic.coherence_min:g}"
+        )
     if row_coherence < settings.coherence_min:
         reasons.append(f"coherence with the setpoints too low ({row_coherence:.2f} < {settings.coherence_min:g})")
     if not np.isfinite(condition) or condition > settings.max_condition:

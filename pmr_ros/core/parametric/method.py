@@ -32,16 +32,36 @@ def _delay_start(i: int, *, spectra: RecordSpectra, estimate: PmrEstimate, class
     band = informative_band(spectra.omega, coherence, classic.coherence_min)
     band &= spectra.omega > 0
     n_in = estimate.ratio.shape[2]
-    return np.array([hamon_hannan_delay(spectra.omega, estimate.ratio[:, i, k], coherence, classic.max_delay_samples, band)[0] for k in range(n_in)])
+    return np.array(
+        [
+            hamon_hannan_delay(spectra.omega, estimate.ratio[:, i, k], coherence, classic.max_delay_samples, band)[0]
+            for k in range(n_in)
+        ]
+    )
 
 
-def _row_results(i: int, quality: RowQuality, *, spectra: RecordSpectra, estimate: PmrEstimate, model: FoptdMatrix,
-                 classic: PmrSettings, settings: ParametricSettings) -> list[ParametricResult]:
+def _row_results(
+    i: int,
+    quality: RowQuality,
+    *,
+    spectra: RecordSpectra,
+    estimate: PmrEstimate,
+    model: FoptdMatrix,
+    classic: PmrSettings,
+    settings: ParametricSettings,
+) -> list[ParametricResult]:
     fit = None
     if not quality.reasons:
         delay_start = _delay_start(i, spectra=spectra, estimate=estimate, classic=classic)
-        fit = fit_row(spectra, model, row=i, theta_start=estimate.ratio[:, i, :], delay_start=delay_start,
-                      max_delay_samples=classic.max_delay_samples, bins=quality.bins)
+        fit = fit_row(
+            spectra,
+            model,
+            row=i,
+            theta_start=estimate.ratio[:, i, :],
+            delay_start=delay_start,
+            max_delay_samples=classic.max_delay_samples,
+            bins=quality.bins,
+        )
     out = []
     for k in range(model.n_inputs):
         figures = quality.quality(k, omega=spectra.omega, welch=spectra.settings)
@@ -53,8 +73,15 @@ def _row_results(i: int, quality: RowQuality, *, spectra: RecordSpectra, estimat
     return out
 
 
-def parametric_results(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, classic: PmrSettings,
-                       settings: ParametricSettings) -> dict[str, ParametricResult]:
+def parametric_results(
+    r: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    *,
+    model: FoptdMatrix,
+    classic: PmrSettings,
+    settings: ParametricSettings,
+) -> dict[str, ParametricResult]:
     """The parametric result of every element of a record that passed the classic checks.
 
     Raises
@@ -75,12 +102,16 @@ def parametric_results(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: Fo
     out: dict[str, ParametricResult] = {}
     for i in range(model.n_outputs):
         quality = row_quality(i, spectra=spectra, estimate=estimate, model=model, classic=classic, settings=settings)
-        results = _row_results(i, quality, spectra=spectra, estimate=estimate, model=model, classic=classic, settings=settings)
-        out.update(zip(names[i * model.n_inputs:(i + 1) * model.n_inputs], results, strict=True))
+        results = _row_results(
+            i, quality, spectra=spectra, estimate=estimate, model=model, classic=classic, settings=settings
+        )
+        out.update(zip(names[i * model.n_inputs : (i + 1) * model.n_inputs], results, strict=True))
     return out
 
 
-def _classic_part(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, classic: PmrSettings) -> dict[str, ClassicResult | None]:
+def _classic_part(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, classic: PmrSettings
+) -> dict[str, ClassicResult | None]:
     """The classic numbers kept beside the parametric ones; None where the classic method cannot give them."""
     try:
         estimate = classic_estimate(r, u, y, model=model, settings=classic)
@@ -90,8 +121,15 @@ def _classic_part(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMa
     return dict(classic_results(estimate, model, classic))
 
 
-def diagnose_parametric(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, classic: PmrSettings,
-                        settings: ParametricSettings) -> Diagnosis:
+def diagnose_parametric(
+    r: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    *,
+    model: FoptdMatrix,
+    classic: PmrSettings,
+    settings: ParametricSettings,
+) -> Diagnosis:
     """Parametric diagnosis of every element with intervals and calibrated verdicts.
 
     The record is checked as for every method (:func:`~pmr_ros.core.record.check_record`);

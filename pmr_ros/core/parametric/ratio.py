@@ -53,10 +53,14 @@ def ratio_shape(z_inv: np.ndarray, pole_model: float, pole_plant: np.ndarray | f
     return (1 - pole_plant) / (1 - pole_model) * (1 - pole_model * z_inv) / (1 - pole_plant * z_inv) * z_inv**delay
 
 
-def row_ratio(omega: np.ndarray, *, gain_ratio: np.ndarray, pole_model: np.ndarray, pole_plant: np.ndarray, delays: np.ndarray) -> np.ndarray:
+def row_ratio(
+    omega: np.ndarray, *, gain_ratio: np.ndarray, pole_model: np.ndarray, pole_plant: np.ndarray, delays: np.ndarray
+) -> np.ndarray:
     """The fitted PMR of every element of a row, shape (F, n_in)."""
     z_inv = np.exp(-1j * omega)
-    columns = [gain_ratio[k] * ratio_shape(z_inv, pole_model[k], pole_plant[k], int(delays[k])) for k in range(gain_ratio.size)]
+    columns = [
+        gain_ratio[k] * ratio_shape(z_inv, pole_model[k], pole_plant[k], int(delays[k])) for k in range(gain_ratio.size)
+    ]
     return np.stack(columns, axis=1)
 
 
@@ -122,7 +126,16 @@ class RowProblem:
         ``tauhat`` of the row's elements [time unit].
     """
 
-    def __init__(self, b: np.ndarray, A: np.ndarray, *, z_inv: np.ndarray, pole_model: np.ndarray, sample_time: float, tau_model: np.ndarray) -> None:
+    def __init__(
+        self,
+        b: np.ndarray,
+        A: np.ndarray,
+        *,
+        z_inv: np.ndarray,
+        pole_model: np.ndarray,
+        sample_time: float,
+        tau_model: np.ndarray,
+    ) -> None:
         self.b, self.A, self.z_inv = b, A, z_inv
         self.pole_model, self.ts, self.tau_model = pole_model, sample_time, tau_model
         self.n = A.shape[2]

@@ -76,8 +76,12 @@ def element_result(
     tau_interval = (100.0 * math.expm1(s - z * sd_s), 100.0 * math.expm1(s + z * sd_s))
     delay = int(fit.delay_samples[k])
     confidence = delay_confidence(fit.delay_profile[k], delay, max(1.0, fit.chi_square / fit.dof))
-    gain_verdict = parameter_verdict(gain, gain_interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct)
-    tau_verdict = parameter_verdict(tau, tau_interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct)
+    gain_verdict = parameter_verdict(
+        gain, gain_interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
+    )
+    tau_verdict = parameter_verdict(
+        tau, tau_interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct
+    )
     reasons = []
     if confidence < settings.delay_confidence_min:
         delay_verdict = "inconclusive"
@@ -101,4 +105,3 @@ def element_result(
         warnings=warnings,
         quality=dict(quality),
     )
-
