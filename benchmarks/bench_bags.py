@@ -42,7 +42,8 @@ def main() -> None:
     messages = list(bag.messages())
     n = len(messages)
     print(
-        f"reference bag: {REFERENCE} ({n} messages, {sum(f.stat().st_size for f in REFERENCE.iterdir()) / 2**20:.1f} MiB)"
+        f"reference bag: {REFERENCE} ({n} messages, {sum(f.stat().st_size for f in REFERENCE.iterdir()) / 2**20:.1f} "
+        "MiB)"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for storage in ("mcap", "sqlite3"):

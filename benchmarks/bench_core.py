@@ -40,11 +40,13 @@ def main() -> None:
     solves = mpc.statistics.solve_time_s
     print(f"closed loop (Wood-Berry, default MPC): {rate:,.0f} steps/s  (target >= 3,000)")
     print(
-        f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve {1e6 * statistics.median(solves):.0f} us"
+        f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve "
+        f"{1e6 * statistics.median(solves):.0f} us"
     )
     rate_qp, mpc_qp = closed_loop_rate(config, samples, always_solve_qp=True)
     print(
-        f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve {1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us"
+        f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve "
+        f"{1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us"
     )
 
     for label, cfg in (("2x2", config), ("3x3", load_config("config/three_by_three.yaml"))):
@@ -59,7 +61,8 @@ def main() -> None:
                 times.append(time.perf_counter() - t0)
             target = "  (target <= 50 ms)" if (label, method) == ("2x2", "classic") else ""
             print(
-                f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms{target}"
+                f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, "
+                f"best {1e3 * min(times):.1f} ms{target}"
             )
 
 

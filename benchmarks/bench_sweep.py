@@ -32,7 +32,8 @@ def one_point(samples: int, seeds: int) -> None:
     serial = time.perf_counter() - t0
     solves = sum(s.solves for s in result.statistics)
     print(
-        f"one point, {len(runs)} runs x {samples} samples: lockstep {lockstep:.2f} s, simulate() per run {serial:.2f} s "
+        f"one point, {len(runs)} runs x {samples} samples: lockstep {lockstep:.2f} s, simulate() per run {serial:.2f} "
+        "s "
         f"(x{serial / lockstep:.1f}); OSQP solves {solves} ({100 * solves / (len(runs) * samples):.0f} % of steps)"
     )
 
@@ -43,7 +44,8 @@ def full_sweep(jobs: int) -> None:
         code = cli_main(["sweep", "--out", f"{tmp}/sweep", "--jobs", str(jobs), "--no-report"])
         wall = time.perf_counter() - t0
     print(
-        f"default sweep (2 x 37 nu x 5 scenarios x 5 seeds x 16384 samples) on {jobs} processes: {wall:.0f} s (exit {code})"
+        f"default sweep (2 x 37 nu x 5 scenarios x 5 seeds x 16384 samples) on {jobs} processes: {wall:.0f} s (exit "
+        f"{code})"
     )
 
 

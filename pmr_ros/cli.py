@@ -25,6 +25,7 @@ COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``pmr-ros`` argument parser with every sub-command of :data:`COMMANDS`."""
     parser = argparse.ArgumentParser(
         prog="pmr-ros",
         description="Model-plant mismatch diagnosis for MPC with the plant-model ratio (PMR).",

@@ -339,14 +339,20 @@ def test_shared_windowing_schedule_and_outcomes(wood_berry):
     due = []
     for k in range(8):
         for s in "ruy":
-            due.append(offer_signal(aligner, s, float(k), names[s], [0.0, 0.0], 4).update_due)
+            due.append(
+                offer_signal(
+                    aligner, s, stamp_s=float(k), names=names[s], values=[0.0, 0.0], update_period_samples=4
+                ).update_due
+            )
     assert sum(due) == 2  # samples 3 and 7 complete
     assert window_info(aligner, 5) == {"window_samples": 5, "first_sample": 3, "last_sample": 7}
     small = replace(wood_berry, diagnostician=replace(wood_berry.diagnostician, window_samples=100, min_samples=50))
     outcome = evaluate_window(aligner, small)
     assert outcome.kind == INSUFFICIENT and "8 unbroken samples, need 50" in outcome.reason and outcome.stamp_s == 7.0
     for k in range(8, 13):
-        offer = offer_signal(aligner, "y", float(k), names["y"], [0.0, 0.0], 4)
+        offer = offer_signal(
+            aligner, "y", stamp_s=float(k), names=names["y"], values=[0.0, 0.0], update_period_samples=4
+        )
     assert offer.newly_lagging is None or "stopped" in offer.newly_lagging
     assert evaluate_window(aligner, small).kind == STALE
 

@@ -24,7 +24,7 @@ from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.diagnosis import diagnose  # noqa: E402
-from pmr_ros.node_set import run_node_set  # noqa: E402
+from pmr_ros.node_set import NodeSetOptions, run_node_set  # noqa: E402
 from pmr_ros.nodes.plant import PlantNode  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
 from pmr_ros.ros.convert import signal_message  # noqa: E402
@@ -45,7 +45,7 @@ def full_run():
     with claimed_domain() as domain, pytest.MonkeyPatch.context() as mp:
         for key, value in ros_environment(domain).items():
             mp.setenv(key, value)
-        return run_node_set(config, domain_id=domain, record=True)
+        return run_node_set(config, NodeSetOptions(domain_id=domain, record=True))
 
 
 def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run):
@@ -362,9 +362,10 @@ def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
 
 def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
-    result = run_node_set(
-        config, domain_id=ros_domain, record=True, extra_parameters={"simulation.real_time_rate_hz": 400.0}
+    options = NodeSetOptions(
+        domain_id=ros_domain, record=True, extra_parameters={"simulation.real_time_rate_hz": 400.0}
     )
+    result = run_node_set(config, options)
     assert result.info["last_sample"] == 599
     assert result.wall_time_s >= 0.9 * 600 / 400
     assert np.isfinite(result.record.y).all() and np.isfinite(result.record.u).all()
@@ -383,7 +384,7 @@ def test_diagnostician_subscribes_to_r_u_y_only(ros_context):
 
 def test_node_set_runs_any_square_system_like_the_batch(ros_domain):
     config = load_config(config_dir() / "three_by_three.yaml", {"run": {"samples": 1500}})
-    result = run_node_set(config, domain_id=ros_domain, record=True)
+    result = run_node_set(config, NodeSetOptions(domain_id=ros_domain, record=True))
     batch = simulate(config)
     assert np.array_equal(result.record.y, batch.y) and np.array_equal(result.record.u, batch.u)
     assert len(result.info["levels"]) == 9 and result.info["last_sample"] == 1499

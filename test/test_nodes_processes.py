@@ -33,7 +33,8 @@ def _run_file(tmp_path: Path) -> Path:
     path.write_text(
         "/**:\n  ros__parameters:\n"
         f"    run:\n      samples: {SAMPLES}\n"
-        f"    diagnostician:\n      window_samples: {SAMPLES}\n      update_period_samples: {SAMPLES}\n      min_samples: {SAMPLES}\n"
+        f"    diagnostician:\n      window_samples: {SAMPLES}\n      update_period_samples: {SAMPLES}\n      "
+        f"min_samples: {SAMPLES}\n"
     )
     return path
 

@@ -165,7 +165,14 @@ def _replay(bag: Bag, config: PmrConfig) -> tuple[list[WindowOutcome], list[str]
         signal = by_topic[message.topic]
         counts[signal] += 1
         stamp, channel_names, values = read_signal(bag.decode(message))
-        offer = offer_signal(aligner, signal, stamp, channel_names, values, window.update_period_samples)
+        offer = offer_signal(
+            aligner,
+            signal,
+            stamp_s=stamp,
+            names=channel_names,
+            values=values,
+            update_period_samples=window.update_period_samples,
+        )
         warnings.extend(offer.result.warnings)
         if offer.newly_lagging:
             warnings.append(offer.newly_lagging)

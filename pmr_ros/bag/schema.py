@@ -99,14 +99,17 @@ class RunConfig:
 
     @property
     def scenario(self) -> str:
+        """The recorded ``run.scenario`` (empty when the run had none)."""
         return str(self.params.get("run", {}).get("scenario", ""))
 
     @property
     def seed(self) -> int | None:
+        """The recorded ``run.seed``, if any."""
         return self.params.get("run", {}).get("seed")
 
     @property
     def samples(self) -> int | None:
+        """The recorded ``run.samples``, if any."""
         return self.params.get("run", {}).get("samples")
 
     def params_yaml(self) -> str:

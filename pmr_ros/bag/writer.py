@@ -168,6 +168,7 @@ class BagWriter:
     # -- end -----------------------------------------------------------------
     @property
     def message_count(self) -> int:
+        """Messages written so far, all topics."""
         return sum(self.counts.values())
 
     def close(self) -> None:

@@ -20,11 +20,13 @@ EXIT_DIFFERENT = 4
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros diagnose`` to the sub-command parsers."""
     p = sub.add_parser(
         "diagnose",
         help="diagnose a recorded rosbag2 bag offline (no ROS graph)",
         description=(
-            "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and model), "
+            "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and "
+            "model), "
             "with the bag's recorded configuration or --config, and compare with the verdicts recorded on /diagnostics."
         ),
     )
@@ -70,6 +72,7 @@ def offline_report(result, bag) -> dict:
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from ..bag.offline import diagnose_bag
     from ..bag.reader import open_bag
     from ..bag.schema import BagError
@@ -86,7 +89,8 @@ def handle(args: argparse.Namespace) -> int:
     window = report["window"]
     if window.get("window_samples"):
         print(
-            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} samples), configuration from {result.config_origin}"
+            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} "
+            f"samples), configuration from {result.config_origin}"
         )
     if result.end_of_bag:
         print(

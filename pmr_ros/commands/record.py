@@ -25,11 +25,13 @@ def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros record`` to the sub-command parsers."""
     p = sub.add_parser(
         "record",
         help="record the contract's topics of a live ROS graph into a rosbag2 bag",
         description=(
-            "Subscribe to every topic of the pmr_ros contract (r, u, y, /clock, /diagnostics, /pmr/estimates, /pmr/run_config) "
+            "Subscribe to every topic of the pmr_ros contract (r, u, y, /clock, /diagnostics, /pmr/estimates, "
+            "/pmr/run_config) "
             "and write them into a rosbag2 bag until Ctrl-C/SIGTERM. The run's configuration is taken from --config, "
             "else from /pmr/run_config, else from the live pmr_diagnostician's parameters."
         ),
@@ -54,6 +56,7 @@ def register(sub) -> None:
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros record`` until Ctrl-C, SIGTERM or ``--duration``; the exit code."""
     from ..bag.schema import BagError, RunConfig
     from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 

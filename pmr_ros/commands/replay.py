@@ -18,12 +18,15 @@ from . import CommandError, nonnegative_int, positive_float
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros replay`` to the sub-command parsers."""
     p = sub.add_parser(
         "replay",
         help="publish a recorded bag's messages on their topics (lockstep simulated time)",
         description=(
-            "Publish the messages of a pmr_ros bag on their topics with the contract's QoS: /clock and r, u, y sample by sample, "
-            "in lockstep, paced by --max-samples-per-second so that subscribers in other processes keep up, or at the recorded pace times --rate."
+            "Publish the messages of a pmr_ros bag on their topics with the contract's QoS: /clock and r, u, y sample "
+            "by sample, "
+            "in lockstep, paced by --max-samples-per-second so that subscribers in other processes keep up, or at the "
+            "recorded pace times --rate."
         ),
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
@@ -62,6 +65,7 @@ def register(sub) -> None:
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros replay``; the exit code (130 when stopped early)."""
     from ..bag.reader import open_bag
     from ..bag.schema import BagError
 
@@ -91,7 +95,8 @@ def handle(args: argparse.Namespace) -> int:
                 signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)
             ):
                 print(
-                    f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} after {args.wait} s; replaying anyway",
+                    f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} "
+                    f"after {args.wait} s; replaying anyway",
                     file=sys.stderr,
                 )
             started = time.monotonic()
@@ -107,7 +112,8 @@ def handle(args: argparse.Namespace) -> int:
                 executor.spin_once(timeout_sec=0.05)
             total = sum(node.published.values())
             print(
-                f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s ({total / wall if wall > 0 else 0:.0f} msgs/s)",
+                f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s "
+                f"({total / wall if wall > 0 else 0:.0f} msgs/s)",
                 file=sys.stderr,
             )
         finally:

@@ -16,12 +16,14 @@ from .record import add_storage_arguments, start_recording
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros run`` to the sub-command parsers."""
     p = sub.add_parser(
         "run",
         help="run the closed loop (PRBS setpoints, MPC, plant) and diagnose it",
         description=(
             "Run the closed loop for N samples on a configured system and print the per-element PMR verdicts. "
-            "Default: the four ROS 2 nodes in this process over real topics, verdicts from /diagnostics; --batch: the pure core."
+            "Default: the four ROS 2 nodes in this process over real topics, verdicts from /diagnostics; --batch: the "
+            "pure core."
         ),
     )
     add_system_arguments(p)
@@ -31,7 +33,8 @@ def register(sub) -> None:
     p.add_argument(
         "--visible",
         action="store_true",
-        help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); default: private to this process",
+        help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); "
+        "default: private to this process",
     )
     p.add_argument(
         "--bag",
@@ -45,13 +48,14 @@ def register(sub) -> None:
 def _node_set_report(config):
     """Run the node set; the core diagnosis from /diagnostics and the extras the node path knows."""
     try:
-        from ..node_set import NodeSetError, run_node_set
+        from ..node_set import NodeSetError, NodeSetOptions, run_node_set
     except ImportError as exc:
         raise CommandError(f"the ROS 2 node set needs rclpy ({exc}); install pmr_ros[ros] or use --batch") from None
-    return run_node_set, NodeSetError
+    return run_node_set, NodeSetOptions, NodeSetError
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
     from ..config import load_config
     from ..report import build_report, format_table
 
@@ -69,10 +73,11 @@ def handle(args: argparse.Namespace) -> int:
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
-        run_node_set, NodeSetError = _node_set_report(config)
+        run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
         recording = start_recording(args, config) if args.bag else None
         try:
-            result = run_node_set(config, private=not args.visible, extra_nodes=recording.nodes if recording else None)
+            options = NodeSetOptions(private=not args.visible, extra_nodes=recording.nodes if recording else None)
+            result = run_node_set(config, options)
         except NodeSetError as exc:
             raise CommandError(str(exc), code=1) from None
         finally:

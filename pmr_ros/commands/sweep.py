@@ -14,6 +14,7 @@ DEFAULT_OUT = "out/sweep"
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros sweep`` to the sub-command parsers."""
     p = sub.add_parser(
         "sweep",
         help="sweep a time constant (paper's Figs. 2-7): CSV of every estimate, figures, report",
@@ -152,6 +153,7 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros sweep``; the exit code."""
     from ..config import load_config
     from ..sweep import store
     from ..sweep.execute import execute, plan_tasks
@@ -198,8 +200,10 @@ def handle(args: argparse.Namespace) -> int:
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
         print(
-            f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
-            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)",
+            f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
+            f"{len(plan.seeds)} seeds "
+            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on "
+            f"{min(args.jobs, max(len(tasks), 1))} process(es)",
             file=sys.stderr,
         )
     t0 = time.perf_counter()

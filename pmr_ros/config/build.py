@@ -198,7 +198,8 @@ def _model(v: _Values) -> FoptdMatrix:
             v.source,
             SYSTEM_BLOCK,
             None,
-            "missing: a configuration needs the controller's model (system: sample_time, output_names, input_names, gain, time_constant, delay)",
+            "missing: a configuration needs the controller's model (system: sample_time, output_names, input_names, "
+            "gain, time_constant, delay)",
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
     if len(outputs) != len(inputs):

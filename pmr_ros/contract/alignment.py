@@ -62,9 +62,15 @@ def check_signal(
     """
     width = len(expected_names)
     if len(values) != width:
-        return f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} ({', '.join(expected_names)}); message dropped"
+        return (
+            f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} "
+            f"({', '.join(expected_names)}); message dropped"
+        )
     if len(names) and tuple(names) != tuple(expected_names):
-        return f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message dropped"
+        return (
+            f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message "
+            "dropped"
+        )
     array = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(array)):
         bad = [f"{n}={v}" for n, v in zip(expected_names, array.tolist(), strict=True) if not np.isfinite(v)]
@@ -178,7 +184,8 @@ class SampleAligner:
             return AddResult(
                 False,
                 [
-                    f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = {self.sample_time_s:g} s); message dropped"
+                    f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = "
+                    f"{self.sample_time_s:g} s); message dropped"
                 ],
             )
         last = self.newest[signal]

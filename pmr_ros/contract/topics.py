@@ -101,6 +101,40 @@ class Topic:
     fields: dict
 
 
+def _choice(where: str, field: str, value: object, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ContractError(f"{where}.{field} = {value!r}: must be one of {', '.join(choices)}")
+    return str(value)
+
+
+def _qos(where: str, qos: object) -> TopicQos:
+    if not isinstance(qos, dict):
+        raise ContractError(f"{where}.qos: must be a mapping")
+    reliability = _choice(where, "qos.reliability", qos.get("reliability"), RELIABILITIES)
+    durability = _choice(where, "qos.durability", qos.get("durability"), DURABILITIES)
+    history = _choice(where, "qos.history", qos.get("history", "keep_last"), HISTORIES)
+    depth = qos.get("depth")
+    if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
+        raise ContractError(f"{where}.qos.depth = {depth!r}: must be a whole number >= 1")
+    return TopicQos(reliability, durability, depth, history)
+
+
+def _topic(key: str, entry: object, where: str) -> Topic:
+    if not isinstance(entry, dict):
+        raise ContractError(f"{where}: must be a mapping")
+    for field in ("name", "type", "qos", "description", "fields"):
+        if field not in entry:
+            raise ContractError(f"{where}.{field}: missing")
+    name, type_name = entry["name"], entry["type"]
+    if not isinstance(name, str) or not name or name.startswith("~"):
+        raise ContractError(f"{where}.name = {name!r}: must be a topic name")
+    if not isinstance(type_name, str) or type_name.count("/") != 2 or type_name.split("/")[1] != "msg":
+        raise ContractError(f"{where}.type = {type_name!r}: must be 'package/msg/Type'")
+    if not isinstance(entry["fields"], dict) or not entry["fields"]:
+        raise ContractError(f"{where}.fields: must document every field")
+    return Topic(key, name, type_name, _qos(where, entry["qos"]), str(entry["description"]), dict(entry["fields"]))
+
+
 def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
     """Validate a contract document into topics by key.
 
@@ -111,46 +145,7 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
     """
     if not isinstance(doc, dict) or not isinstance(doc.get("topics"), dict):
         raise ContractError(f"{source}: expected a mapping with a 'topics' mapping")
-    topics = {}
-    for key, entry in doc["topics"].items():
-        where = f"{source}: topics.{key}"
-        if not isinstance(entry, dict):
-            raise ContractError(f"{where}: must be a mapping")
-        for field in ("name", "type", "qos", "description", "fields"):
-            if field not in entry:
-                raise ContractError(f"{where}.{field}: missing")
-        name, type_name, qos = entry["name"], entry["type"], entry["qos"]
-        if not isinstance(name, str) or not name or name.startswith("~"):
-            raise ContractError(f"{where}.name = {name!r}: must be a topic name")
-        if not isinstance(type_name, str) or type_name.count("/") != 2 or type_name.split("/")[1] != "msg":
-            raise ContractError(f"{where}.type = {type_name!r}: must be 'package/msg/Type'")
-        if not isinstance(qos, dict):
-            raise ContractError(f"{where}.qos: must be a mapping")
-        if qos.get("reliability") not in RELIABILITIES:
-            raise ContractError(
-                f"{where}.qos.reliability = {qos.get('reliability')!r}: must be one of {', '.join(RELIABILITIES)}"
-            )
-        if qos.get("durability") not in DURABILITIES:
-            raise ContractError(
-                f"{where}.qos.durability = {qos.get('durability')!r}: must be one of {', '.join(DURABILITIES)}"
-            )
-        history = qos.get("history", "keep_last")
-        if history not in HISTORIES:
-            raise ContractError(f"{where}.qos.history = {history!r}: must be one of {', '.join(HISTORIES)}")
-        depth = qos.get("depth")
-        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
-            raise ContractError(f"{where}.qos.depth = {depth!r}: must be a whole number >= 1")
-        if not isinstance(entry["fields"], dict) or not entry["fields"]:
-            raise ContractError(f"{where}.fields: must document every field")
-        topics[key] = Topic(
-            key,
-            name,
-            type_name,
-            TopicQos(qos["reliability"], qos["durability"], depth, history),
-            str(entry["description"]),
-            dict(entry["fields"]),
-        )
-    return topics
+    return {key: _topic(key, entry, f"{source}: topics.{key}") for key, entry in doc["topics"].items()}
 
 
 @cache

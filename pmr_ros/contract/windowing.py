@@ -44,6 +44,7 @@ class Offer:
 def offer_signal(
     aligner: SampleAligner,
     signal: str,
+    *,
     stamp_s: float,
     names: Sequence[str],
     values: Sequence[float],

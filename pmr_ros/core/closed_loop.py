@@ -59,6 +59,7 @@ class RunRecord:
 
     @property
     def samples(self) -> int:
+        """Samples in the record."""
         return self.r.shape[0]
 
 

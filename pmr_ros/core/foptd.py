@@ -95,6 +95,7 @@ class Mismatch:
 
     @classmethod
     def zero(cls, n_outputs: int, n_inputs: int) -> Mismatch:
+        """No mismatch at all: the plant equals the model."""
         z = np.zeros((n_outputs, n_inputs))
         return cls(z, z.copy(), z.astype(int))
 
@@ -156,10 +157,12 @@ class FoptdMatrix:
 
     @property
     def n_outputs(self) -> int:
+        """Controlled outputs (rows)."""
         return self.gain.shape[0]
 
     @property
     def n_inputs(self) -> int:
+        """Manipulated inputs (columns)."""
         return self.gain.shape[1]
 
     @property

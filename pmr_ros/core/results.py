@@ -449,34 +449,43 @@ def compare_diagnoses(
     a = first.to_dict() if isinstance(first, Diagnosis) else first
     b = second.to_dict() if isinstance(second, Diagnosis) else second
     out: list[str] = []
-    _compare(a, b, "", rtol, atol, out)
+    _compare(a, b, "", _Tolerance(rtol, atol), out)
     return out
 
 
-def _compare(a: Any, b: Any, path: str, rtol: float, atol: float, out: list[str]) -> None:
+@dataclass(frozen=True)
+class _Tolerance:
+    rtol: float
+    atol: float
+
+
+def _compare(a: Any, b: Any, path: str, tolerance: _Tolerance, out: list[str]) -> None:
     if isinstance(a, Mapping) and isinstance(b, Mapping):
-        for key in sorted(set(a) | set(b)):
-            if key in DERIVED_KEYS:
-                continue
-            where = f"{path}.{key}" if path else str(key)
-            if key not in a or key not in b:
-                out.append(f"{where}: only in {'the first' if key in a else 'the second'}")
-                continue
-            _compare(a[key], b[key], where, rtol, atol, out)
-        return
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        _compare_mappings(a, b, path, tolerance, out)
+    elif isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
         if len(a) != len(b):
             out.append(f"{path}: {len(a)} entries != {len(b)}")
             return
         for j, (x, y) in enumerate(zip(a, b, strict=True)):
-            _compare(x, y, f"{path}[{j}]", rtol, atol, out)
-        return
-    if isinstance(a, float) or isinstance(b, float):
-        if _numbers_agree(a, b, rtol, atol):
-            return
-    elif a == b and type(a) is type(b):
-        return
-    out.append(f"{path}: {a!r} != {b!r}")
+            _compare(x, y, f"{path}[{j}]", tolerance, out)
+    elif isinstance(a, float) or isinstance(b, float):
+        if not _numbers_agree(a, b, tolerance.rtol, tolerance.atol):
+            out.append(f"{path}: {a!r} != {b!r}")
+    elif not (a == b and type(a) is type(b)):
+        out.append(f"{path}: {a!r} != {b!r}")
+
+
+def _compare_mappings(
+    a: Mapping[str, Any], b: Mapping[str, Any], path: str, tolerance: _Tolerance, out: list[str]
+) -> None:
+    for key in sorted(set(a) | set(b)):
+        if key in DERIVED_KEYS:
+            continue
+        where = f"{path}.{key}" if path else str(key)
+        if key not in a or key not in b:
+            out.append(f"{where}: only in {'the first' if key in a else 'the second'}")
+        else:
+            _compare(a[key], b[key], where, tolerance, out)
 
 
 def _numbers_agree(a: Any, b: Any, rtol: float, atol: float) -> bool:

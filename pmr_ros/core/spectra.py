@@ -104,6 +104,7 @@ class SegmentSpectra:
 
     @property
     def segments(self) -> int:
+        """Segments averaged."""
         return self.ffts.shape[0]
 
     def cross(self, a: slice | np.ndarray, b: slice | np.ndarray) -> np.ndarray:

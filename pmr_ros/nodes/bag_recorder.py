@@ -213,6 +213,7 @@ class RunRecording:
         self.recorder: BagRecorderNode | None = None
 
     def nodes(self, context, parameters: dict) -> list[Node]:
+        """The ``extra_nodes`` hook: a recorder of every contract topic with the run's parameters."""
         config = RunConfig(nested(parameters), source=self.source)
         self.recorder = BagRecorderNode(
             self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context

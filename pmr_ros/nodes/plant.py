@@ -77,8 +77,10 @@ class PlantNode(ConfiguredNode):
             return
         if not ready:
             self.get_logger().warning(
-                f"starting after {waited:.1f} s without the expected peers: {self._y_pub.get_subscription_count()} subscribers of y "
-                f"(want {self.config.simulation.wait_for_subscribers}), {self.count_publishers(topic('manipulated_input').name)} publishers of u"
+                f"starting after {waited:.1f} s without the expected peers: {self._y_pub.get_subscription_count()} "
+                "subscribers of y "
+                f"(want {self.config.simulation.wait_for_subscribers}), "
+                f"{self.count_publishers(topic('manipulated_input').name)} publishers of u"
             )
         self._start_timer.cancel()
         self.destroy_timer(self._start_timer)

@@ -112,8 +112,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
+        period = self.config.diagnostician.update_period_samples
         offer = offer_signal(
-            self.aligner, signal, stamp, names, values, self.config.diagnostician.update_period_samples
+            self.aligner, signal, stamp_s=stamp, names=names, values=values, update_period_samples=period
         )
         for text in offer.result.warnings:
             self._warn(text)

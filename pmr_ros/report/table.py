@@ -44,7 +44,10 @@ def format_parametric_table(report: dict[str, Any]) -> str:
     """The parametric method's table: estimates with intervals and verdicts, then the reasons."""
     level = 100 * report["settings"]["parametric"]["confidence_level"]
     injected = report.get("injected")
-    cols = f"{'element':8s} {'dK % [' + f'{level:.0f} % interval]':26s} {'dtau % [interval]':26s} {'dD (confidence)':16s} {'verdict':13s}"
+    cols = (
+        f"{'element':8s} {'dK % [' + f'{level:.0f} % interval]':26s} {'dtau % [interval]':26s} "
+        f"{'dD (confidence)':16s} {'verdict':13s}"
+    )
     lines = [cols + (" injected dK %, dtau %, dD" if injected else "")]
     notes = []
     for name, e in report["elements"].items():
@@ -60,18 +63,25 @@ def format_parametric_table(report: dict[str, Any]) -> str:
 def format_classic_table(report: dict[str, Any]) -> str:
     """The classic method's table: gain ratio, tau index, delay and the flags."""
     injected = report.get("injected")
-    cols = f"{'element':8s} {'gain ratio':>10s}  {'gain':14s} {'tau index':>9s}  {'time constant':15s} {'delay':>5s}  {'verdict':9s}"
+    cols = (
+        f"{'element':8s} {'gain ratio':>10s}  {'gain':14s} {'tau index':>9s}  {'time constant':15s} {'delay':>5s}  "
+        f"{'verdict':9s}"
+    )
     lines = [cols + ("  injected dK %, dtau %, dD" if injected else "")]
     for name, e in report["elements"].items():
         c = e["classic"]
         direction = ("higher" if c["gain_ratio"] > 1 else "lower") if c["gain_mismatch"] else "ok"
         gain = f"{100 * (c['gain_ratio'] - 1):+.1f} % {direction}" if c["gain_mismatch"] else "ok"
         tau = ("larger" if c["tau_index"] > 0 else "smaller") if c["tau_mismatch"] else "ok"
-        line = f"{name:8s} {c['gain_ratio']:10.3f}  {gain:14s} {c['tau_index']:+9.1f}  {tau:15s} {c['delay_mismatch_samples']:+5d}  {e['verdict']:9s}"
+        line = (
+            f"{name:8s} {c['gain_ratio']:10.3f}  {gain:14s} {c['tau_index']:+9.1f}  {tau:15s} "
+            f"{c['delay_mismatch_samples']:+5d}  {e['verdict']:9s}"
+        )
         lines.append(line + (" " + _injected(report, name) if injected else ""))
     lines.append("")
     lines.append(
-        "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; delay = D - Dhat [samples]"
+        "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; "
+        "delay = D - Dhat [samples]"
     )
     return "\n".join(lines) + "\n"
 

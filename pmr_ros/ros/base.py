@@ -1,4 +1,4 @@
-"""What every pmr_ros node shares: its declared parameters validated by the config reader, contract topics, clean start and stop."""
+"""What every pmr_ros node shares: declared parameters checked by the config reader, contract topics, start and stop."""
 
 from __future__ import annotations
 

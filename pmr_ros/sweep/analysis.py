@@ -135,7 +135,8 @@ def summarize(rows: list[dict], tau_threshold: float) -> list[PointSummary]:
             gain_wrong=sum(not c["gain"] for c in right), tau_wrong=sum(not c["tau"] for c in right),
             delay_wrong=sum(not c["delay"] for c in right), insufficient=sum(r["status"] != "ok" for r in g),
             solve_fraction=float(np.mean([r["mpc_solves"] / r["samples"] for r in g])),
-            mpc_failures=int(sum(r["mpc_failures"] for r in g)), tracking_rms=float(np.median([r["tracking_rms"] for r in g])),
+            mpc_failures=int(sum(r["mpc_failures"] for r in g)),
+            tracking_rms=float(np.median([r["tracking_rms"] for r in g])),
         ))  # fmt: skip
     return out
 

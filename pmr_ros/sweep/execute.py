@@ -259,7 +259,8 @@ def execute(
         if bar:
             bar.close()
         print(
-            f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with --resume",
+            f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with "
+            "--resume",
             file=sys.stderr,
         )
         raise

@@ -146,10 +146,12 @@ def config_fingerprint(parameters: dict) -> str:
 
 
 def write_manifest(folder: Path, manifest: dict) -> None:
+    """Write the sweep's manifest (its plan and configuration hash) into ``folder``."""
     (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
 
 
 def read_manifest(folder: Path) -> dict | None:
+    """The manifest of the sweep in ``folder``, or None when there is none."""
     path = folder / MANIFEST_FILE
     if not path.is_file():
         return None

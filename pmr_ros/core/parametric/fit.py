@@ -66,7 +66,10 @@ class RowFit:
 
 
 def delay_bounds(model: FoptdMatrix, i: int, max_delay_samples: int) -> list[tuple[int, int]]:
-    """``(lowest, highest)`` dD of each element of row ``i``: ``+-max``, never below ``-Dhat`` (a plant delay is >= 0)."""
+    """``(lowest, highest)`` dD of each element of row ``i``: ``+-max``, never below ``-Dhat``.
+
+    A plant delay cannot be negative.
+    """
     return [
         (max(-max_delay_samples, -int(model.delay_samples[i, k])), max_delay_samples) for k in range(model.n_inputs)
     ]

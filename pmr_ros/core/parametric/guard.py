@@ -1,4 +1,4 @@
-"""The data-quality guard of the parametric method: can a row, an element, be diagnosed at all?
+"""The data-quality guard of the parametric method: which rows and elements the data can diagnose at all.
 
 Per output row: the informative band (where the row's coherence with the
 setpoints holds), the mean coherence over it, the median condition number of
@@ -93,7 +93,8 @@ def row_quality(
     reasons = []
     if bins.size < 2 * n_in + 2:
         reasons.append(
-            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below {classic.coherence_min:g}"
+            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below "
+            f"{classic.coherence_min:g}"
         )
     if row_coherence < settings.coherence_min:
         reasons.append(f"coherence with the setpoints too low ({row_coherence:.2f} < {settings.coherence_min:g})")
