@@ -19,7 +19,7 @@ FALSE_FAILURE = 1e-3
 
 
 def min_successes(n: int, rate: float, false_failure: float = FALSE_FAILURE) -> int:
-    """The largest count ``k`` that n trials at success probability ``rate`` reach with probability >= 1 - ``false_failure``.
+    """The largest count ``k`` that n trials at success probability ``rate`` reach w.p. >= 1 - ``false_failure``.
 
     Parameters
     ----------
@@ -41,7 +41,7 @@ def min_successes(n: int, rate: float, false_failure: float = FALSE_FAILURE) -> 
 
 
 def max_failures(n: int, rate: float, false_failure: float = FALSE_FAILURE) -> int:
-    """The smallest count ``m`` that n trials at failure probability ``rate`` stay at or below with probability >= 1 - ``false_failure``.
+    """The smallest count ``m`` that n trials at failure probability ``rate`` stay within w.p. >= 1 - ``false_failure``.
 
     ``n - min_successes(n, 1 - rate)``: at most ``rate`` false alarms is at least ``1 - rate`` right verdicts.
     E.g. 8 for n = 50 and rate = 0.05.

@@ -27,8 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .closed_loop import RunRecord
-from .config import PmrConfig
+from .closed_loop import LoopConfig, RunRecord
 from .foptd import SCENARIOS
 from .mpc import LinearMpc, MpcStatistics
 from .plant import noise_generator
@@ -103,12 +102,12 @@ def _plant_groups(spaces: list) -> list[_PlantGroup]:
     return groups
 
 
-def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> LockstepResult:
+def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> LockstepResult:
     """Simulate ``runs`` closed loops that share ``config.model`` and ``config.mpc``.
 
     Parameters
     ----------
-    config : PmrConfig
+    config : LoopConfig
         Controller model ``Ghat``, MPC tuning, mismatch, noise and PRBS.
     runs : sequence of (scenario, seed)
         The plant of each run is ``config.plant(scenario)``; ``seed`` picks its
@@ -164,7 +163,9 @@ def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: in
         u_rep = np.tile(u_prev, (1, Nc))
         moves = _mv(mats.unconstrained_gain, q)
         u_path = u_rep + _mv(mats.cumulative, moves)
-        feasible = np.all(np.abs(moves) <= du_bound, axis=1) & np.all((u_path >= u_min_path) & (u_path <= u_max_path), axis=1)
+        feasible = np.all(np.abs(moves) <= du_bound, axis=1) & np.all(
+            (u_path >= u_min_path) & (u_path <= u_max_path), axis=1
+        )
         move = moves[:, :n_in].copy()
         for j in np.flatnonzero(~feasible):
             lower = np.concatenate([u_min_path - u_rep[j], -du_bound])
@@ -181,13 +182,15 @@ def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: in
     for c in controllers:
         c.statistics.steps += samples
     records = [
-        RunRecord(np.ascontiguousarray(setpoints[:, j]), np.ascontiguousarray(u_rec[:, j]), np.ascontiguousarray(y_rec[:, j]))
+        RunRecord(
+            np.ascontiguousarray(setpoints[:, j]), np.ascontiguousarray(u_rec[:, j]), np.ascontiguousarray(y_rec[:, j])
+        )
         for j in range(n_runs)
     ]
     return LockstepResult(records, [c.statistics for c in controllers])
 
 
-def simulate_many(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[RunRecord]:
+def simulate_many(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[RunRecord]:
     """The records of :func:`run_lockstep` (one per ``(scenario, seed)`` in ``runs``)."""
     return run_lockstep(config, runs, samples).records
 

@@ -122,7 +122,9 @@ class LinearMpc:
         and for checking the unconstrained shortcut).
     """
 
-    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False, always_solve_qp: bool = False) -> None:
+    def __init__(
+        self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False, always_solve_qp: bool = False
+    ) -> None:
         self.model = model
         self.always_solve_qp = always_solve_qp
         self.tuning = tuning
@@ -147,15 +149,15 @@ class LinearMpc:
         acc = np.zeros((n_out, n_in))
         for j in range(Np):
             Apow = self._A @ Apow
-            Phi[j * n_out:(j + 1) * n_out] = self._C @ Apow
+            Phi[j * n_out : (j + 1) * n_out] = self._C @ Apow
             acc = acc + markov[j]
-            Psi[j * n_out:(j + 1) * n_out] = acc
+            Psi[j * n_out : (j + 1) * n_out] = acc
         # Theta[j, l]: effect on y(k+1+j) of the move at k+l (l < Nc): step response S_(j-l).
         step = np.cumsum(np.stack(markov), axis=0)  # step[j] = sum_{t<=j} C A^t B
         Theta = np.zeros((Np * n_out, Nc * n_in))
         for j in range(Np):
             for m in range(min(j + 1, Nc)):
-                Theta[j * n_out:(j + 1) * n_out, m * n_in:(m + 1) * n_in] = step[j - m]
+                Theta[j * n_out : (j + 1) * n_out, m * n_in : (m + 1) * n_in] = step[j - m]
         self._Phi, self._Psi, self._Theta = Phi, Psi, Theta
 
         Q = np.tile(np.asarray(tuning.output_weight, dtype=float), Np)
@@ -253,7 +255,11 @@ class LinearMpc:
             upper = np.concatenate([self._u_max - u_rep, self._du_bound])
             move = self._solve_constrained(q, lower, upper)
         n_in = self.model.n_inputs
-        u = np.clip(self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]), self.tuning.u_min, self.tuning.u_max)
+        u = np.clip(
+            self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]),
+            self.tuning.u_min,
+            self.tuning.u_max,
+        )
         self._x = self._A @ self._x + self._B @ u
         self._u_prev = u
         return u
