@@ -17,7 +17,7 @@ from pmr_ros.cli import main as cli_main
 from pmr_ros.config import load_config
 from pmr_ros.core.batch import run_lockstep
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.foptd import SCENARIOS
+from pmr_ros.core.model import SCENARIOS
 
 
 def one_point(samples: int, seeds: int) -> None:

@@ -59,3 +59,23 @@ def test_worker_pools_start_from_a_fork_server():
     from pmr_ros.core.batch import worker_context
 
     assert worker_context().get_start_method() == "forkserver"
+
+
+def test_mv_dither_is_added_to_u_and_the_lockstep_batch_equals_simulate(wood_berry):
+    from pmr_ros.core.prbs import ExcitationSettings
+
+    amplitude = np.array([0.2, 0.1])
+    config = replace(wood_berry, excitation=ExcitationSettings(amplitude, 5))
+    plain = simulate(wood_berry, samples=2000, seed=3)
+    dithered = simulate(config, samples=2000, seed=3)
+    assert plain.dither is None and dithered.dither.shape == (2000, 2)
+    np.testing.assert_allclose(np.abs(dithered.dither), np.broadcast_to(amplitude, (2000, 2)))  # +/- amplitude
+    assert np.all(dithered.dither[:5] == dithered.dither[0]) and not np.all(dithered.dither == dithered.dither[0])
+    np.testing.assert_array_equal(dithered.r, plain.r)  # the setpoints are not touched
+    assert not np.allclose(dithered.u, plain.u)
+    # the dither is independent of the setpoints (its own m-sequences) and of the other input's
+    corr = np.corrcoef(np.hstack([dithered.r, dithered.dither]).T)
+    assert np.max(np.abs(corr - np.eye(4))) < 0.1
+    (lockstep,) = simulate_many(config, [("full", 3)], samples=2000)
+    np.testing.assert_allclose(lockstep.u, dithered.u, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(lockstep.dither, dithered.dither)

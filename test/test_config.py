@@ -53,11 +53,22 @@ def _write(tmp_path: Path, change: dict, base: str = "wood_berry.yaml") -> Path:
 @pytest.mark.parametrize(
     "change,field,words",
     [
-        ({"system": {"input_names": ["reflux", "steam", "feed"]}}, "system.input_names", "square"),
+        ({"system": {"input_names": ["reflux", "steam", "feed"]}}, "system.gain", "needs 6 entries (2x3, row by row)"),
         ({"system": {"gain": [[12.8, -18.9], [6.6]]}}, "system.gain", "must be 2 rows of 2"),
         ({"system": {"gain": [12.8, -18.9, 6.6]}}, "system.gain", "needs 4 entries"),
         ({"system": {"time_constant": [16.7, 21.0, 0.0, 14.4]}}, "system.time_constant[2] (G21)", "> 0"),
-        ({"system": {"time_constant": [16.7, -21.0, 10.9, 14.4]}}, "system.time_constant[1] (G12)", "> 0"),
+        ({"system": {"time_constant": [16.7, -21.0, 10.9, 14.4]}}, "system.time_constant[1] (G12)", ">= 0"),
+        (
+            {"system": {"gain": [12.8, 0.0, 6.6, -19.4]}},
+            "system.gain[1] (G12)",
+            "use element_type none for an empty cell",
+        ),
+        (
+            {"system": {"element_type": ["foptd", "ramp", "foptd", "foptd"]}},
+            "system.element_type[1] (G12)",
+            "one of foptd",
+        ),
+        ({"system": {"element_type": ["foptd", "none"]}}, "system.element_type", "needs 4 entries"),
         ({"system": {"delay": [1.0, 3.5, 7.0, 3.0]}}, "system.delay[1]", "whole number of samples"),
         ({"system": {"gain": [12.8, math.nan, 6.6, -19.4]}}, "system.gain[1] (G12)", "finite"),
         ({"system": {"gain": [12.8, "big", 6.6, -19.4]}}, "system.gain[1] (G12)", "number"),
@@ -106,13 +117,13 @@ def test_every_default_comes_from_the_declaration(tmp_path):
     np.testing.assert_array_equal(config.mismatch.gain_pct, 0.0)
     flat = flatten_parameters(config.parameters)
     for name, spec in schema.parameters().items():
-        if not spec.required and spec.block != "system":
+        if not spec.required and spec.block not in ("system", "plant"):
             assert flat[name] == spec.default, name
 
 
 def test_declared_scenarios_are_the_cores():
     from pmr_ros.config import schema
-    from pmr_ros.core.foptd import SCENARIOS
+    from pmr_ros.core.model import SCENARIOS
 
     assert schema.parameter("run.scenario").choices == SCENARIOS
 
@@ -185,3 +196,71 @@ def test_malformed_yaml_is_one_line_with_the_place(tmp_path):
     with pytest.raises(ConfigError, match=r"not valid YAML: .* at line \d+, column \d+") as info:
         load_config(path)
     assert "\n" not in str(info.value)
+
+
+def _industrial(tmp_path: Path, **blocks) -> Path:
+    params = {
+        "system": {
+            "name": "two_by_three",
+            "sample_time": 1.0,
+            "output_names": ["level", "temperature"],
+            "input_names": ["feed", "steam", "reflux"],
+            "gain": [0.05, 0.0, -0.04, 1.5, 2.0, 0.0],
+            "time_constant": [0.0, 0.0, 0.0, 10.0, 14.0, 0.0],
+            "delay": [2.0, 0.0, 1.0, 3.0, 1.0, 0.0],
+            "element_type": ["integrating", "none", "integrating", "foptd", "foptd", "none"],
+        },
+        **blocks,
+    }
+    path = tmp_path / "industrial.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": params}}))
+    return path
+
+
+def test_non_square_models_with_empty_and_integrating_elements(tmp_path):
+    config = load_config(_industrial(tmp_path))
+    model = config.model
+    assert (model.n_outputs, model.n_inputs) == (2, 3) and config.warnings == ()
+    assert list(model.element_type.ravel()) == ["integrating", "none", "integrating", "foptd", "foptd", "none"]
+    assert np.isnan(model.time_constant[0, 0]) and model.gain[0, 1] == 0.0 and model.slowest_time_constant == 14.0
+    elements = model.element_models()
+    assert elements["G11"][2].kind == "integrating" and elements["G11"][2].time_constant is None
+    assert elements["G12"][2].kind == "none"
+
+
+def test_an_integrating_element_given_a_time_constant_is_a_warning(tmp_path):
+    path = _industrial(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["/**"]["ros__parameters"]["system"]["time_constant"][0] = 7.0
+    path.write_text(yaml.safe_dump(doc))
+    config = load_config(path)
+    assert config.warnings == (f"{path}: system.time_constant[0] (G11) = 7 is ignored: G11 is integrating",)
+    assert np.isnan(config.model.time_constant[0, 0])
+
+
+def test_a_plant_block_is_the_plant_and_excludes_a_mismatch(tmp_path):
+    plant = {
+        "gain": [0.05, 0.3, -0.04, 1.5, 2.0, 0.0],
+        "time_constant": [0.0, 8.0, 0.0, 10.0, 14.0, 0.0],
+        "delay": [2.0, 4.0, 1.0, 3.0, 1.0, 0.0],
+        "element_type": ["integrating", "foptd", "integrating", "foptd", "foptd", "none"],
+    }
+    config = load_config(_industrial(tmp_path, plant=plant))
+    truth = config.plant()
+    assert truth.element_type[0, 1] == "foptd" and truth.gain[0, 1] == 0.3 and truth.delay_samples[0, 1] == 4
+    assert config.model.element_type[0, 1] == "none"  # an unmodeled interaction
+    with pytest.raises(ConfigError, match="mismatch: cannot be given with a plant block"):
+        load_config(_industrial(tmp_path, plant=plant, mismatch={"gain_pct": 10.0}))
+    with pytest.raises(ConfigError, match="run.scenario: cannot be given with a plant block"):
+        load_config(_industrial(tmp_path, plant=plant, run={"scenario": "gain"}))
+    bad = {**plant, "element_type": ["integrating", "foptd", "ramp", "foptd", "foptd", "none"]}
+    with pytest.raises(ConfigError, match=r"plant.element_type\[2\] \(G13\) = 'ramp'"):
+        load_config(_industrial(tmp_path, plant=bad))
+
+
+def test_dither_settings_are_per_input(tmp_path):
+    config = load_config(_industrial(tmp_path, excitation={"mv_dither_amplitude": [0.1, 0.0, 0.2]}))
+    np.testing.assert_array_equal(config.excitation.mv_dither_amplitude, [0.1, 0.0, 0.2])
+    assert config.excitation.active and not load_config(_industrial(tmp_path)).excitation.active
+    with pytest.raises(ConfigError, match="excitation.mv_dither_amplitude = .*needs 3 entries"):
+        load_config(_industrial(tmp_path, excitation={"mv_dither_amplitude": [0.1, 0.2]}))

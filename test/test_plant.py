@@ -2,13 +2,13 @@
 
 import numpy as np
 
-from pmr_ros.core.foptd import FoptdMatrix
+from pmr_ros.core.model import TransferMatrix
 from pmr_ros.core.plant import FoptdPlant, noise_generator
 
 
 def test_noise_free_step_matches_closed_form():
     K, tau, theta = 6.6, 10.9, 7.0
-    plant = FoptdPlant(FoptdMatrix([[K]], [[tau]], [[theta]], 1.0), noise_std=0.0, seed=0)
+    plant = FoptdPlant(TransferMatrix([[K]], [[tau]], [[theta]], 1.0), noise_std=0.0, seed=0)
     y = []
     for _ in range(60):
         y.append(plant.measure()[0])

@@ -15,7 +15,7 @@ from pmr_ros.cli import main
 from pmr_ros.config import load_config
 from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.foptd import SCENARIOS
+from pmr_ros.core.model import SCENARIOS
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 
 class CommandError(Exception):
@@ -61,7 +62,7 @@ def nonnegative_int(text: str) -> int:
 
 def add_system_arguments(parser: argparse.ArgumentParser) -> None:
     """--config/--scenario/--samples/--seed, shared by commands that simulate."""
-    from ..core.foptd import SCENARIOS
+    from ..core.model import SCENARIOS
 
     parser.add_argument(
         "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
@@ -102,3 +103,15 @@ def run_overrides(args: argparse.Namespace) -> dict:
     if getattr(args, "method", None) is not None:
         overrides["pmr"] = {"method": args.method}
     return overrides
+
+
+def load_checked_config(path: str | None, overrides: dict | None = None) -> Any:
+    """:func:`pmr_ros.config.load_config`, printing its warnings (``pmr-ros: warning: ...``) on stderr."""
+    import sys
+
+    from ..config import load_config
+
+    config = load_config(path, overrides)
+    for warning in config.warnings:
+        print(f"pmr-ros: warning: {warning}", file=sys.stderr)
+    return config

@@ -13,7 +13,7 @@ import argparse
 import sys
 import time
 
-from . import CommandError, add_system_arguments, positive_float, run_overrides
+from . import CommandError, add_system_arguments, load_checked_config, positive_float, run_overrides
 
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
@@ -62,9 +62,7 @@ def handle(args: argparse.Namespace) -> int:
 
     run_config = None
     if args.config is not None or run_overrides(args):
-        from ..config import load_config
-
-        config = load_config(args.config, run_overrides(args))
+        config = load_checked_config(args.config, run_overrides(args))
         run_config = RunConfig(config.parameters, source=str(config.source))
     try:
         from rclpy.executors import SingleThreadedExecutor

@@ -11,7 +11,14 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_system_arguments, run_overrides
+from . import (
+    EXIT_INSUFFICIENT,
+    CommandError,
+    add_method_argument,
+    add_system_arguments,
+    load_checked_config,
+    run_overrides,
+)
 from .record import add_storage_arguments, start_recording
 
 
@@ -56,10 +63,9 @@ def _node_set_report(config):
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
-    from ..config import load_config
     from ..report import build_report, format_table
 
-    config = load_config(args.config, run_overrides(args))
+    config = load_checked_config(args.config, run_overrides(args))
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     if args.batch:

@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import CommandError, nonnegative_int, number, positive_int
+from . import CommandError, load_checked_config, nonnegative_int, number, positive_int
 
 DEFAULT_OUT = "out/sweep"
 
@@ -163,10 +163,9 @@ def _continue_manifest(out: Path, manifest: dict) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros sweep``; the exit code."""
-    from ..config import load_config
     from ..sweep import store
 
-    config = load_config(args.config)
+    config = load_checked_config(args.config)
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE

@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
-from ..core.foptd import FoptdMatrix, Mismatch
+from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
-from ..core.prbs import PrbsSettings
+from ..core.prbs import ExcitationSettings, PrbsSettings
 from .errors import ConfigError
-from .schema import Shape, blocks, closest_name, default_tree, parameter, parameters
+from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
 __all__ = [
     "DiagnosticianSettings",
@@ -33,6 +33,7 @@ __all__ = [
 ]
 
 SYSTEM_BLOCK = "system"
+PLANT_BLOCK = "plant"
 
 
 @dataclass(frozen=True)
@@ -98,12 +99,17 @@ class PmrConfig:
         The effective nested parameter tree (file values over declared defaults).
     source : str
         Where it came from (a file, or a node's parameters).
+    explicit_plant : TransferMatrix or None
+        The ``plant`` block: the true plant of a simulation, when given.
+    warnings : tuple of str
+        Values accepted but worth a word (a time constant an integrating element ignores).
     """
 
-    model: FoptdMatrix
+    model: TransferMatrix
     mismatch: Mismatch
     noise_std: np.ndarray
     prbs: PrbsSettings
+    excitation: ExcitationSettings
     mpc: MpcTuning
     pmr: PmrSettings
     parametric: ParametricSettings
@@ -112,9 +118,16 @@ class PmrConfig:
     diagnostician: DiagnosticianSettings
     source: str
     parameters: dict[str, Any]
+    explicit_plant: TransferMatrix | None = None
+    warnings: tuple[str, ...] = ()
 
-    def plant(self, scenario: str | None = None) -> FoptdMatrix:
-        """The true plant ``G`` under ``scenario`` (default: the configured one)."""
+    def plant(self, scenario: str | None = None) -> TransferMatrix:
+        """The true plant ``G``: the ``plant`` block if given, else the model under ``scenario``'s mismatch.
+
+        ``scenario`` defaults to the configured one; with a ``plant`` block it does not apply.
+        """
+        if self.explicit_plant is not None:
+            return self.explicit_plant
         return self.model.with_mismatch(self.mismatch.for_scenario(scenario or self.run.scenario))
 
 
@@ -174,6 +187,7 @@ class _Values:
     def __init__(self, tree: dict[str, dict[str, Any]], source: str, sources: Mapping[str, str]) -> None:
         self.tree, self.source, self.sources = tree, source, sources
         self.shape: Shape | None = None
+        self.warnings: list[str] = []
 
     def raw(self, name: str) -> Any:
         block, key = name.split(".", 1)
@@ -191,7 +205,7 @@ class _Values:
         return ConfigError(self.source_of(name), name, value, reason)
 
 
-def _model(v: _Values) -> FoptdMatrix:
+def _model(v: _Values) -> TransferMatrix:
     given = v.tree.get(SYSTEM_BLOCK, {})
     if not any(p.name.split(".", 1)[1] in given for p in blocks()[SYSTEM_BLOCK].parameters if p.required):
         raise ConfigError(
@@ -202,30 +216,54 @@ def _model(v: _Values) -> FoptdMatrix:
             "gain, time_constant, delay)",
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
-    if len(outputs) != len(inputs):
-        raise v.error(
-            "system.input_names",
-            list(inputs),
-            f"the matrix must be square: {len(outputs)} outputs but {len(inputs)} inputs",
-        )
     v.shape = Shape(len(outputs), len(inputs))
+    return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
+
+
+def _matrix(v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[str, ...], name: str) -> TransferMatrix:
+    """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type."""
     ts = v["system.sample_time"]
-    gain = v["system.gain"]
-    if np.any(gain == 0):
-        j = int(np.flatnonzero(gain.ravel() == 0)[0])
-        raise v.error(f"system.gain[{j}]", 0.0, "must be non-zero: the plant-model ratio divides by the model gain")
-    delay = v["system.delay"]
-    whole = delay / ts
+    kinds = v[f"{block}.element_type"]
+    labels = [element_label(j, v.shape) for j in range(kinds.size)] if v.shape else []
+    gain, tau, delay = v[f"{block}.gain"], v[f"{block}.time_constant"], v[f"{block}.delay"]
+    for j, kind in enumerate(kinds.ravel()):
+        if kind != "none" and gain.ravel()[j] == 0:
+            raise v.error(
+                f"{block}.gain[{j}] ({labels[j]})", 0.0, "must be non-zero: use element_type none for an empty cell"
+            )
+        if kind == "foptd" and tau.ravel()[j] <= 0:
+            raise v.error(f"{block}.time_constant[{j}] ({labels[j]})", float(tau.ravel()[j]), "must be > 0")
+        if kind == "integrating" and tau.ravel()[j] > 0:
+            v.warnings.append(
+                f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({labels[j]}) = "
+                f"{tau.ravel()[j]:g} is ignored: {labels[j]} is integrating"
+            )
+    whole = np.where(kinds == "none", 0.0, delay / ts)
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
     if bad.size:
         j = int(bad[0])
         raise v.error(
-            f"system.delay[{j}]", float(delay.ravel()[j]), f"must be a whole number of samples (sample_time = {ts:g})"
+            f"{block}.delay[{j}] ({labels[j]})",
+            float(delay.ravel()[j]),
+            f"must be a whole number of samples (sample_time = {ts:g})",
         )
-    return FoptdMatrix(gain, v["system.time_constant"], np.rint(whole) * ts, ts, outputs, inputs, v["system.name"])
+    return TransferMatrix(gain, tau, np.rint(whole) * ts, ts, outputs, inputs, name, element_type=kinds)
 
 
-def _mismatch(v: _Values, model: FoptdMatrix) -> Mismatch:
+def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any]) -> TransferMatrix | None:
+    """The ``plant`` block, if given; it excludes a ``mismatch`` block and a ``run.scenario``."""
+    if "gain" not in v.tree.get(PLANT_BLOCK, {}):
+        return None
+    for clash in ("mismatch", "run.scenario"):
+        block, _, key = clash.partition(".")
+        if block in given and (not key or key in given[block]):
+            raise v.error(
+                clash, None, "cannot be given with a plant block: the plant block is the true plant of the run"
+            )
+    return _matrix(v, PLANT_BLOCK, outputs=model.output_names, inputs=model.input_names, name=model.name)
+
+
+def _mismatch(v: _Values, model: TransferMatrix) -> Mismatch:
     delay = v["mismatch.delay_samples"]
     if np.any(model.delay_samples + delay < 0):
         raise v.error("mismatch.delay_samples", delay.ravel().tolist(), "would make a plant delay negative")
@@ -241,7 +279,7 @@ def _prbs(v: _Values) -> PrbsSettings:
     )
 
 
-def _mpc(v: _Values, model: FoptdMatrix) -> MpcTuning:
+def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
     if nc_h > np_h:
         raise v.error("mpc.control_horizon", nc_h, f"must not exceed mpc.prediction_horizon ({np_h})")
@@ -331,6 +369,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
         prbs=_prbs(v),
+        excitation=ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"]),
         mpc=_mpc(v, model),
         pmr=_pmr(v),
         parametric=_parametric(v),
@@ -343,4 +382,6 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         diagnostician=_diagnostician(v),
         source=source,
         parameters=v.tree,
+        explicit_plant=_explicit_plant(v, model, checked),
+        warnings=tuple(v.warnings),
     )

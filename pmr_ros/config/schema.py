@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.foptd import element_name
+from ..core.model import element_name
 from ..resources import share_dir
 from .errors import ConfigError
 from .files import load_yaml
@@ -36,7 +36,7 @@ __all__ = [
 SCHEMA_FILE = "parameters.yaml"
 """The declaration file in the package's ``config/`` folder."""
 
-KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix")
+KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types")
 """Parameter types of the declaration (see its header comment)."""
 
 _REQUIRED = object()
@@ -191,6 +191,24 @@ class Parameter:
         items = [self._number(v, source, f"{self.name}[{j}]", integer=False) for j, v in enumerate(value)]
         return np.array(items, dtype=float)
 
+    def _check_types(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-element parameter needs the system's shape")
+        n = shape.n_outputs * shape.n_inputs
+        items = [value] * n if isinstance(value, str) else value
+        if not isinstance(items, list) or len(items) != n:
+            count = f", got {len(items)}" if isinstance(items, list) else ""
+            raise self._error(
+                source,
+                value,
+                f"needs {n} entries ({shape.n_outputs}x{shape.n_inputs}, row by row) or one for all{count}",
+            )
+        for j, item in enumerate(items):
+            if item not in self.choices:
+                field = f"{self.name}[{j}] ({element_label(j, shape)})"
+                raise self._error(source, item, f"must be one of {', '.join(self.choices)}", field)
+        return np.array(items, dtype=object).reshape(shape.n_outputs, shape.n_inputs)
+
     def _check_matrix(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:
             raise ValueError(f"{self.name}: a matrix parameter needs the system's shape")
@@ -229,6 +247,7 @@ class Block:
     doc: str
     nodes: tuple[str, ...]
     parameters: tuple[Parameter, ...]
+    optional: bool = False
 
 
 def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...]) -> Parameter:
@@ -262,7 +281,7 @@ def blocks() -> dict[str, Block]:
     for name, entry in doc.items():
         nodes = tuple(entry.get("nodes", ()))
         params = tuple(_parameter(name, key, spec, nodes) for key, spec in entry["parameters"].items())
-        out[name] = Block(name, str(entry.get("doc", "")), nodes, params)
+        out[name] = Block(name, str(entry.get("doc", "")), nodes, params, bool(entry.get("optional", False)))
     return out
 
 
@@ -291,10 +310,10 @@ def closest_name(name: str, known: list[str] | None = None) -> str | None:
 
 
 def default_tree(*, blocks_wanted: tuple[str, ...] | None = None) -> dict[str, dict[str, Any]]:
-    """The nested tree of every default (required parameters left out)."""
+    """The nested tree of every default (required parameters and optional blocks left out)."""
     tree: dict[str, dict[str, Any]] = {}
     for name, block in blocks().items():
-        if blocks_wanted is not None and name not in blocks_wanted:
+        if block.optional or (blocks_wanted is not None and name not in blocks_wanted):
             continue
         values = {p.name.split(".", 1)[1]: p.default for p in block.parameters if not p.required}
         if values:

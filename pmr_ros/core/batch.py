@@ -28,10 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .closed_loop import LoopConfig, RunRecord
-from .foptd import SCENARIOS, FoptdMatrix
+from .model import SCENARIOS, TransferMatrix
 from .mpc import LinearMpc, MpcStatistics, MpcTuning
 from .plant import noise_generator
-from .prbs import PrbsGenerator
+from .prbs import PrbsGenerator, dither_generator
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,7 @@ class _BatchMpc:
     product.
     """
 
-    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, n_runs: int) -> None:
+    def __init__(self, model: TransferMatrix, tuning: MpcTuning, n_runs: int) -> None:
         self.controllers = [LinearMpc(model, tuning) for _ in range(n_runs)]
         self.mats = self.controllers[0].matrices
         self.tuning = tuning
@@ -119,8 +119,8 @@ class _BatchMpc:
         self.x = np.zeros((n_runs, self.mats.A.shape[0]))
         self.u_prev = np.zeros((n_runs, self.n_in))
 
-    def step(self, y: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
-        """``u(k)`` of every run from ``y(k)`` and ``r(k)`` (rows: runs); advances the models."""
+    def step(self, y: np.ndarray, setpoint: np.ndarray, dither: np.ndarray | None) -> np.ndarray:
+        """``u(k)`` of every run from ``y(k)``, ``r(k)`` and the dither (rows: runs); advances the models."""
         mats, tuning = self.mats, self.tuning
         bias = y - _mv(mats.C, self.x)
         target = np.tile(setpoint - bias, (1, tuning.prediction_horizon))
@@ -141,9 +141,10 @@ class _BatchMpc:
         du_first = mats.du_bound[: self.n_in]
         u_min, u_max = np.asarray(tuning.u_min, dtype=float), np.asarray(tuning.u_max, dtype=float)
         u = np.clip(self.u_prev + np.clip(move, -du_first, du_first), u_min, u_max)
-        self.x = _mv(mats.A, self.x) + _mv(mats.B, u)
+        applied = u if dither is None else np.clip(u + dither, u_min, u_max)
+        self.x = _mv(mats.A, self.x) + _mv(mats.B, applied)
         self.u_prev = u
-        return u
+        return applied
 
 
 def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> LockstepResult:
@@ -176,6 +177,10 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     # One draw of the whole stream equals ``samples`` draws of n_out (numpy Generator).
     noise = np.stack([noise_generator(seed).standard_normal((samples, n_out)) for _, seed in runs], axis=1)
     setpoints = np.stack([PrbsGenerator(config.prbs, seed).sequence(samples) for _, seed in runs], axis=1)
+    dither = None
+    if config.excitation.active:
+        generators = [dither_generator(config.excitation, config.prbs, seed) for _, seed in runs]
+        dither = np.stack([g.sequence(samples) for g in generators], axis=1)
     mpc = _BatchMpc(config.model, config.mpc, n_runs)
     y = np.empty((n_runs, n_out))
     y_rec = np.empty((samples, n_runs, n_out))
@@ -184,12 +189,18 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         for group in groups:
             y[group.runs] = _mv(group.C, group.x) + noise_std * noise[k, group.runs]
         y_rec[k] = y
-        u = u_rec[k] = mpc.step(y, setpoints[k])
+        u = u_rec[k] = mpc.step(y, setpoints[k], None if dither is None else dither[k])
         for group in groups:
             group.x = _mv(group.A, group.x) + _mv(group.B, u[group.runs])
     for c in mpc.controllers:
         c.statistics.steps += samples
-    records = [RunRecord(*(np.ascontiguousarray(a[:, j]) for a in (setpoints, u_rec, y_rec))) for j in range(n_runs)]
+    records = [
+        RunRecord(
+            *(np.ascontiguousarray(a[:, j]) for a in (setpoints, u_rec, y_rec)),
+            None if dither is None else np.ascontiguousarray(dither[:, j]),
+        )
+        for j in range(n_runs)
+    ]
     return LockstepResult(records, [c.statistics for c in mpc.controllers])
 
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .delay import hamon_hannan_delay, informative_band
-from .foptd import FoptdMatrix
 from .implicit import PmrEstimate, estimate_pmr
+from .model import TransferMatrix
 from .record import InsufficientData
 from .results import ClassicResult, Diagnosis, ElementDiagnosis
 from .spectra import WelchSettings
@@ -66,13 +66,13 @@ class PmrSettings:
         return WelchSettings(self.window, self.segment_length, self.overlap)
 
 
-def classic_results(estimate: PmrEstimate, model: FoptdMatrix, settings: PmrSettings) -> dict[str, ClassicResult]:
+def classic_results(estimate: PmrEstimate, model: TransferMatrix, settings: PmrSettings) -> dict[str, ClassicResult]:
     """Table 1 per element from a PMR estimate: gain ratio, tau index, delay and their flags.
 
     Parameters
     ----------
     estimate : PmrEstimate
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model (element names).
     settings : PmrSettings
         Thresholds, tau band and delay search.
@@ -106,7 +106,7 @@ def classic_results(estimate: PmrEstimate, model: FoptdMatrix, settings: PmrSett
 
 
 def classic_estimate(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, settings: PmrSettings
 ) -> PmrEstimate:
     """The PMR estimate of the classic method, refused when a row regression is ill-conditioned.
 
@@ -127,7 +127,7 @@ def classic_estimate(
 
 
 def diagnose_classic(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, settings: PmrSettings
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, settings: PmrSettings
 ) -> Diagnosis:
     """Classic (Table 1) diagnosis of every element from closed-loop records.
 
@@ -135,7 +135,7 @@ def diagnose_classic(
     ----------
     r, u, y : ndarray
         Setpoints, inputs and measured outputs, one row per sample.
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat``.
     settings : PmrSettings
 

@@ -7,10 +7,10 @@ from typing import Protocol
 
 import numpy as np
 
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 from .mpc import LinearMpc, MpcTuning
 from .plant import FoptdPlant
-from .prbs import PrbsGenerator, PrbsSettings
+from .prbs import ExcitationSettings, PrbsGenerator, PrbsSettings, dither_generator
 
 
 class RunPlan(Protocol):
@@ -28,13 +28,14 @@ class LoopConfig(Protocol):
     configuration is read.
     """
 
-    model: FoptdMatrix
+    model: TransferMatrix
     noise_std: np.ndarray
     prbs: PrbsSettings
+    excitation: ExcitationSettings
     mpc: MpcTuning
     run: RunPlan
 
-    def plant(self, scenario: str | None = None) -> FoptdMatrix:
+    def plant(self, scenario: str | None = None) -> TransferMatrix:
         """The true plant under ``scenario``."""
         ...
 
@@ -51,11 +52,15 @@ class RunRecord:
         Inputs applied over sample k [input unit].
     y : ndarray, shape (N, n_outputs)
         Measured outputs at sample k [output unit].
+    dither : ndarray, shape (N, n_inputs), optional
+        The MV dither added to the controller's outputs (``u`` includes it);
+        None when the loop had none.
     """
 
     r: np.ndarray
     u: np.ndarray
     y: np.ndarray
+    dither: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
@@ -69,8 +74,9 @@ def simulate(
     """Run the closed loop in batch.
 
     At each sample k: the setpoint r(k) is read, the plant is measured (y(k)),
-    the MPC computes u(k) from y(k) and r(k), and the plant is advanced with
-    u(k).  The ROS node set follows the same order, so both give the same data.
+    the MPC computes u(k) from y(k) and r(k) (plus the MV dither, if any),
+    and the plant is advanced with u(k).  The ROS node set follows the same
+    order, so both give the same data.
 
     Parameters
     ----------
@@ -82,12 +88,12 @@ def simulate(
     seed = config.run.seed if seed is None else seed
     plant = FoptdPlant(config.plant(scenario), config.noise_std, seed)
     controller = LinearMpc(config.model, config.mpc)
-    prbs = PrbsGenerator(config.prbs, seed)
-    r = prbs.sequence(samples)
+    r = PrbsGenerator(config.prbs, seed).sequence(samples)
+    d = dither_generator(config.excitation, config.prbs, seed).sequence(samples) if config.excitation.active else None
     u = np.empty((samples, config.model.n_inputs))
     y = np.empty((samples, config.model.n_outputs))
     for k in range(samples):
         y[k] = plant.measure()
-        u[k] = controller.step(y[k], r[k])
+        u[k] = controller.step(y[k], r[k], dither=None if d is None else d[k])
         plant.advance(u[k])
-    return RunRecord(r, u, y)
+    return RunRecord(r, u, y, d)

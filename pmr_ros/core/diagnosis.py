@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .classic import PmrSettings, diagnose_classic
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 from .parametric import ParametricSettings, diagnose_parametric
 from .results import Diagnosis
 
@@ -15,13 +15,25 @@ __all__ = ["METHODS", "diagnose"]
 
 
 def _classic(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+    r: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
 ) -> Diagnosis:
     return diagnose_classic(r, u, y, model=model, settings=pmr)
 
 
 def _parametric(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+    r: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
 ) -> Diagnosis:
     return diagnose_parametric(r, u, y, model=model, classic=pmr, settings=parametric)
 
@@ -35,7 +47,7 @@ def diagnose(
     u: np.ndarray,
     y: np.ndarray,
     *,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     pmr: PmrSettings,
     parametric: ParametricSettings,
     method: str | None = None,
@@ -46,7 +58,7 @@ def diagnose(
     ----------
     r, u, y : ndarray
         Setpoints, inputs and measured outputs, one row per sample.
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat``.
     pmr : PmrSettings
         Spectral settings and the classic thresholds.

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 from .record import check_record
 from .spectra import RecordSpectra, WelchSettings, record_spectra
 
@@ -76,7 +76,7 @@ def implicit_estimate(spectra: RecordSpectra) -> PmrEstimate:
 
 
 def estimate_pmr(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, welch: WelchSettings
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings
 ) -> PmrEstimate:
     """The implicit MIMO PMR estimate (eq. 13) from closed-loop records.
 
@@ -88,7 +88,7 @@ def estimate_pmr(
         Manipulated inputs [input unit].
     y : ndarray, shape (N, n_outputs)
         Measured outputs [output unit].
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat``.
     welch : WelchSettings
 

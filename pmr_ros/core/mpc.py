@@ -26,7 +26,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from .foptd import FoptdMatrix, StateSpace
+from .model import StateSpace, TransferMatrix
 
 
 @dataclass(frozen=True)
@@ -161,7 +161,7 @@ class LinearMpc:
 
     Parameters
     ----------
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat`` (deviation variables).
     tuning : MpcTuning
     record_solve_times : bool
@@ -172,7 +172,12 @@ class LinearMpc:
     """
 
     def __init__(
-        self, model: FoptdMatrix, tuning: MpcTuning, *, record_solve_times: bool = False, always_solve_qp: bool = False
+        self,
+        model: TransferMatrix,
+        tuning: MpcTuning,
+        *,
+        record_solve_times: bool = False,
+        always_solve_qp: bool = False,
     ) -> None:
         self.model = model
         self.always_solve_qp = always_solve_qp
@@ -251,7 +256,7 @@ class LinearMpc:
         """The model's prediction ``yhat(k)`` of the current output [output unit]."""
         return self._C @ self._x
 
-    def step(self, y_measured, setpoint) -> np.ndarray:
+    def step(self, y_measured: np.ndarray, setpoint: np.ndarray, *, dither: np.ndarray | None = None) -> np.ndarray:
         """Compute ``u(k)`` from ``y(k)`` and ``r(k)``; advance the internal model.
 
         Parameters
@@ -260,6 +265,13 @@ class LinearMpc:
             Measured outputs [output unit].
         setpoint : array_like, shape (n_outputs,)
             Setpoints [output unit], held over the horizon.
+        dither : array_like, shape (n_inputs,), optional
+            An external test signal added to the controller's output, as a
+            step tester adds small moves to a running MPC [input unit].  The
+            applied input ``u + dither`` (kept within the input limits) goes to
+            the plant and into the controller's model, so the dither is not
+            mistaken for a disturbance; the move limits apply to the
+            controller's own moves.
 
         Returns
         -------
@@ -289,9 +301,10 @@ class LinearMpc:
             self.tuning.u_min,
             self.tuning.u_max,
         )
-        self._x = self._A @ self._x + self._B @ u
+        applied = u if dither is None else np.clip(u + dither, self.tuning.u_min, self.tuning.u_max)
+        self._x = self._A @ self._x + self._B @ applied
         self._u_prev = u
-        return u
+        return applied
 
     def solve_constrained(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
         """The first move of the constrained QP for linear term ``q`` and move bounds (OSQP, warm-started).

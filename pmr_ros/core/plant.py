@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 
 
 def noise_generator(seed: int) -> np.random.Generator:
@@ -21,7 +21,7 @@ class FoptdPlant:
 
     Parameters
     ----------
-    model : FoptdMatrix
+    model : TransferMatrix
         The plant (deviation variables, starting at rest).
     noise_std : array_like, shape (n_outputs,)
         Standard deviation of the additive white Gaussian measurement noise
@@ -30,7 +30,7 @@ class FoptdPlant:
         Seed of the noise stream.
     """
 
-    def __init__(self, model: FoptdMatrix, noise_std, seed: int) -> None:
+    def __init__(self, model: TransferMatrix, noise_std, seed: int) -> None:
         self.model = model
         ss = model.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C

@@ -113,20 +113,32 @@ class PrbsSettings:
 
 
 class PrbsGenerator:
-    """Multichannel PRBS setpoints ``r(k) = nominal +/- amplitude``.
+    """Multichannel PRBS ``nominal +/- amplitude`` (setpoints, or MV dither).
 
     Stateless in ``k``: ``value(k)`` can be asked in any order, so a node and a
     batch run produce the same sequence.  ``seed`` picks each channel's phase.
+
+    Parameters
+    ----------
+    settings : PrbsSettings
+    seed : int
+        Seed of the phases.
+    first_channel : int
+        Index of the first channel among all PRBS of the loop: channels use the
+        primitive polynomials from this one on, so setpoints (0 ..) and dither
+        (n_outputs ..) never share a sequence.
+    stream : int
+        Random stream of the phases (1 setpoints, 2 dither).
     """
 
-    def __init__(self, settings: PrbsSettings, seed: int) -> None:
+    def __init__(self, settings: PrbsSettings, seed: int, *, first_channel: int = 0, stream: int = 1) -> None:
         self.settings = settings
         n_channels = len(settings.amplitude)
         degree = settings.register_length
-        polys = primitive_polynomials(degree, n_channels)
+        polys = primitive_polynomials(degree, first_channel + n_channels)[first_channel:]
         self._bits = np.stack([2.0 * m_sequence(p, degree) - 1.0 for p in polys])
         self.period_bits = (1 << degree) - 1
-        rng = np.random.default_rng([int(seed), 1])
+        rng = np.random.default_rng([int(seed), stream])
         self._phase = rng.integers(0, self.period_bits, size=n_channels)
         self._rows = np.arange(n_channels)
 
@@ -146,3 +158,41 @@ class PrbsGenerator:
         cols = (self._phase[:, None] + k[None, :]) % self.period_bits
         levels = np.take_along_axis(self._bits, cols, axis=1).T
         return self.settings.nominal + self.settings.amplitude * levels
+
+
+@dataclass(frozen=True)
+class ExcitationSettings:
+    """MV dither: an independent PRBS added to each controller output (the ``excitation`` block).
+
+    Attributes
+    ----------
+    mv_dither_amplitude : ndarray, shape (n_inputs,)
+        Half the peak-to-peak swing per input [input unit]; 0: no dither.
+    mv_dither_clock_period : int
+        Samples each dither bit is held.
+    """
+
+    mv_dither_amplitude: np.ndarray
+    mv_dither_clock_period: int
+
+    @property
+    def active(self) -> bool:
+        """Whether any input is dithered."""
+        return bool(np.any(np.asarray(self.mv_dither_amplitude) > 0))
+
+
+def dither_generator(excitation: ExcitationSettings, prbs: PrbsSettings, seed: int) -> PrbsGenerator:
+    """The MV dither of run ``seed``: its own m-sequences (after the setpoints'), its own phases.
+
+    Parameters
+    ----------
+    excitation : ExcitationSettings
+    prbs : PrbsSettings
+        The setpoints' PRBS (register length; the dither takes the next polynomials).
+    seed : int
+    """
+    amplitude = np.asarray(excitation.mv_dither_amplitude, dtype=float)
+    settings = PrbsSettings(
+        prbs.register_length, excitation.mv_dither_clock_period, amplitude, np.zeros_like(amplitude)
+    )
+    return PrbsGenerator(settings, seed, first_channel=len(prbs.amplitude), stream=2)

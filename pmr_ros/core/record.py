@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 from .spectra import WelchSettings
 
 __all__ = ["MIN_SEGMENTS", "InsufficientData", "check_record"]
@@ -17,14 +17,14 @@ class InsufficientData(ValueError):
     """The record cannot support a PMR estimate; the message says why."""
 
 
-def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, welch: WelchSettings) -> None:
+def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:
     """Raise :class:`InsufficientData` if the record cannot support an estimate.
 
     Parameters
     ----------
     r, u, y : ndarray, shape (N, n_outputs), (N, n_inputs), (N, n_outputs)
         Setpoints, inputs and measured outputs, one row per sample.
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model (its settling time is dropped before the spectra).
     welch : WelchSettings
         The segments the spectra will average.

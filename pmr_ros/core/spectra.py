@@ -19,7 +19,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
-from .foptd import FoptdMatrix
+from .model import TransferMatrix
 
 
 @dataclass(frozen=True)
@@ -201,11 +201,11 @@ class RecordSpectra:
 
 
 def record_spectra(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, welch: WelchSettings
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, model: TransferMatrix, welch: WelchSettings
 ) -> RecordSpectra:
     """Spectra of setpoints, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
 
-    The model's settling time (:meth:`FoptdMatrix.settling_samples`) is dropped
+    The model's settling time (:meth:`TransferMatrix.settling_samples`) is dropped
     from the start of every signal: ``yhat``'s filters start from a guessed state.
     The record must have passed :func:`check_record`.
     """

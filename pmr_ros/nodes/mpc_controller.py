@@ -16,6 +16,7 @@ from ..contract.alignment import check_signal, sample_index
 from ..contract.layout import read_signal
 from ..contract.topics import topic
 from ..core.mpc import LinearMpc
+from ..core.prbs import dither_generator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message
 
@@ -29,6 +30,9 @@ class MpcControllerNode(ConfiguredNode):
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, sim_time=True, **kwargs)
         self.model = self.config.model
         self.controller = LinearMpc(self.model, self.config.mpc)
+        # the MV dither is a pure function of the sample and the seed, as in the batch core
+        cfg = self.config
+        self.dither = dither_generator(cfg.excitation, cfg.prbs, cfg.run.seed) if cfg.excitation.active else None
         self.sample_time = self.model.sample_time
         self.next_sample = 0
         self._r: dict[int, np.ndarray] = {}
@@ -66,7 +70,8 @@ class MpcControllerNode(ConfiguredNode):
                 self.get_logger().warning(
                     f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}"
                 )
-            u = self.controller.step(self._y.pop(k), self._r.pop(k))
+            dither = None if self.dither is None else self.dither.value(k)
+            u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither)
             self.next_sample = k + 1
             self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))
         for store in (self._r, self._y):

@@ -67,7 +67,11 @@ class ConfiguredNode(Node):
         self._check_overrides()
         for spec in node_parameters(executable):
             self._declare(spec, read_only=not live_parameters)
+        # what was given, as a params file would give it: the declared defaults fill the rest
+        self._given = {n: plain_value(p.value) for n, p in self._parameter_overrides.items() if n in self._declared}
         self.config: PmrConfig = self._build(self._current())
+        for warning in self.config.warnings:
+            self.get_logger().warning(warning)
         if live_parameters:
             self.add_on_set_parameters_callback(self._on_set_parameters)
 
@@ -93,8 +97,7 @@ class ConfiguredNode(Node):
             raise ConfigError(self._source, spec.name, plain_value(given), str(exc).split(": ", 1)[-1]) from None
 
     def _current(self, changes: dict[str, Any] | None = None) -> dict[str, Any]:
-        flat = {name: plain_value(self.get_parameter(name).value) for name in self._declared}
-        flat.update(changes or {})
+        flat = {**self._given, **(changes or {})}
         return {name: value for name, value in flat.items() if value is not None}
 
     def _build(self, flat: dict[str, Any]) -> PmrConfig:
@@ -110,6 +113,7 @@ class ConfiguredNode(Node):
             self.get_logger().warning(f"parameter change refused: {exc}")
             return SetParametersResult(successful=False, reason=str(exc))
         self.config = config
+        self._given.update(ours)
         self.on_configuration_changed(sorted(ours))
         return SetParametersResult(successful=True)
 

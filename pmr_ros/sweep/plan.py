@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.foptd import SCENARIOS, FoptdMatrix
+from ..core.model import SCENARIOS, TransferMatrix
 
 DEFAULT_ELEMENTS = ("G11", "G21")
 """The paper's two sweeps: tau11 -> 16.7 nu (eq. 18) and tau21 -> 10.9 nu (eq. 19).
@@ -67,7 +67,7 @@ def parse_nu_list(text: str) -> tuple[float, ...]:
     return tuple(sorted(set(values)))
 
 
-def element_index(model: FoptdMatrix, element: str) -> tuple[int, int]:
+def element_index(model: TransferMatrix, element: str) -> tuple[int, int]:
     """Zero-based (row, column) of ``element`` (``G21`` -> (1, 0)).
 
     Raises
@@ -84,7 +84,7 @@ def element_index(model: FoptdMatrix, element: str) -> tuple[int, int]:
     return divmod(names.index(element), model.n_inputs)
 
 
-def row_time_constant_ratio(model: FoptdMatrix, i: int, k: int) -> float:
+def row_time_constant_ratio(model: TransferMatrix, i: int, k: int) -> float:
     """``tau_ik`` over the other time constants of row i (their geometric mean).
 
     For a 2x2 matrix this is the ratio to the one neighbour in the row, the
@@ -134,7 +134,7 @@ class SweepPoint:
         """The swept time constant at this nu [time unit]."""
         return self.base_time_constant * self.nu
 
-    def model(self, base: FoptdMatrix) -> FoptdMatrix:
+    def model(self, base: TransferMatrix) -> TransferMatrix:
         """``base`` with the swept time constant; at nu = 1 it is ``base`` itself."""
         if self.nu == 1.0:
             return base
@@ -168,7 +168,7 @@ class SweepPlan:
     scenarios: tuple[str, ...] = SCENARIOS
     methods: tuple[str, ...] = ("classic",)
 
-    def points(self, model: FoptdMatrix) -> list[SweepPoint]:
+    def points(self, model: TransferMatrix) -> list[SweepPoint]:
         """Every (element, nu) point, sweeps in order, nu ascending."""
         out = []
         for element in self.elements:

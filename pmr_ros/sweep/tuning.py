@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.foptd import FoptdMatrix
+from ..core.model import TransferMatrix
 from ..core.mpc import LinearMpc, MpcTuning
 
 STABILITY_LIMIT = 0.999
@@ -29,7 +29,7 @@ HORIZON_STEP = 10
 
 
 def loop_spectral_radius(
-    model: FoptdMatrix, plant: FoptdMatrix, tuning: MpcTuning, controller: LinearMpc | None = None
+    model: TransferMatrix, plant: TransferMatrix, tuning: MpcTuning, controller: LinearMpc | None = None
 ) -> float:
     """Spectral radius of the unconstrained closed loop of the MPC on ``model`` and ``plant``.
 
@@ -41,9 +41,9 @@ def loop_spectral_radius(
 
     Parameters
     ----------
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat``.
-    plant : FoptdMatrix
+    plant : TransferMatrix
         The true plant ``G``.
     tuning : MpcTuning
     controller : LinearMpc, optional
@@ -93,7 +93,7 @@ class StableTuning:
 
 
 def stable_tuning(
-    model: FoptdMatrix, plants: list[FoptdMatrix], tuning: MpcTuning, limit: float = STABILITY_LIMIT
+    model: TransferMatrix, plants: list[TransferMatrix], tuning: MpcTuning, limit: float = STABILITY_LIMIT
 ) -> StableTuning:
     """The configured tuning with the shortest prediction horizon that keeps every loop stable.
 
@@ -102,9 +102,9 @@ def stable_tuning(
 
     Parameters
     ----------
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model.
-    plants : list of FoptdMatrix
+    plants : list of TransferMatrix
         The plants the controller must stabilise (one per mismatch scenario).
     tuning : MpcTuning
         The configured tuning; only ``prediction_horizon`` changes.

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..foptd import FoptdMatrix
+from ..model import TransferMatrix
 from ..spectra import RecordSpectra
 from .ratio import RowProblem, noise_spectrum, row_ratio, whitened_row
 
@@ -65,7 +65,7 @@ class RowFit:
     delay_profile: tuple[dict[int, float], ...]
 
 
-def delay_bounds(model: FoptdMatrix, i: int, max_delay_samples: int) -> list[tuple[int, int]]:
+def delay_bounds(model: TransferMatrix, i: int, max_delay_samples: int) -> list[tuple[int, int]]:
     """``(lowest, highest)`` dD of each element of row ``i``: ``+-max``, never below ``-Dhat``.
 
     A plant delay cannot be negative.
@@ -142,7 +142,7 @@ def _covariance(J: np.ndarray, *, cost: float, dof: int, bin_correlation: float)
 
 def fit_row(
     spectra: RecordSpectra,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     *,
     row: int,
     theta_start: np.ndarray,
@@ -155,7 +155,7 @@ def fit_row(
     Parameters
     ----------
     spectra : RecordSpectra
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model.
     row : int
         Output row i.

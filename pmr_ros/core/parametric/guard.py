@@ -15,8 +15,8 @@ import numpy as np
 
 from ..classic import PmrSettings
 from ..delay import informative_band
-from ..foptd import FoptdMatrix
 from ..implicit import PmrEstimate
+from ..model import TransferMatrix
 from ..spectra import RecordSpectra, WelchSettings
 from .settings import ParametricSettings
 
@@ -77,7 +77,7 @@ def row_quality(
     *,
     spectra: RecordSpectra,
     estimate: PmrEstimate,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> RowQuality:
@@ -87,7 +87,8 @@ def row_quality(
     band = informative_band(spectra.omega, coherence, classic.coherence_min)
     band[0] = True
     bins = np.flatnonzero(band)
-    ratio = float(model.time_constant[i].max() / model.time_constant[i].min())
+    taus = model.time_constant[i][model.element_type[i] == "foptd"]
+    ratio = float(taus.max() / taus.min()) if taus.size else 1.0
     row_coherence = float(coherence[bins].mean())
     condition = float(np.median(estimate.condition[bins, i]))
     reasons = []

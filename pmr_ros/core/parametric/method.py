@@ -13,8 +13,8 @@ import numpy as np
 
 from ..classic import PmrSettings, classic_estimate, classic_results
 from ..delay import hamon_hannan_delay, informative_band
-from ..foptd import FoptdMatrix
 from ..implicit import PmrEstimate, implicit_estimate
+from ..model import TransferMatrix
 from ..record import MIN_SEGMENTS, InsufficientData, check_record
 from ..results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
 from ..spectra import RecordSpectra, record_spectra
@@ -46,7 +46,7 @@ def _row_results(
     *,
     spectra: RecordSpectra,
     estimate: PmrEstimate,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> list[ParametricResult]:
@@ -78,7 +78,7 @@ def parametric_results(
     u: np.ndarray,
     y: np.ndarray,
     *,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> dict[str, ParametricResult]:
@@ -110,7 +110,7 @@ def parametric_results(
 
 
 def _classic_part(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, classic: PmrSettings
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, classic: PmrSettings
 ) -> dict[str, ClassicResult | None]:
     """The classic numbers kept beside the parametric ones; None where the classic method cannot give them."""
     try:
@@ -126,7 +126,7 @@ def diagnose_parametric(
     u: np.ndarray,
     y: np.ndarray,
     *,
-    model: FoptdMatrix,
+    model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> Diagnosis:
@@ -140,7 +140,7 @@ def diagnose_parametric(
     ----------
     r, u, y : ndarray
         Setpoints, inputs and measured outputs, one row per sample.
-    model : FoptdMatrix
+    model : TransferMatrix
         The controller's model ``Ghat``.
     classic : PmrSettings
         Window, overlap, delay range and classic thresholds.

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 
 from ..classic import PmrSettings
-from ..foptd import FoptdMatrix
+from ..model import TransferMatrix
 from ..spectra import WelchSettings
 
 __all__ = ["ParametricSettings"]
@@ -63,11 +63,17 @@ class ParametricSettings:
     max_condition: float
     row_time_constant_ratio_warn: float
 
-    def welch(self, model: FoptdMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
+    def welch(self, model: TransferMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
         """The Welch settings for a record of ``samples`` on ``model``."""
         length = self.segment_length
         if length <= 0:
-            wanted = self.resolution * 2.0 * math.pi * model.time_constant.max() / model.sample_time
+            wanted = (
+                self.resolution
+                * 2.0
+                * math.pi
+                * max(model.slowest_time_constant, model.sample_time)
+                / model.sample_time
+            )
             ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))
             length = max(classic.segment_length, min(1 << max(4, math.ceil(math.log2(wanted))), ceiling))
         return WelchSettings(classic.window, length, classic.overlap)

@@ -1,12 +1,17 @@
-"""Matrices of first-order-plus-time-delay (FOPTD) transfer functions.
+"""Transfer-function matrices of MPC models: FOPTD, integrating and empty elements.
 
-An element is ``G_ik(s) = K exp(-theta s) / (tau s + 1)``.  Sampled with a
-zero-order hold at ``Ts`` and a delay of whole samples ``d = theta / Ts`` it is
-exactly
+Each element is one of :data:`ELEMENT_TYPES`:
 
-    G_ik(z) = b z^-(1 + d) / (1 - a z^-1),   a = exp(-Ts / tau),  b = K (1 - a)
+* ``foptd``: ``G_ik(s) = K exp(-theta s) / (tau s + 1)``; sampled with a
+  zero-order hold at ``Ts`` and a delay of whole samples ``d = theta / Ts`` it
+  is exactly ``G_ik(z) = b z^-(1 + d) / (1 - a z^-1)``, ``a = exp(-Ts / tau)``,
+  ``b = K (1 - a)``, so ``y(k) = a y(k-1) + b u(k-1-d)``;
+* ``integrating`` (a level, a gas pressure: a "ramp" CV): ``K exp(-theta s)/s``,
+  K in output units per input unit per time unit; sampled, ``a = 1`` and
+  ``b = K Ts``: ``y(k) = y(k-1) + K Ts u(k-1-d)``;
+* ``none``: an empty cell, no model (``b = 0``).
 
-so ``y(k) = a y(k-1) + b u(k-1-d)``.  Frequencies are in rad/sample.
+Frequencies are in rad/sample.
 """
 
 from __future__ import annotations
@@ -16,6 +21,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .results import ElementModel
+
+ELEMENT_TYPES = ("foptd", "integrating", "none")
+"""The kinds of element a model may hold."""
 
 SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
@@ -117,23 +125,26 @@ class Mismatch:
 
 
 @dataclass(frozen=True)
-class FoptdMatrix:
-    """An n_outputs x n_inputs matrix of FOPTD elements with a sample time.
+class TransferMatrix:
+    """An n_outputs x n_inputs matrix of FOPTD, integrating and empty elements with a sample time.
 
     Attributes
     ----------
     gain : ndarray, shape (n_outputs, n_inputs)
-        Steady-state gains K [output unit / input unit].
+        K [output unit / input unit; per time unit for an integrating element].
     time_constant : ndarray
-        Time constants tau [time unit of ``sample_time``], all > 0.
+        tau [time unit of ``sample_time``], > 0 for FOPTD elements; NaN for
+        integrating and empty ones (they have none).
     delay : ndarray
-        Dead times theta [time unit], whole multiples of ``sample_time``.
+        Dead times theta [time unit], whole multiples of ``sample_time``; 0 for empty cells.
     sample_time : float
         Ts [time unit].
     output_names, input_names : tuple of str
         Channel names, used on topics and in reports.
     name : str
         Name of the system.
+    element_type : ndarray of str
+        One of :data:`ELEMENT_TYPES` per element; default all ``foptd``.
     """
 
     gain: np.ndarray
@@ -143,6 +154,7 @@ class FoptdMatrix:
     output_names: tuple[str, ...] = field(default=())
     input_names: tuple[str, ...] = field(default=())
     name: str = ""
+    element_type: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         for attr in ("gain", "time_constant", "delay"):
@@ -150,6 +162,19 @@ class FoptdMatrix:
         shape = self.gain.shape
         if self.time_constant.shape != shape or self.delay.shape != shape:
             raise ValueError("gain, time_constant and delay must have the same shape")
+        kinds = (
+            np.full(shape, "foptd", dtype=object)
+            if self.element_type is None
+            else np.array(self.element_type, dtype=object)
+        )
+        if kinds.shape != shape or not set(kinds.ravel()) <= set(ELEMENT_TYPES):
+            raise ValueError(f"element_type must be {shape} entries of {', '.join(ELEMENT_TYPES)}")
+        object.__setattr__(self, "element_type", kinds)
+        # what an element does not have is not there: no time constant off FOPTD, nothing in an empty cell
+        object.__setattr__(self, "time_constant", np.where(kinds == "foptd", self.time_constant, np.nan))
+        empty = kinds == "none"
+        object.__setattr__(self, "gain", np.where(empty, 0.0, self.gain))
+        object.__setattr__(self, "delay", np.where(empty, 0.0, self.delay))
         if not self.output_names:
             object.__setattr__(self, "output_names", tuple(f"y{i + 1}" for i in range(shape[0])))
         if not self.input_names:
@@ -170,43 +195,64 @@ class FoptdMatrix:
         """Dead times in whole samples (int)."""
         return np.rint(self.delay / self.sample_time).astype(int)
 
+    @property
+    def present(self) -> np.ndarray:
+        """Where the model has an element (not ``none``), shape (n_outputs, n_inputs)."""
+        return self.element_type != "none"
+
+    @property
+    def integrating(self) -> np.ndarray:
+        """Where the element is integrating, shape (n_outputs, n_inputs)."""
+        return self.element_type == "integrating"
+
+    @property
+    def integrating_outputs(self) -> np.ndarray:
+        """Outputs with at least one integrating element ("ramp" CVs), shape (n_outputs,)."""
+        return self.integrating.any(axis=1)
+
+    @property
+    def slowest_time_constant(self) -> float:
+        """The largest FOPTD time constant [time unit], 0 when there is none."""
+        tau = self.time_constant[self.element_type == "foptd"]
+        return float(tau.max()) if tau.size else 0.0
+
     def element_names(self) -> list[str]:
-        """Row-major element names ``G11, G12, ...``."""
+        """Row-major element names ``G11, G12, ...`` (``G1_10`` style beyond 9 channels)."""
         n = max(self.n_outputs, self.n_inputs)
         return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
 
     def element_models(self) -> dict[str, tuple[int, int, ElementModel]]:
         """Row-major element name to ``(row, column, ElementModel)``, as diagnoses report them."""
-        names = self.element_names()
         delays = self.delay_samples
         out = {}
-        for j, name in enumerate(names):
+        for j, name in enumerate(self.element_names()):
             i, k = divmod(j, self.n_inputs)
-            out[name] = (
-                i,
-                k,
-                ElementModel("foptd", float(self.gain[i, k]), float(self.time_constant[i, k]), int(delays[i, k])),
+            tau = float(self.time_constant[i, k])
+            element = ElementModel(
+                str(self.element_type[i, k]), float(self.gain[i, k]), None if np.isnan(tau) else tau, int(delays[i, k])
             )
+            out[name] = (i, k, element)
         return out
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
-        """Samples until every element forgets its initial state to ``exp(-time_constants)``.
+        """Samples until every FOPTD element forgets its initial state to ``exp(-time_constants)``.
 
         ``time_constants`` x the largest tau plus the largest delay, in samples.
+        (An integrating element never forgets; its data are differenced instead.)
         """
-        return (
-            int(np.ceil(time_constants * self.time_constant.max() / self.sample_time))
-            + int(self.delay_samples.max())
-            + 1
-        )
+        settle = int(np.ceil(time_constants * self.slowest_time_constant / self.sample_time))
+        return settle + int(self.delay_samples.max()) + 1
 
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""
-        pole = np.exp(-self.sample_time / self.time_constant)
-        return DiscreteFoptd(pole, self.gain * (1.0 - pole), self.delay_samples)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pole = np.where(self.element_type == "foptd", np.exp(-self.sample_time / self.time_constant), 0.0)
+        pole = np.where(self.integrating, 1.0, pole)
+        numerator = np.where(self.integrating, self.gain * self.sample_time, self.gain * (1.0 - pole))
+        return DiscreteFoptd(pole, np.where(self.present, numerator, 0.0), self.delay_samples)
 
-    def with_mismatch(self, mismatch: Mismatch) -> FoptdMatrix:
-        """The plant ``G`` that differs from this model by ``mismatch``."""
+    def with_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
+        """The plant ``G`` that differs from this model by ``mismatch`` (no time constant change off FOPTD)."""
         return replace(
             self,
             gain=self.gain * (1.0 + mismatch.gain_pct / 100.0),
@@ -214,37 +260,42 @@ class FoptdMatrix:
             delay=self.delay + mismatch.delay_samples * self.sample_time,
         )
 
-    def with_time_constant(self, i: int, k: int, time_constant: float) -> FoptdMatrix:
+    def with_time_constant(self, i: int, k: int, time_constant: float) -> TransferMatrix:
         """A copy with element (i, k)'s time constant replaced [time unit]."""
         tau = self.time_constant.copy()
         tau[i, k] = time_constant
         return replace(self, time_constant=tau)
 
     def state_space(self) -> StateSpace:
-        """Minimal-per-element realization with one shift register per input."""
+        """Minimal-per-element realization with one shift register per input.
+
+        One first-order state per element that is there (row-major), reading
+        the register tap of its delay; empty cells have no state.
+        """
         disc = self.discretize()
         n_out, n_in = self.n_outputs, self.n_inputs
-        lengths = disc.delay_samples.max(axis=0)
-        reg_start = n_out * n_in + np.concatenate(([0], np.cumsum(lengths)[:-1]))
-        nx = n_out * n_in + int(lengths.sum())
+        elements = [(i, k) for i in range(n_out) for k in range(n_in) if self.present[i, k]]
+        lengths = np.array(
+            [max([disc.delay_samples[i, k] for i, kk in elements if kk == k] or [0]) for k in range(n_in)]
+        )
+        reg_start = len(elements) + np.concatenate(([0], np.cumsum(lengths)[:-1]))
+        nx = len(elements) + int(lengths.sum())
         A = np.zeros((nx, nx))
         B = np.zeros((nx, n_in))
         C = np.zeros((n_out, nx))
         for k in range(n_in):
-            start = reg_start[k]
             if lengths[k] > 0:
-                B[start, k] = 1.0
+                B[reg_start[k], k] = 1.0
                 for t in range(1, lengths[k]):
-                    A[start + t, start + t - 1] = 1.0
-            for i in range(n_out):
-                e = i * n_in + k
-                A[e, e] = disc.pole[i, k]
-                d = disc.delay_samples[i, k]
-                if d == 0:
-                    B[e, k] = disc.numerator[i, k]
-                else:
-                    A[e, start + d - 1] = disc.numerator[i, k]
-                C[i, e] = 1.0
+                    A[reg_start[k] + t, reg_start[k] + t - 1] = 1.0
+        for e, (i, k) in enumerate(elements):
+            A[e, e] = disc.pole[i, k]
+            d = disc.delay_samples[i, k]
+            if d == 0:
+                B[e, k] = disc.numerator[i, k]
+            else:
+                A[e, reg_start[k] + d - 1] = disc.numerator[i, k]
+            C[i, e] = 1.0
         return StateSpace(A, B, C)
 
     def element_outputs(self, u: np.ndarray) -> np.ndarray:
@@ -253,9 +304,10 @@ class FoptdMatrix:
         Parameters
         ----------
         u : ndarray, shape (N, n_inputs)
-            Inputs.  The filters start at steady state for ``u[0]``; the true
-            initial state is unknown, so drop the first
-            :meth:`settling_samples` of the result before using it.
+            Inputs.  FOPTD filters start at steady state for ``u[0]``; the true
+            initial state is unknown, so drop the first :meth:`settling_samples`
+            of the result before using it.  Integrating filters start at zero
+            (they have no steady state); empty cells give zeros.
 
         Returns
         -------
@@ -265,10 +317,12 @@ class FoptdMatrix:
 
         u = np.asarray(u, dtype=float)
         disc = self.discretize()
-        out = np.empty((u.shape[0], self.n_outputs, self.n_inputs))
+        out = np.zeros((u.shape[0], self.n_outputs, self.n_inputs))
         for i in range(self.n_outputs):
             for k in range(self.n_inputs):
+                if not self.present[i, k]:
+                    continue
                 b, a = disc.filter_coefficients(i, k)
-                zi = lfilter_zi(b, a) * u[0, k]
+                zi = np.zeros(len(b) - 1) if self.integrating[i, k] else lfilter_zi(b, a) * u[0, k]
                 out[:, i, k] = lfilter(b, a, u[:, k], zi=zi)[0]
         return out

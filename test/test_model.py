@@ -4,11 +4,11 @@ import control
 import numpy as np
 import pytest
 
-from pmr_ros.core.foptd import SCENARIOS, FoptdMatrix, Mismatch, element_name
+from pmr_ros.core.model import SCENARIOS, Mismatch, TransferMatrix, element_name
 
 
 def _element(K=12.8, tau=16.7, theta=3.0, ts=1.0):
-    return FoptdMatrix([[K]], [[tau]], [[theta]], ts)
+    return TransferMatrix([[K]], [[tau]], [[theta]], ts)
 
 
 @pytest.mark.parametrize(
@@ -89,7 +89,7 @@ def test_zero_mismatch_and_names():
     assert Mismatch.zero(3, 3).gain_pct.shape == (3, 3)
     assert element_name(1, 0, 2) == "G21"
     assert element_name(9, 10, 11) == "G10_11"
-    model = FoptdMatrix(np.ones((3, 3)), np.ones((3, 3)), np.zeros((3, 3)), 1.0)
+    model = TransferMatrix(np.ones((3, 3)), np.ones((3, 3)), np.zeros((3, 3)), 1.0)
     assert model.element_names()[:4] == ["G11", "G12", "G13", "G21"]
     assert model.output_names == ("y1", "y2", "y3")
 
@@ -110,3 +110,80 @@ def test_settling_samples_and_filter_coefficients(wood_berry):
     np.testing.assert_array_equal(b[:-1], np.zeros(8))
     assert b[-1] == pytest.approx(6.6 * (1 - np.exp(-1 / 10.9)))
     np.testing.assert_allclose(a, [1.0, -np.exp(-1 / 10.9)])
+
+
+def _mixed() -> TransferMatrix:
+    """A 2x3 model: an integrating row with an empty cell, a FOPTD row with an empty cell."""
+    return TransferMatrix(
+        gain=[[0.05, 0.0, -0.04], [1.5, 2.0, 0.0]],
+        time_constant=[[0.0, 0.0, 0.0], [10.0, 14.0, 0.0]],
+        delay=[[2.0, 0.0, 1.0], [3.0, 1.0, 0.0]],
+        sample_time=1.0,
+        element_type=[["integrating", "none", "integrating"], ["foptd", "foptd", "none"]],
+    )
+
+
+def test_integrating_and_empty_elements_discretize_exactly():
+    model = _mixed()
+    disc = model.discretize()
+    np.testing.assert_array_equal(disc.pole, [[1.0, 0.0, 1.0], [np.exp(-0.1), np.exp(-1 / 14), 0.0]])
+    np.testing.assert_allclose(
+        disc.numerator, [[0.05, 0.0, -0.04], [1.5 * (1 - np.exp(-0.1)), 2.0 * (1 - np.exp(-1 / 14)), 0.0]]
+    )
+    # an integrating element is K Ts z^-(1+d) / (1 - z^-1): check against scipy's own discretisation of K/s
+    from scipy.signal import cont2discrete
+
+    num, den, _ = cont2discrete(([0.05], [1.0, 0.0]), 1.0, method="zoh")
+    omega = np.linspace(0.05, 3.0, 20)
+    z = np.exp(1j * omega)
+    scipy_response = np.polyval(num.ravel(), z) / np.polyval(den, z) * z**-2.0  # theta = 2 samples
+    np.testing.assert_allclose(disc.frequency_response(omega)[0, 0], scipy_response, rtol=1e-12)
+
+
+def test_state_space_of_a_mixed_model_steps_like_the_difference_equations():
+    model = _mixed()
+    ss = model.state_space()
+    assert ss.A.shape[0] == 4 + 3 + 1 + 1  # four elements there, registers of 3 (u1), 1 (u2) and 1 (u3) samples
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((60, 3))
+    x = np.zeros(ss.A.shape[0])
+    y = []
+    for k in range(60):
+        y.append(ss.C @ x)
+        x = ss.A @ x + ss.B @ u[k]
+    y = np.array(y)
+    # y1(k) = y1(k-1) + 0.05 u1(k-3) - 0.04 u3(k-2): a ramp CV; the empty cell adds nothing
+    expected = np.zeros(60)
+    for k in range(1, 60):
+        expected[k] = (
+            expected[k - 1] + (0.05 * u[k - 3, 0] if k >= 3 else 0.0) - (0.04 * u[k - 2, 2] if k >= 2 else 0.0)
+        )
+    np.testing.assert_allclose(y[:, 0], expected, atol=1e-12)
+    np.testing.assert_allclose(model.element_outputs(u).sum(axis=2)[:, 0], expected, atol=1e-12)
+    assert np.all(model.element_outputs(u)[:, 0, 1] == 0.0) and np.all(model.element_outputs(u)[:, 1, 2] == 0.0)
+
+
+def test_a_mixed_model_reports_its_elements_and_settles_on_its_foptd_ones():
+    model = _mixed()
+    assert list(model.present.ravel()) == [True, False, True, True, True, False]
+    assert list(model.integrating_outputs) == [True, False]
+    assert model.slowest_time_constant == 14.0 and model.settling_samples() == int(np.ceil(8 * 14.0)) + 3 + 1
+    kinds = {name: element.kind for name, (_, _, element) in model.element_models().items()}
+    assert kinds == {
+        "G11": "integrating",
+        "G12": "none",
+        "G13": "integrating",
+        "G21": "foptd",
+        "G22": "foptd",
+        "G23": "none",
+    }
+    with pytest.raises(ValueError, match="element_type"):
+        TransferMatrix(gain=[[1.0]], time_constant=[[1.0]], delay=[[0.0]], sample_time=1.0, element_type=[["ramp"]])
+
+
+def test_element_names_beyond_nine_channels():
+    model = TransferMatrix(
+        gain=np.ones((10, 3)), time_constant=np.ones((10, 3)), delay=np.zeros((10, 3)), sample_time=1.0
+    )
+    names = model.element_names()
+    assert names[0] == "G1_1" and names[-1] == "G10_3" and len(set(names)) == 30
