@@ -14,25 +14,59 @@ from .prbs import PrbsGenerator, PrbsSettings
 
 
 class RunPlan(Protocol):
-    """The run settings a simulation reads (``pmr_ros.config.RunSettings`` is one)."""
+    """The run settings a simulation reads (``pmr_ros.config.RunSettings`` is one).
 
-    samples: int
-    seed: int
-    scenario: str
+    Members are read-only properties, so frozen dataclasses satisfy the protocol.
+    """
+
+    @property
+    def samples(self) -> int:
+        """Samples to run."""
+        ...
+
+    @property
+    def seed(self) -> int:
+        """Seed of the noise and PRBS generators."""
+        ...
+
+    @property
+    def scenario(self) -> str:
+        """Mismatch scenario of the plant."""
+        ...
 
 
 class LoopConfig(Protocol):
     """What a closed-loop simulation needs; :class:`pmr_ros.config.PmrConfig` is one.
 
     The core names only this shape, so it never depends on how a
-    configuration is read.
+    configuration is read.  Members are read-only properties, so frozen
+    dataclasses satisfy the protocol.
     """
 
-    model: FoptdMatrix
-    noise_std: np.ndarray
-    prbs: PrbsSettings
-    mpc: MpcTuning
-    run: RunPlan
+    @property
+    def model(self) -> FoptdMatrix:
+        """The controller's model Ghat."""
+        ...
+
+    @property
+    def noise_std(self) -> np.ndarray:
+        """Standard deviation of the measurement noise per output."""
+        ...
+
+    @property
+    def prbs(self) -> PrbsSettings:
+        """Setpoint excitation."""
+        ...
+
+    @property
+    def mpc(self) -> MpcTuning:
+        """Controller tuning."""
+        ...
+
+    @property
+    def run(self) -> RunPlan:
+        """Length, seed and scenario of the run."""
+        ...
 
     def plant(self, scenario: str | None = None) -> FoptdMatrix:
         """The true plant under ``scenario``."""
