@@ -138,12 +138,20 @@ class SampleAligner:
     @property
     def stretch_length(self) -> int:
         """Complete samples in the current unbroken stretch (not capped at capacity)."""
-        if self.stretch_first is None:
+        if self.stretch_first is None or self.stretch_last is None:  # both None together
             return 0
         return self.stretch_last - self.stretch_first + 1
 
     def window(self, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``."""
+        """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``.
+
+        Raises
+        ------
+        ValueError
+            No sample is complete yet (there is no stretch).
+        """
+        if self.stretch_last is None:
+            raise ValueError("no complete sample yet: the stretch is empty")
         take = min(samples, len(self._rows["r"]))
         out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
         return out[0], out[1], out[2], self.stretch_last - take + 1
@@ -234,7 +242,7 @@ class SampleAligner:
         result.completed.append(k)
 
     def _missing_between(self, first: int, last_exclusive: int) -> str:
-        missing = set()
+        missing: set[str] = set()
         for j in range(first, last_exclusive):
             have = self._pending.get(j, {})
             missing.update(s for s in SIGNALS if s not in have)

@@ -63,7 +63,8 @@ def offer_signal(
     period = update_period_samples
     due = any((k + 1) % period == 0 for k in result.completed)
     if not due and lagging and result.accepted:
-        due = (aligner.newest[signal] + 1) % period == 0
+        newest = aligner.newest[signal]  # an accepted message set it
+        due = newest is not None and (newest + 1) % period == 0
     return Offer(result, newly, due)
 
 
