@@ -18,7 +18,7 @@ No rclpy here: this module is plain Python/numpy and is tested without ROS.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,7 +53,7 @@ def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
 
 
 def check_signal(
-    label: str, names: Sequence[str], values: Sequence[float], expected_names: Sequence[str]
+    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
 ) -> str | None:
     """Why a signal message is unusable, or None if it is fine.
 
@@ -116,8 +116,8 @@ class SampleAligner:
     def __init__(
         self,
         sample_time_s: float,
-        channel_names: dict[str, Sequence[str]],
-        labels: dict[str, str],
+        channel_names: Mapping[str, Sequence[str]],
+        labels: Mapping[str, str],
         capacity: int,
         max_lag_samples: int,
     ) -> None:
@@ -177,7 +177,7 @@ class SampleAligner:
         return None
 
     # -- input -------------------------------------------------------------
-    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float]) -> AddResult:
+    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray) -> AddResult:
         """Offer one message of ``signal``; returns what happened, never raises on bad data."""
         label = self.labels[signal]
         problem = check_signal(label, names, values, self.channel_names[signal])
