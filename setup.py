@@ -30,7 +30,15 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
         "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
-        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7", "mcap-ros2-support>=0.5,<1"],
+        # mypy checks pmr_ros (test.sh); PyYAML's types come as a stub package.
+        "test": [
+            "pytest>=8",
+            "ruff>=0.6",
+            "mypy>=1.10",
+            "types-PyYAML>=6",
+            "matplotlib>=3.7",
+            "mcap-ros2-support>=0.5,<1",
+        ],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],
     },

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# Set up (first time), lint with ruff and run the test suite.  Extra arguments go to pytest.
+# Set up (first time), lint and check formatting with ruff, type-check with mypy and run the test suite.
+# Each step must pass.  Extra arguments go to pytest.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$ROOT/scripts/bootstrap.sh"
 VENV="${PMR_ROS_VENV:-$ROOT/.venv}"
 cd "$ROOT"
 "$VENV/bin/ruff" check pmr_ros test benchmarks
+"$VENV/bin/ruff" format --check pmr_ros test benchmarks
+"$VENV/bin/mypy" pmr_ros
 exec "$VENV/bin/python" -m pytest "$@"

@@ -14,7 +14,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import rclpy
@@ -30,6 +30,9 @@ from .core.results import Diagnosis
 from .ros.parameters import parameter_overrides
 from .ros.signals import stop_requests
 from .ros.topics import message_class, qos_profile
+
+if TYPE_CHECKING:
+    from .nodes.pmr_diagnostician import PmrDiagnosticianNode
 
 DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
@@ -260,7 +263,8 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
     with stop_requests() as stop:
         try:
             nodes = build_nodes(config, context, extra)
-            diagnostician, plant = nodes[0], nodes[-1]
+            # build_nodes' order: the diagnostician first, the plant last
+            diagnostician, plant = cast("PmrDiagnosticianNode", nodes[0]), nodes[-1]
             listener = _Listener(context, config, options.record)
             nodes.append(listener)
             if options.extra_nodes is not None:

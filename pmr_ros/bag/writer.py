@@ -16,11 +16,16 @@ import os
 import shutil
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Final, cast
 
 from ..contract.topics import Topic
 from .schema import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 
-ROSBAG2_VERSION = 9
+if TYPE_CHECKING:
+    from rosbags.rosbag2.storage_mcap import McapWriter
+    from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
+
+ROSBAG2_VERSION: Final = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
 
 DEFAULT_FLUSH_PERIOD_S = 0.5
@@ -155,13 +160,15 @@ class BagWriter:
         storage = self._writer.storage
         if storage is None:
             return
+        # rosbags types its storage as a protocol; the plugin is the one chosen in __init__ by self.storage
         if self.storage == "mcap":
-            if storage.chunk.bio.tell():
-                storage.close_chunk()
-            storage.bio.flush()
-            os.fsync(storage.bio.fileno())
+            mcap = cast("McapWriter", storage)
+            if mcap.chunk.bio.tell():
+                mcap.close_chunk()
+            mcap.bio.flush()
+            os.fsync(mcap.bio.fileno())
         else:
-            storage.conn.commit()
+            cast("Sqlite3Writer", storage).conn.commit()
         self.flushes += 1
         self._last_flush = time.monotonic()
 

@@ -18,7 +18,7 @@ No rclpy here: this module is plain Python/numpy and is tested without ROS.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,7 +53,7 @@ def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
 
 
 def check_signal(
-    label: str, names: Sequence[str], values: Sequence[float], expected_names: Sequence[str]
+    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
 ) -> str | None:
     """Why a signal message is unusable, or None if it is fine.
 
@@ -116,8 +116,8 @@ class SampleAligner:
     def __init__(
         self,
         sample_time_s: float,
-        channel_names: dict[str, Sequence[str]],
-        labels: dict[str, str],
+        channel_names: Mapping[str, Sequence[str]],
+        labels: Mapping[str, str],
         capacity: int,
         max_lag_samples: int,
     ) -> None:
@@ -138,12 +138,20 @@ class SampleAligner:
     @property
     def stretch_length(self) -> int:
         """Complete samples in the current unbroken stretch (not capped at capacity)."""
-        if self.stretch_first is None:
+        if self.stretch_first is None or self.stretch_last is None:  # both None together
             return 0
         return self.stretch_last - self.stretch_first + 1
 
     def window(self, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``."""
+        """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``.
+
+        Raises
+        ------
+        ValueError
+            No sample is complete yet (there is no stretch).
+        """
+        if self.stretch_last is None:
+            raise ValueError("no complete sample yet: the stretch is empty")
         take = min(samples, len(self._rows["r"]))
         out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
         return out[0], out[1], out[2], self.stretch_last - take + 1
@@ -169,7 +177,7 @@ class SampleAligner:
         return None
 
     # -- input -------------------------------------------------------------
-    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float]) -> AddResult:
+    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray) -> AddResult:
         """Offer one message of ``signal``; returns what happened, never raises on bad data."""
         label = self.labels[signal]
         problem = check_signal(label, names, values, self.channel_names[signal])
@@ -234,7 +242,7 @@ class SampleAligner:
         result.completed.append(k)
 
     def _missing_between(self, first: int, last_exclusive: int) -> str:
-        missing = set()
+        missing: set[str] = set()
         for j in range(first, last_exclusive):
             have = self._pending.get(j, {})
             missing.update(s for s in SIGNALS if s not in have)

@@ -151,12 +151,12 @@ def parse_contract(doc: dict, source: str = CONTRACT_FILE) -> dict[str, Topic]:
 @cache
 def load_contract(path: str | None = None) -> dict[str, Topic]:
     """The topics of ``msg_defs/topics.yaml`` (or ``path``), by key."""
-    path = Path(path) if path else msg_defs_dir() / CONTRACT_FILE
+    file = Path(path) if path else msg_defs_dir() / CONTRACT_FILE
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml.safe_load(file.read_text())
     except (OSError, yaml.YAMLError) as exc:
-        raise ContractError(f"{path}: cannot read the topic contract: {exc}") from None
-    return parse_contract(doc, str(path))
+        raise ContractError(f"{file}: cannot read the topic contract: {exc}") from None
+    return parse_contract(doc, str(file))
 
 
 def topic(key: str) -> Topic:

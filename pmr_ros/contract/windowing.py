@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..config import PmrConfig
 from ..core.diagnosis import diagnose
 from ..core.results import Diagnosis
@@ -47,7 +49,7 @@ def offer_signal(
     *,
     stamp_s: float,
     names: Sequence[str],
-    values: Sequence[float],
+    values: Sequence[float] | np.ndarray,
     update_period_samples: int,
 ) -> Offer:
     """Add one message to ``aligner`` and say whether diagnostics are due.
@@ -63,7 +65,8 @@ def offer_signal(
     period = update_period_samples
     due = any((k + 1) % period == 0 for k in result.completed)
     if not due and lagging and result.accepted:
-        due = (aligner.newest[signal] + 1) % period == 0
+        newest = aligner.newest[signal]  # an accepted message set it
+        due = newest is not None and (newest + 1) % period == 0
     return Offer(result, newly, due)
 
 

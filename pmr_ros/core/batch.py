@@ -196,7 +196,9 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         c.statistics.steps += samples
     records = [
         RunRecord(
-            *(np.ascontiguousarray(a[:, j]) for a in (setpoints, u_rec, y_rec)),
+            np.ascontiguousarray(setpoints[:, j]),
+            np.ascontiguousarray(u_rec[:, j]),
+            np.ascontiguousarray(y_rec[:, j]),
             None if dither is None else np.ascontiguousarray(dither[:, j]),
         )
         for j in range(n_runs)

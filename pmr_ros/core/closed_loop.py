@@ -14,26 +14,64 @@ from .prbs import ExcitationSettings, PrbsGenerator, PrbsSettings, dither_genera
 
 
 class RunPlan(Protocol):
-    """The run settings a simulation reads (``pmr_ros.config.RunSettings`` is one)."""
+    """The run settings a simulation reads (``pmr_ros.config.RunSettings`` is one).
 
-    samples: int
-    seed: int
-    scenario: str
+    Members are read-only properties, so frozen dataclasses satisfy the protocol.
+    """
+
+    @property
+    def samples(self) -> int:
+        """Samples to run."""
+        ...
+
+    @property
+    def seed(self) -> int:
+        """Seed of the noise and PRBS generators."""
+        ...
+
+    @property
+    def scenario(self) -> str:
+        """Mismatch scenario of the plant."""
+        ...
 
 
 class LoopConfig(Protocol):
     """What a closed-loop simulation needs; :class:`pmr_ros.config.PmrConfig` is one.
 
     The core names only this shape, so it never depends on how a
-    configuration is read.
+    configuration is read.  Members are read-only properties, so frozen
+    dataclasses satisfy the protocol.
     """
 
-    model: TransferMatrix
-    noise_std: np.ndarray
-    prbs: PrbsSettings
-    excitation: ExcitationSettings
-    mpc: MpcTuning
-    run: RunPlan
+    @property
+    def model(self) -> TransferMatrix:
+        """The controller's model Ghat."""
+        ...
+
+    @property
+    def noise_std(self) -> np.ndarray:
+        """Standard deviation of the measurement noise per output."""
+        ...
+
+    @property
+    def prbs(self) -> PrbsSettings:
+        """Setpoint excitation."""
+        ...
+
+    @property
+    def excitation(self) -> ExcitationSettings:
+        """MV dither."""
+        ...
+
+    @property
+    def mpc(self) -> MpcTuning:
+        """Controller tuning."""
+        ...
+
+    @property
+    def run(self) -> RunPlan:
+        """Length, seed and scenario of the run."""
+        ...
 
     def plant(self, scenario: str | None = None) -> TransferMatrix:
         """The true plant under ``scenario``."""

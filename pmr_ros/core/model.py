@@ -144,7 +144,7 @@ class TransferMatrix:
     name : str
         Name of the system.
     element_type : ndarray of str
-        One of :data:`ELEMENT_TYPES` per element; default all ``foptd``.
+        One of :data:`ELEMENT_TYPES` per element; default (empty): all ``foptd``.
     """
 
     gain: np.ndarray
@@ -154,7 +154,7 @@ class TransferMatrix:
     output_names: tuple[str, ...] = field(default=())
     input_names: tuple[str, ...] = field(default=())
     name: str = ""
-    element_type: np.ndarray = field(default=None)  # type: ignore[assignment]
+    element_type: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
 
     def __post_init__(self) -> None:
         for attr in ("gain", "time_constant", "delay"):
@@ -162,11 +162,8 @@ class TransferMatrix:
         shape = self.gain.shape
         if self.time_constant.shape != shape or self.delay.shape != shape:
             raise ValueError("gain, time_constant and delay must have the same shape")
-        kinds = (
-            np.full(shape, "foptd", dtype=object)
-            if self.element_type is None
-            else np.array(self.element_type, dtype=object)
-        )
+        given = np.array(self.element_type, dtype=object)
+        kinds = np.full(shape, "foptd", dtype=object) if given.size == 0 else given
         if kinds.shape != shape or not set(kinds.ravel()) <= set(ELEMENT_TYPES):
             raise ValueError(f"element_type must be {shape} entries of {', '.join(ELEMENT_TYPES)}")
         object.__setattr__(self, "element_type", kinds)
@@ -198,17 +195,17 @@ class TransferMatrix:
     @property
     def present(self) -> np.ndarray:
         """Where the model has an element (not ``none``), shape (n_outputs, n_inputs)."""
-        return self.element_type != "none"
+        return np.asarray(self.element_type != "none")
 
     @property
     def integrating(self) -> np.ndarray:
         """Where the element is integrating, shape (n_outputs, n_inputs)."""
-        return self.element_type == "integrating"
+        return np.asarray(self.element_type == "integrating")
 
     @property
     def integrating_outputs(self) -> np.ndarray:
         """Outputs with at least one integrating element ("ramp" CVs), shape (n_outputs,)."""
-        return self.integrating.any(axis=1)
+        return np.asarray(self.integrating.any(axis=1))
 
     @property
     def slowest_time_constant(self) -> float:

@@ -107,7 +107,7 @@ class SegmentSpectra:
         """Segments averaged."""
         return self.ffts.shape[0]
 
-    def cross(self, a: slice | np.ndarray, b: slice | np.ndarray) -> np.ndarray:
+    def cross(self, a: slice | list[int] | np.ndarray, b: slice | list[int] | np.ndarray) -> np.ndarray:
         """Cross-spectra between channel groups, shape (F, len(a), len(b)): ``E{conj(X_a) X_b}``."""
         Xa = self.ffts[:, :, a]
         Xb = self.ffts[:, :, b]

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from contextlib import suppress
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -29,6 +29,10 @@ from ..contract.layout import diagnosis_from_array
 from ..contract.topics import load_contract
 from ..ros.parameters import node_parameters, plain_value
 from ..ros.topics import message_class, qos_profile
+
+if TYPE_CHECKING:
+    from rclpy.parameter_client import AsyncParameterClient
+    from rclpy.task import Future
 
 NODE_NAME = "pmr_bag_recorder"
 PARAMETER_SOURCE_NODE = "pmr_diagnostician"
@@ -99,8 +103,8 @@ class BagRecorderNode(Node):
             )
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._flush_timer = self.create_timer(max(flush_period_s, 0.01), writer.flush, clock=wall)
-        self._parameter_client = None
-        self._parameter_future = None
+        self._parameter_client: AsyncParameterClient | None = None
+        self._parameter_future: Future | None = None
         if parameter_source and not self.has_config:
             from rclpy.parameter_client import AsyncParameterClient
 
@@ -120,13 +124,13 @@ class BagRecorderNode(Node):
             self.writer.write_raw(name, time.time_ns(), data)
             self.counts[name] += 1
             if name == self._diagnostics_topic and self.expected_samples is not None:
-                self._note_final(data)
+                self._note_final(data, self.expected_samples - 1)
 
         return on_message
 
-    def _note_final(self, data: bytes) -> None:
+    def _note_final(self, data: bytes, last_sample: int) -> None:
         diagnosis, info = diagnosis_from_array(typestore().deserialize_cdr(data, "diagnostic_msgs/msg/DiagnosticArray"))
-        if info.get("last_sample") == self.expected_samples - 1:
+        if info.get("last_sample") == last_sample:
             self._final_seen = True
             self._final_has_verdict = diagnosis.status == "ok"
 
@@ -159,6 +163,8 @@ class BagRecorderNode(Node):
             if self._parameter_future.done():
                 self._parameter_timer.cancel()
                 self._store_parameters(self._parameter_future.result())
+            return
+        if self._parameter_client is None:  # the timer exists only with a client
             return
         if self._parameter_client.services_are_ready():
             self._parameter_future = self._parameter_client.get_parameters(self._parameter_names())

@@ -11,7 +11,7 @@ mismatch of ``run.scenario`` applied.
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
@@ -22,6 +22,9 @@ from ..contract.topics import topic
 from ..core.plant import FoptdPlant
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import clock_message, signal_message
+
+if TYPE_CHECKING:
+    from rclpy.timer import Timer
 
 EXECUTABLE = "wood_berry_plant"
 """The executable's name: what users type, kept from the reference case though it runs any system."""
@@ -57,7 +60,7 @@ class PlantNode(ConfiguredNode):
         self._started_at = time.monotonic()
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._start_timer = self.create_timer(0.01, self._try_start, clock=wall)
-        self._tick_timer = None
+        self._tick_timer: Timer | None = None
         mode = (
             "lockstep"
             if self.config.simulation.lockstep

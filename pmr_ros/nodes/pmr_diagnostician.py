@@ -52,7 +52,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.messages_received = 0
         self._labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
         self.aligner = self._new_aligner()
-        self._last_arrival = {s: None for s in SIGNALS}
+        self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
         self._diag_pub = self.contract_publisher("diagnostics")

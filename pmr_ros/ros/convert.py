@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
@@ -49,7 +50,9 @@ def stamp_from_seconds(seconds: float) -> Time:
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 
-def signal_message(values: Sequence[float], names: Sequence[str], stamp_s: float, frame_id: str = "") -> JointState:
+def signal_message(
+    values: Sequence[float] | np.ndarray, names: Sequence[str], stamp_s: float, frame_id: str = ""
+) -> JointState:
     """A signal sample (r, u or y) as a JointState: stamp = sample time, position = values."""
     msg = JointState()
     msg.header.stamp = stamp_from_seconds(stamp_s)

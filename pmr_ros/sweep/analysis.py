@@ -221,5 +221,5 @@ def breakdowns(summary: list[PointSummary]) -> list[Breakdown]:
 
 def earliest(items: list[Breakdown]) -> Breakdown | None:
     """The breakdown with the smallest nu among ``items`` (None if none breaks down)."""
-    broken = [b for b in items if b.nu is not None]
-    return min(broken, key=lambda b: b.nu) if broken else None
+    broken = [(b.nu, b) for b in items if b.nu is not None]
+    return min(broken, key=lambda pair: pair[0])[1] if broken else None

@@ -213,6 +213,8 @@ def _init_worker(config: PmrConfig) -> None:
 
 
 def _work(task: PointTask) -> tuple[PointTask, list[dict], float]:
+    if _WORKER_CONFIG is None:
+        raise RuntimeError("_work runs in a pool worker that _init_worker set up")
     t0 = time.process_time()
     rows = run_point(_WORKER_CONFIG, task)
     return task, rows, time.process_time() - t0

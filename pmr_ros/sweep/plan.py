@@ -170,7 +170,7 @@ class SweepPlan:
 
     def points(self, model: TransferMatrix) -> list[SweepPoint]:
         """Every (element, nu) point, sweeps in order, nu ascending."""
-        out = []
+        out: list[SweepPoint] = []
         for element in self.elements:
             i, k = element_index(model, element)
             base = float(model.time_constant[i, k])

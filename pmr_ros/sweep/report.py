@@ -31,7 +31,11 @@ from .plan import row_time_constant_ratio
 from .tuning import HORIZON_STEP, STABILITY_LIMIT
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from matplotlib.axes import Axes
+    from matplotlib.typing import ColorType
+    from numpy.typing import ArrayLike
 
 PAPER_GAIN_PCT = {"G11": 10.0, "G12": 14.4, "G21": -18.0, "G22": -11.3}
 """The paper's eq. (16): baseline gain mismatch estimates [%]."""
@@ -177,7 +181,11 @@ def plot_sweep(
         row, column = divmod(j, n_columns)
         ax = axes[row][column]
         _plot_scenarios(
-            ax, _by(points, element=element), method=method, quantity=quantity, colors=plt.get_cmap("tab10").colors
+            ax,
+            _by(points, element=element),
+            method=method,
+            quantity=quantity,
+            colors=matplotlib.color_sequences["tab10"],
         )
         _scale_quantity_axis(ax, points, method=method, quantity=quantity, element=element, tau_threshold=tau_threshold)
         _decorate_panel(
@@ -202,7 +210,9 @@ def plot_sweep(
     return path
 
 
-def _plot_scenarios(ax: Axes, points: list[PointSummary], *, method: str, quantity: str, colors: tuple) -> None:
+def _plot_scenarios(
+    ax: Axes, points: list[PointSummary], *, method: str, quantity: str, colors: Sequence[ColorType]
+) -> None:
     """One panel's lines: per scenario the median over seeds, the min-max band and the injected value."""
     step = quantity == "delay"  # delays are whole samples: draw steps, not slopes
     for s, scenario in enumerate(SCENARIOS):
@@ -288,7 +298,15 @@ def _ratio_axis(ax: Axes, points: list[PointSummary]) -> None:
         return
     slope = (ratio_of[nus[-1]] - ratio_of[nus[0]]) / (nus[-1] - nus[0])
     offset = ratio_of[nus[0]] - slope * nus[0]
-    top = ax.secondary_xaxis("top", functions=(lambda v: slope * v + offset, lambda r: (r - offset) / slope))
+
+    # matplotlib passes arrays; asanyarray only gives the arithmetic a type (subclasses kept)
+    def to_ratio(nu: ArrayLike) -> np.ndarray:
+        return slope * np.asanyarray(nu) + offset
+
+    def to_nu(ratio: ArrayLike) -> np.ndarray:
+        return (np.asanyarray(ratio) - offset) / slope
+
+    top = ax.secondary_xaxis("top", functions=(to_ratio, to_nu))
     top.set_xlabel("row time-constant ratio", fontsize=8)
 
 
@@ -944,7 +962,7 @@ def _findings(
     ratio0 = next(p.row_time_constant_ratio for p in pts if p.nu == nus[0])
     first = earliest(bs)
     head = f"- **Sweep of τ of {element_swept}** ({method}; row ratio {ratio0:.2f} at ν = {nus[0]:g}): "
-    if first is None:
+    if first is None or first.nu is None:  # earliest() gives only breakdowns with a nu: both None together
         return [
             head
             + "no diagnosis fails on the grid"
@@ -968,7 +986,7 @@ def _first_failure_text(
 ) -> str:
     """Where the first diagnosis fails, its value there and at the baseline, and how much of the grid stays failed."""
 
-    def at(nu: float) -> PointSummary:
+    def at(nu: float | None) -> PointSummary:
         return next(p for p in pts if p.nu == nu and p.scenario == first.scenario and p.element == first.element)
 
     here, base = at(first.nu), at(base_nu)
