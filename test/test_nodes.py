@@ -388,3 +388,15 @@ def test_node_set_runs_any_square_system_like_the_batch(ros_domain):
     batch = simulate(config)
     assert np.array_equal(result.record.y, batch.y) and np.array_equal(result.record.u, batch.u)
     assert len(result.info["levels"]) == 9 and result.info["last_sample"] == 1499
+
+
+def test_mv_dither_in_the_node_set_equals_the_batch(ros_domain):
+    config = load_config(overrides={"run": {"samples": 2000}, "excitation": {"mv_dither_amplitude": [0.2, 0.1]}})
+    result = run_node_set(config, NodeSetOptions(domain_id=ros_domain, record=True))
+    batch = simulate(config)
+    assert batch.dither is not None
+    assert np.array_equal(result.record.u, batch.u) and np.array_equal(result.record.y, batch.y)
+    expected = diagnose(
+        batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric, dither=batch.dither
+    )
+    assert result.diagnosis.elements == expected.elements  # the diagnostician used the same instruments

@@ -14,15 +14,15 @@ from pmr_ros.core.diagnosis import diagnose
 from pmr_ros.core.parametric import diagnose_parametric
 from pmr_ros.core.parametric.ratio import ratio_shape
 from pmr_ros.core.parametric.verdicts import delay_confidence, parameter_verdict
+from pmr_ros.core.stretch import Stretch
 
 SEEDS = 50
 
 
 def _parametric(config, record, settings=None):
     """``(status, reason, element -> ParametricResult)`` of the parametric diagnosis of a record."""
-    d = diagnose_parametric(
-        record.r, record.u, record.y, model=config.model, classic=config.pmr, settings=settings or config.parametric
-    )
+    stretch = Stretch(record.r, record.u, record.y, record.dither)
+    d = diagnose_parametric([stretch], model=config.model, classic=config.pmr, settings=settings or config.parametric)
     return d.status, d.reason, {name: e.parametric if e.parametric is not None else e for name, e in d.elements.items()}
 
 

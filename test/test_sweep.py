@@ -16,6 +16,7 @@ from pmr_ros.config import load_config
 from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.model import SCENARIOS
+from pmr_ros.core.stretch import Stretch
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
@@ -143,7 +144,9 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
     rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["method"] == "classic"]
     for scenario in SCENARIOS:
         record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
-        diagnosis = diagnose_classic(record.r, record.u, record.y, model=wood_berry.model, settings=wood_berry.pmr)
+        diagnosis = diagnose_classic(
+            [Stretch(record.r, record.u, record.y)], model=wood_berry.model, settings=wood_berry.pmr
+        )
         for sweep in ("tau_G11", "tau_G21"):
             for row in (r for r in rows if r["scenario"] == scenario and r["sweep"] == sweep):
                 e = diagnosis.elements[row["element"]].classic

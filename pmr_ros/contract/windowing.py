@@ -17,6 +17,7 @@ import numpy as np
 
 from ..config import PmrConfig
 from ..core.diagnosis import diagnose
+from ..core.prbs import dither_generator
 from ..core.results import Diagnosis
 from .alignment import AddResult, SampleAligner
 
@@ -108,6 +109,18 @@ class WindowOutcome:
     stamp_s: float
 
 
+def window_dither(config: PmrConfig, first: int, samples: int) -> np.ndarray | None:
+    """The MV dither over samples ``first ..`` of the run, or None without dither.
+
+    The dither of the node set is a pure function of the sample and the run's
+    seed, so the diagnostician computes it as the controller did.
+    """
+    if not config.excitation.active:
+        return None
+    generator = dither_generator(config.excitation, config.prbs, config.run.seed)
+    return generator.values(first + np.arange(samples))
+
+
 def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
     """Diagnose the newest ``diagnostician.window_samples`` of the unbroken stretch, as the diagnostician does.
 
@@ -143,7 +156,15 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
             reason += f" (the window restarted after a gap {aligner.gaps} time(s))"
         return without_verdict(INSUFFICIENT, reason)
     r, u, y, first = aligner.window(window_samples)
-    diagnosis = diagnose(r, u, y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    diagnosis = diagnose(
+        r,
+        u,
+        y,
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        dither=window_dither(config, first, r.shape[0]),
+    )
     window = window_info(aligner, window_samples, r.shape[0], first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)

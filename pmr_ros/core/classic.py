@@ -7,6 +7,7 @@ mismatch from the Hilbert/Hamon-Hannan search (:mod:`pmr_ros.core.delay`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +18,7 @@ from .model import TransferMatrix
 from .record import InsufficientData
 from .results import ClassicResult, Diagnosis, ElementDiagnosis
 from .spectra import WelchSettings
+from .stretch import Stretch, total_samples
 
 __all__ = ["MAX_CONDITION", "PmrSettings", "classic_estimate", "classic_results", "diagnose_classic"]
 
@@ -105,9 +107,7 @@ def classic_results(estimate: PmrEstimate, model: TransferMatrix, settings: PmrS
     return out
 
 
-def classic_estimate(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, settings: PmrSettings
-) -> PmrEstimate:
+def classic_estimate(stretches: Sequence[Stretch], *, model: TransferMatrix, settings: PmrSettings) -> PmrEstimate:
     """The PMR estimate of the classic method, refused when a row regression is ill-conditioned.
 
     Raises
@@ -115,7 +115,7 @@ def classic_estimate(
     InsufficientData
         The record cannot support it (the message says why).
     """
-    estimate = estimate_pmr(r, u, y, model=model, welch=settings.welch)
+    estimate = estimate_pmr(stretches, model=model, welch=settings.welch)
     band = (estimate.omega > 0) & (estimate.omega <= settings.tau_band + 1e-12)
     worst = estimate.condition[band | (estimate.omega == 0)].max()
     if not np.isfinite(worst) or worst > MAX_CONDITION:
@@ -126,15 +126,13 @@ def classic_estimate(
     return estimate
 
 
-def diagnose_classic(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, settings: PmrSettings
-) -> Diagnosis:
+def diagnose_classic(stretches: Sequence[Stretch], *, model: TransferMatrix, settings: PmrSettings) -> Diagnosis:
     """Classic (Table 1) diagnosis of every element from closed-loop records.
 
     Parameters
     ----------
-    r, u, y : ndarray
-        Setpoints, inputs and measured outputs, one row per sample.
+    stretches : sequence of Stretch
+        Unbroken stretches of setpoints, inputs, outputs (and dither), one row per sample.
     model : TransferMatrix
         The controller's model ``Ghat``.
     settings : PmrSettings
@@ -143,12 +141,12 @@ def diagnose_classic(
     -------
     Diagnosis
         ``status`` ``insufficient_data`` (with the reason, no numbers) when the
-        record cannot support one.
+        data cannot support one.
     """
-    samples = int(np.shape(r)[0]) if np.ndim(r) else 0
+    samples = total_samples(stretches)
     models = model.element_models()
     try:
-        estimate = classic_estimate(r, u, y, model=model, settings=settings)
+        estimate = classic_estimate(stretches, model=model, settings=settings)
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="classic", models=models, reason=str(exc), samples=samples)
     results = classic_results(estimate, model, settings)

@@ -11,13 +11,15 @@ Noise and disturbances drop out because they are uncorrelated with r.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .model import TransferMatrix
-from .record import check_record
+from .record import check_stretches
 from .spectra import RecordSpectra, WelchSettings, record_spectra
+from .stretch import Stretch
 
 __all__ = ["PmrEstimate", "estimate_pmr", "implicit_estimate"]
 
@@ -75,19 +77,13 @@ def implicit_estimate(spectra: RecordSpectra) -> PmrEstimate:
     return PmrEstimate(spectra.omega, ratio, coherence, condition, spectra.segments)
 
 
-def estimate_pmr(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings
-) -> PmrEstimate:
-    """The implicit MIMO PMR estimate (eq. 13) from closed-loop records.
+def estimate_pmr(stretches: Sequence[Stretch], *, model: TransferMatrix, welch: WelchSettings) -> PmrEstimate:
+    """The implicit MIMO PMR estimate (eq. 13) from closed-loop data.
 
     Parameters
     ----------
-    r : ndarray, shape (N, n_outputs)
-        Setpoints [output unit].
-    u : ndarray, shape (N, n_inputs)
-        Manipulated inputs [input unit].
-    y : ndarray, shape (N, n_outputs)
-        Measured outputs [output unit].
+    stretches : sequence of Stretch
+        Unbroken stretches of setpoints, inputs and outputs (and dither).
     model : TransferMatrix
         The controller's model ``Ghat``.
     welch : WelchSettings
@@ -95,8 +91,7 @@ def estimate_pmr(
     Raises
     ------
     InsufficientData
-        The record cannot support an estimate (see :func:`~pmr_ros.core.record.check_record`).
+        The data cannot support an estimate (see :func:`~pmr_ros.core.record.check_stretches`).
     """
-    r, u, y = (np.asarray(a, dtype=float) for a in (r, u, y))
-    check_record(r, u, y, model=model, welch=welch)
-    return implicit_estimate(record_spectra(r, u, y, model, welch))
+    check_stretches(stretches, model=model, welch=welch)
+    return implicit_estimate(record_spectra(stretches, model, welch))

@@ -152,6 +152,13 @@ class PrbsGenerator:
         col = (self._phase + k // self.settings.clock_period) % self.period_bits
         return self.settings.nominal + self.settings.amplitude * self._bits[self._rows, col]
 
+    def values(self, k: np.ndarray) -> np.ndarray:
+        """Values at the samples ``k`` (any order), shape (len(k), n_channels)."""
+        bits = np.asarray(k) // self.settings.clock_period
+        cols = (self._phase[:, None] + bits[None, :]) % self.period_bits
+        levels = np.take_along_axis(self._bits, cols, axis=1).T
+        return self.settings.nominal + self.settings.amplitude * levels
+
     def sequence(self, samples: int) -> np.ndarray:
         """Setpoints for samples ``0 .. samples-1``, shape (samples, n_channels)."""
         k = np.arange(samples) // self.settings.clock_period

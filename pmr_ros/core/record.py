@@ -1,13 +1,16 @@
-"""Can a record support a PMR estimate at all?  The checks every method runs first."""
+"""Can the data support a PMR estimate at all?  The checks every method runs first."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
 from .model import TransferMatrix
 from .spectra import WelchSettings
+from .stretch import Stretch, active_dither
 
-__all__ = ["MIN_SEGMENTS", "InsufficientData", "check_record"]
+__all__ = ["MIN_SEGMENTS", "InsufficientData", "check_record", "check_stretches"]
 
 MIN_SEGMENTS = 4
 """Fewest Welch segments with which a row regression is attempted."""
@@ -17,42 +20,68 @@ class InsufficientData(ValueError):
     """The record cannot support a PMR estimate; the message says why."""
 
 
-def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:
-    """Raise :class:`InsufficientData` if the record cannot support an estimate.
+def _check_shapes(stretch: Stretch, model: TransferMatrix, where: str) -> None:
+    n_out, n_in = model.n_outputs, model.n_inputs
+    arrays = [("r", stretch.r, n_out), ("u", stretch.u, n_in), ("y", stretch.y, n_out)]
+    if stretch.dither is not None:
+        arrays.append(("dither", stretch.dither, n_in))
+    for name, data, width in arrays:
+        data = np.asarray(data)
+        if data.ndim != 2 or data.shape[1] != width:
+            raise InsufficientData(f"{name}{where} has shape {data.shape}, expected (samples, {width})")
+        if not np.all(np.isfinite(data)):
+            raise InsufficientData(f"{name}{where} holds NaN or inf samples")
+        if data.shape[0] != stretch.samples:
+            raise InsufficientData(
+                f"r, u, y{' and dither' if stretch.dither is not None else ''}{where} have different lengths"
+            )
+
+
+def check_stretches(stretches: Sequence[Stretch], *, model: TransferMatrix, welch: WelchSettings) -> None:
+    """Raise :class:`InsufficientData` if the stretches cannot support an estimate.
 
     Parameters
     ----------
-    r, u, y : ndarray, shape (N, n_outputs), (N, n_inputs), (N, n_outputs)
-        Setpoints, inputs and measured outputs, one row per sample.
+    stretches : sequence of Stretch
+        Unbroken stretches of data (one for a gap-free record).
     model : TransferMatrix
-        The controller's model (its settling time is dropped before the spectra).
+        The controller's model (its settling time is dropped from each stretch).
     welch : WelchSettings
-        The segments the spectra will average.
+        The segments the spectra will average (those that fit inside a stretch).
 
     Raises
     ------
     InsufficientData
-        Wrong shapes, non-finite samples, too few Welch segments, a constant setpoint.
+        Wrong shapes, non-finite samples, too few Welch segments in all, a constant setpoint.
     """
-    n_out, n_in = model.n_outputs, model.n_inputs
-    for name, data, width in (("r", r, n_out), ("u", u, n_in), ("y", y, n_out)):
-        if data.ndim != 2 or data.shape[1] != width:
-            raise InsufficientData(f"{name} has shape {data.shape}, expected (samples, {width})")
-        if not np.all(np.isfinite(data)):
-            raise InsufficientData(f"{name} holds NaN or inf samples")
-    samples = r.shape[0]
-    if u.shape[0] != samples or y.shape[0] != samples:
-        raise InsufficientData("r, u and y have different lengths")
+    if not stretches:
+        raise InsufficientData("no data")
+    for j, stretch in enumerate(stretches):
+        _check_shapes(stretch, model, "" if len(stretches) == 1 else f" of stretch {j + 1}")
     warmup = model.settling_samples()
-    segments = welch.segments(samples - warmup)
-    need = max(MIN_SEGMENTS, 2 * n_out)
+    segments = sum(welch.segments(s.samples - warmup) for s in stretches)
+    n_z = model.n_outputs + int(active_dither(stretches).sum())
+    need = max(MIN_SEGMENTS, 2 * n_z)
     if segments < need:
         shortest = warmup + welch.segment_length + (need - 1) * welch.step
+        samples = sum(s.samples for s in stretches)
+        where = "" if len(stretches) == 1 else f" in {len(stretches)} stretches"
         raise InsufficientData(
-            f"window too short: {samples} samples less {warmup} of model settling give {segments} Welch segments of "
-            f"{welch.segment_length}, need {need} ({shortest} samples)"
+            f"window too short: {samples} samples{where}, less {warmup} of model settling each, give {segments} Welch "
+            f"segments of {welch.segment_length}, need {need} ({shortest} unbroken samples)"
         )
-    spread = r.std(axis=0)
-    for j, s in enumerate(spread):
-        if s <= 1e-9 * (1.0 + abs(r[:, j].mean())):
+    r = np.vstack([np.asarray(s.r, dtype=float) for s in stretches])
+    for j, spread in enumerate(r.std(axis=0)):
+        if spread <= 1e-9 * (1.0 + abs(r[:, j].mean())):
             raise InsufficientData(f"no excitation: setpoint r{j + 1} ({model.output_names[j]}) is constant")
+
+
+def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:
+    """:func:`check_stretches` of one gap-free record ``r, u, y``.
+
+    Raises
+    ------
+    InsufficientData
+        As :func:`check_stretches`.
+    """
+    check_stretches([Stretch(np.asarray(r), np.asarray(u), np.asarray(y))], model=model, welch=welch)

@@ -12,6 +12,7 @@ The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -20,6 +21,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
 from .model import TransferMatrix
+from .stretch import Stretch, active_dither, instruments
 
 
 @dataclass(frozen=True)
@@ -163,18 +165,21 @@ def cross_spectra(x: np.ndarray, y: np.ndarray, settings: WelchSettings) -> tupl
 
 @dataclass(frozen=True)
 class RecordSpectra:
-    """The cross-spectra of a record that the PMR needs, from one Welch transform.
+    """The cross-spectra of a record that the PMR needs, from one Welch transform per stretch.
+
+    The "r" of the names is the instrument vector z: the setpoints, then the
+    MV dither columns that move (when the controller's outputs were dithered).
 
     Attributes
     ----------
     omega : ndarray, shape (F,)
         Frequencies 0 .. pi [rad/sample].
-    rr : ndarray, shape (F, n_r, n_r)
-        Setpoint spectra ``S_{r r}``.
-    ry : ndarray, shape (F, n_r, n_out)
-        ``S_{r_l y_i}``.
-    ryhat : ndarray, shape (F, n_r, n_out, n_in)
-        ``S_{r_l yhat_ik}``.
+    rr : ndarray, shape (F, n_z, n_z)
+        Instrument spectra ``S_{z z}``.
+    ry : ndarray, shape (F, n_z, n_out)
+        ``S_{z_l y_i}``.
+    ryhat : ndarray, shape (F, n_z, n_out, n_in)
+        ``S_{z_l yhat_ik}``.
     yy : ndarray, shape (F, n_out)
         Output auto-spectra ``S_{y_i y_i}`` (real).
     yhat_y : ndarray, shape (F, n_out, n_in)
@@ -182,7 +187,7 @@ class RecordSpectra:
     yhat_yhat : ndarray, shape (F, n_out, n_in, n_in)
         ``S_{yhat_ik yhat_im}``.
     segments : int
-        Welch segments averaged.
+        Welch segments averaged (over every stretch).
     equivalent_segments : float
         Independent segments they are worth (overlap).
     settings : WelchSettings
@@ -200,20 +205,40 @@ class RecordSpectra:
     settings: WelchSettings
 
 
-def record_spectra(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, model: TransferMatrix, welch: WelchSettings
-) -> RecordSpectra:
-    """Spectra of setpoints, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
+def stretch_segments(blocks: Sequence[np.ndarray], settings: WelchSettings) -> tuple[SegmentSpectra, float]:
+    """The Welch segments of every block (each its own mean removed), pooled; and what they are worth.
 
-    The model's settling time (:meth:`TransferMatrix.settling_samples`) is dropped
-    from the start of every signal: ``yhat``'s filters start from a guessed state.
-    The record must have passed :func:`check_record`.
+    Returns
+    -------
+    SegmentSpectra
+        All segments that fit inside a block, in order.
+    float
+        Their equivalent number of independent segments (overlap counted within each block).
+    """
+    parts = [segment_spectra(block, settings) for block in blocks if settings.segments(block.shape[0]) > 0]
+    ffts = np.concatenate([p.ffts for p in parts], axis=0)
+    equivalent = sum(settings.equivalent_segments(p.segments) for p in parts)
+    return SegmentSpectra(parts[0].omega, ffts, settings), equivalent
+
+
+def record_spectra(stretches: Sequence[Stretch], model: TransferMatrix, welch: WelchSettings) -> RecordSpectra:
+    """Spectra of instruments, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
+
+    Every stretch is filtered through the model on its own and its first
+    :meth:`TransferMatrix.settling_samples` are dropped (the filters start
+    from a guessed state); the segments of all stretches are averaged.  The
+    data must have passed :func:`~pmr_ros.core.record.check_stretches`.
     """
     n_out, n_in = model.n_outputs, model.n_inputs
-    n_r = r.shape[1]
-    yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
+    active = active_dither(stretches)
     warmup = model.settling_samples()
-    seg = segment_spectra(np.hstack([r, y, yhat])[warmup:], welch)
+    blocks = []
+    for stretch in stretches:
+        u = np.asarray(stretch.u, dtype=float)
+        yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
+        blocks.append(np.hstack([instruments(stretch, active), np.asarray(stretch.y, dtype=float), yhat])[warmup:])
+    seg, equivalent = stretch_segments(blocks, welch)
+    n_r = blocks[0].shape[1] - n_out - n_out * n_in
     R = slice(0, n_r)
     Y = slice(n_r, n_r + n_out)
     F = seg.omega.size
@@ -230,6 +255,6 @@ def record_spectra(
         yhat_y=yhat_y,
         yhat_yhat=yhat_yhat,
         segments=seg.segments,
-        equivalent_segments=welch.equivalent_segments(seg.segments),
+        equivalent_segments=equivalent,
         settings=welch,
     )

@@ -9,15 +9,18 @@ likelihood of the chosen ``dD`` against its neighbours, on the same scale.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..classic import PmrSettings, classic_estimate, classic_results
 from ..delay import hamon_hannan_delay, informative_band
 from ..implicit import PmrEstimate, implicit_estimate
 from ..model import TransferMatrix
-from ..record import MIN_SEGMENTS, InsufficientData, check_record
+from ..record import MIN_SEGMENTS, InsufficientData, check_stretches
 from ..results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
 from ..spectra import RecordSpectra, record_spectra
+from ..stretch import Stretch, total_samples
 from .fit import fit_row
 from .guard import RowQuality, row_quality
 from .settings import ParametricSettings
@@ -74,29 +77,26 @@ def _row_results(
 
 
 def parametric_results(
-    r: np.ndarray,
-    u: np.ndarray,
-    y: np.ndarray,
-    *,
-    model: TransferMatrix,
-    classic: PmrSettings,
-    settings: ParametricSettings,
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
 ) -> dict[str, ParametricResult]:
-    """The parametric result of every element of a record that passed the classic checks.
+    """The parametric result of every element of data that passed the record checks.
 
     Raises
     ------
     InsufficientData
         The parametric Welch segment leaves fewer than :data:`MIN_SEGMENTS` segments.
     """
-    welch = settings.welch(model, r.shape[0], classic)
-    usable = r.shape[0] - model.settling_samples()
-    if welch.segments(usable) < MIN_SEGMENTS:
+    longest = max(s.samples for s in stretches)
+    welch = settings.welch(model, longest, classic)
+    usable = [s.samples - model.settling_samples() for s in stretches]
+    segments = sum(welch.segments(n) for n in usable)
+    if segments < MIN_SEGMENTS:
         raise InsufficientData(
-            f"parametric.segment_length {welch.segment_length} leaves {welch.segments(usable)} Welch segments in "
-            f"{usable} usable samples, need {MIN_SEGMENTS}: shorten it (0 picks one from the model)"
+            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
+            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
+            "shorten it (0 picks one from the model)"
         )
-    spectra = record_spectra(r, u, y, model, welch)
+    spectra = record_spectra(stretches, model, welch)
     estimate = implicit_estimate(spectra)
     names = model.element_names()
     out: dict[str, ParametricResult] = {}
@@ -110,11 +110,11 @@ def parametric_results(
 
 
 def _classic_part(
-    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, classic: PmrSettings
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings
 ) -> dict[str, ClassicResult | None]:
     """The classic numbers kept beside the parametric ones; None where the classic method cannot give them."""
     try:
-        estimate = classic_estimate(r, u, y, model=model, settings=classic)
+        estimate = classic_estimate(stretches, model=model, settings=classic)
     except InsufficientData:
         # the classic method refuses an ill-conditioned record as a whole; the parametric guard judges it row by row
         return dict.fromkeys(model.element_names())
@@ -122,24 +122,18 @@ def _classic_part(
 
 
 def diagnose_parametric(
-    r: np.ndarray,
-    u: np.ndarray,
-    y: np.ndarray,
-    *,
-    model: TransferMatrix,
-    classic: PmrSettings,
-    settings: ParametricSettings,
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
 ) -> Diagnosis:
     """Parametric diagnosis of every element with intervals and calibrated verdicts.
 
-    The record is checked as for every method (:func:`~pmr_ros.core.record.check_record`);
+    The data are checked as for every method (:func:`~pmr_ros.core.record.check_stretches`);
     the classic numbers stay beside the parametric ones (``ElementDiagnosis.classic``)
     for reference where the classic method can give them.
 
     Parameters
     ----------
-    r, u, y : ndarray
-        Setpoints, inputs and measured outputs, one row per sample.
+    stretches : sequence of Stretch
+        Unbroken stretches of setpoints, inputs, outputs (and dither), one row per sample.
     model : TransferMatrix
         The controller's model ``Ghat``.
     classic : PmrSettings
@@ -152,15 +146,14 @@ def diagnose_parametric(
         With ``method == "parametric"``; ``insufficient_data`` with the reason
         when the record cannot support a diagnosis.
     """
-    r, u, y = (np.asarray(a, dtype=float) for a in (r, u, y))
-    samples = int(r.shape[0]) if r.ndim else 0
+    samples = total_samples(stretches)
     models = model.element_models()
     try:
-        check_record(r, u, y, model=model, welch=classic.welch)
-        results = parametric_results(r, u, y, model=model, classic=classic, settings=settings)
+        check_stretches(stretches, model=model, welch=classic.welch)
+        results = parametric_results(stretches, model=model, classic=classic, settings=settings)
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="parametric", models=models, reason=str(exc), samples=samples)
-    classic_part = _classic_part(r, u, y, model=model, classic=classic)
+    classic_part = _classic_part(stretches, model=model, classic=classic)
     elements = {
         name: ElementDiagnosis(name, i, k, element, "parametric", classic=classic_part[name], parametric=results[name])
         for name, (i, k, element) in models.items()
