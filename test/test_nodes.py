@@ -108,7 +108,7 @@ def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros_context
         desc = node.describe_parameter("diagnostician.window_samples")
         assert desc.description and desc.integer_range[0].from_value == 1 and not desc.read_only
         assert "< 1" in node.describe_parameter("pmr.overlap").additional_constraints
-        assert not node.has_parameter("prbs.register_length") and not node.has_parameter("mpc.control_horizon")
+        assert not node.has_parameter("prbs.clock_period") and not node.has_parameter("mpc.control_horizon")
         result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
         assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
         result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
