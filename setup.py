@@ -21,7 +21,6 @@ setup(
         "numpy>=1.24,<3",
         "scipy>=1.10,<2",
         "osqp>=1.0,<2",
-        "control>=0.10,<0.11",
         "rosbags>=0.10,<0.12",
         # Reading an MCAP bag whose recorder was killed (no summary, no metadata.yaml).
         "mcap>=1.1,<2",
@@ -29,8 +28,10 @@ setup(
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
-        "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
-        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7", "mcap-ros2-support>=0.5,<1"],
+        # ament_index_python: pmr_ros.resources finds a colcon workspace's share/pmr_ros with it.
+        "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6", "ros-jazzy-ament-index-python>=1.8,<2"],
+        # python-control: only test_foptd checks the FOPTD responses against it.
+        "test": ["pytest>=8", "ruff>=0.6", "matplotlib>=3.7", "mcap-ros2-support>=0.5,<1", "control>=0.10,<0.11"],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],
     },
