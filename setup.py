@@ -1,14 +1,25 @@
 """ament_python package setup for pmr_ros (also installs with plain pip)."""
 
+import xml.etree.ElementTree as ElementTree
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE = "pmr_ros"
 
+
+def package_xml_version() -> str:
+    """The version in package.xml, the one place it is written (ROS convention)."""
+    version = ElementTree.parse(Path(__file__).resolve().parent / "package.xml").getroot().findtext("version")
+    if not version or not version.strip():
+        raise SystemExit("pmr_ros setup.py: package.xml has no <version>")
+    return version.strip()
+
+
 setup(
     name=PACKAGE,
-    version="0.1.0",
+    version=package_xml_version(),
     packages=find_packages(exclude=["test", "test.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

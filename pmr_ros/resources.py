@@ -19,10 +19,14 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["PACKAGE", "ResourceError", "share_dir"]
+__all__ = ["PACKAGE", "SOURCE_ROOT", "ResourceError", "share_dir"]
 
 PACKAGE = "pmr_ros"
 """The ROS 2 package name (also the ament index resource)."""
+
+SOURCE_ROOT = Path(__file__).resolve().parents[1]
+"""The folder holding the ``pmr_ros`` package: the checkout's root when imported from one
+(for an installed copy, ``site-packages``, where no data folder is)."""
 
 
 class ResourceError(FileNotFoundError):
@@ -44,7 +48,7 @@ def _ament_prefixes() -> list[Path]:
 
 
 def _candidates(folder: str) -> list[Path]:
-    source = Path(__file__).resolve().parents[1] / folder
+    source = SOURCE_ROOT / folder
     prefixes = [*_ament_prefixes(), Path(sys.prefix), Path(sys.base_prefix)]
     installed = [p / "share" / PACKAGE / folder for p in prefixes]
     return [source, *dict.fromkeys(installed)]
