@@ -1,12 +1,16 @@
-"""Packaging: the version in one place (package.xml).
+"""Packaging: the version in one place, an installed copy's data folders and executables found.
 
-Install layouts are faked in tmp dirs, with the checkout itself hidden
-(``pmr_ros.resources.SOURCE_ROOT``) so the lookup cannot fall back on it.
+The install layouts are faked in tmp dirs (a sourced colcon workspace through
+``AMENT_PREFIX_PATH``, a pip install through ``sys.prefix``), with the checkout
+itself hidden (``pmr_ros.resources.SOURCE_ROOT``) so the lookup cannot fall back
+on it.  Real installs are checked by scripts/check_colcon_install.sh and
+scripts/check_pip_install.sh (.ci/run).
 """
 
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import re
 import shutil
 import subprocess
@@ -14,11 +18,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from ros_fixtures import console_script
 
 import pmr_ros
 from pmr_ros import _version, resources
+from pmr_ros.resources import ResourceError, share_dir
 
 ROOT = Path(__file__).resolve().parents[1]
+INDEX_MARKER = Path("share") / "ament_index" / "resource_index" / "packages" / "pmr_ros"
 
 
 def manifest_version(path: Path) -> str:
@@ -35,6 +42,17 @@ def write_manifest(folder: Path, version: str, name: str = "pmr_ros") -> Path:
     return path
 
 
+def fake_prefix(prefix: Path, *, registered: bool = True, marker: str = "wood_berry.yaml") -> Path:
+    """An install prefix with ``share/pmr_ros/config/<marker>``, in the ament index or not."""
+    config = prefix / "share" / "pmr_ros" / "config"
+    config.mkdir(parents=True)
+    (config / marker).write_text("# fake\n")
+    if registered:
+        (prefix / INDEX_MARKER).parent.mkdir(parents=True)
+        (prefix / INDEX_MARKER).write_text("")
+    return config
+
+
 @pytest.fixture
 def nothing_installed(tmp_path, monkeypatch) -> Path:
     """Every place share_dir looks is empty: no checkout, no sourced workspace, an empty interpreter prefix."""
@@ -43,6 +61,16 @@ def nothing_installed(tmp_path, monkeypatch) -> Path:
     monkeypatch.setattr(sys, "base_prefix", str(tmp_path / "base"))
     monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
     return tmp_path
+
+
+@pytest.fixture(params=["ament_index_python", "environment only"])
+def ament_lookup(request, monkeypatch) -> str:
+    """Both ways resources.ament_prefixes reads the index: with ament_index_python and without it (a plain pip install)."""
+    if request.param == "environment only":
+        # None in sys.modules makes `import ament_index_python.packages` raise ImportError.
+        monkeypatch.setitem(sys.modules, "ament_index_python", None)
+        monkeypatch.setitem(sys.modules, "ament_index_python.packages", None)
+    return request.param
 
 
 # -- version -------------------------------------------------------------------
@@ -88,3 +116,65 @@ def test_read_package_xml_refuses_a_manifest_without_version(tmp_path):
     path.write_text("<package format='3'><name>pmr_ros</name></package>")
     with pytest.raises(ValueError, match="no <version>"):
         _version.read_package_xml(path)
+
+
+# -- data folders ----------------------------------------------------------------
+
+
+def test_share_dir_finds_a_sourced_colcon_workspace(nothing_installed, ament_lookup, monkeypatch):
+    with pytest.raises(ResourceError, match="wood_berry.yaml"):
+        share_dir("config", "wood_berry.yaml")
+    underlay = nothing_installed / "underlay"
+    underlay.mkdir()  # a prefix without pmr_ros before the workspace, as /opt/ros/jazzy would be
+    config = fake_prefix(nothing_installed / "ws" / "install" / "pmr_ros")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", os.pathsep.join([str(underlay), str(config.parents[2])]))
+    assert share_dir("config", "wood_berry.yaml") == config
+
+
+def test_share_dir_ignores_a_prefix_outside_the_ament_index(nothing_installed, ament_lookup, monkeypatch):
+    config = fake_prefix(nothing_installed / "stray", registered=False)
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(config.parents[2]))
+    with pytest.raises(ResourceError):
+        share_dir("config", "wood_berry.yaml")
+
+
+def test_share_dir_finds_a_pip_install(nothing_installed):
+    config = fake_prefix(nothing_installed / "venv", registered=False)
+    assert share_dir("config", "wood_berry.yaml") == config
+
+
+def test_share_dir_prefers_checkout_then_workspace_then_interpreter(nothing_installed, monkeypatch):
+    in_venv = fake_prefix(nothing_installed / "venv", registered=False)
+    workspace = fake_prefix(nothing_installed / "ws")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(workspace.parents[2]))
+    checkout = nothing_installed / "site-packages" / "config"
+    checkout.mkdir(parents=True)
+    (checkout / "wood_berry.yaml").write_text("# fake\n")
+    assert share_dir("config", "wood_berry.yaml") == checkout
+    shutil.rmtree(checkout)
+    assert share_dir("config", "wood_berry.yaml") == workspace
+    monkeypatch.delenv("AMENT_PREFIX_PATH")
+    assert share_dir("config", "wood_berry.yaml") == in_venv
+
+
+# -- executables -----------------------------------------------------------------
+
+
+def test_console_script_prefers_a_sourced_workspace(tmp_path, ament_lookup, monkeypatch):
+    prefix = tmp_path / "install" / "pmr_ros"
+    executable = prefix / "lib" / "pmr_ros" / "pmr_diagnostician"
+    executable.parent.mkdir(parents=True)
+    executable.write_text("#!/bin/sh\n")
+    (prefix / INDEX_MARKER).parent.mkdir(parents=True)
+    (prefix / INDEX_MARKER).write_text("")
+    monkeypatch.setenv("AMENT_PREFIX_PATH", str(prefix))
+    # Not executable: not a candidate (the venv's copy, installed by ./test.sh, is taken instead).
+    assert console_script("pmr_diagnostician") != str(executable)
+    executable.chmod(0o755)
+    assert console_script("pmr_diagnostician") == str(executable)
+
+
+def test_console_script_missing_fails_the_test(monkeypatch):
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
+    with pytest.raises(pytest.fail.Exception, match="no_such_pmr_ros_executable not installed"):
+        console_script("no_such_pmr_ros_executable")
