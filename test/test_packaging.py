@@ -9,12 +9,14 @@ scripts/check_pip_install.sh (.ci/run).
 
 from __future__ import annotations
 
+import ast
 import importlib.metadata
 import os
 import re
 import shutil
 import subprocess
 import sys
+import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 import pytest
@@ -178,3 +180,65 @@ def test_console_script_missing_fails_the_test(monkeypatch):
     monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
     with pytest.raises(pytest.fail.Exception, match="no_such_pmr_ros_executable not installed"):
         console_script("no_such_pmr_ros_executable")
+
+
+# -- declared dependencies -------------------------------------------------------
+
+ROSDEP_KEYS: dict[str, str | None] = {
+    # import name -> rosdep key in package.xml; None: no rosdep key exists (package.xml says so in a comment)
+    "rclpy": "rclpy",
+    "rcl_interfaces": "rcl_interfaces",
+    "builtin_interfaces": "builtin_interfaces",
+    "std_msgs": "std_msgs",
+    "sensor_msgs": "sensor_msgs",
+    "diagnostic_msgs": "diagnostic_msgs",
+    "rosgraph_msgs": "rosgraph_msgs",
+    "ament_index_python": "ament_index_python",
+    "numpy": "python3-numpy",
+    "scipy": "python3-scipy",
+    "yaml": "python3-yaml",
+    "rosbags": "python3-rosbags-pip",
+    "matplotlib": "python3-matplotlib",
+    "osqp": None,
+    "mcap": None,
+    # tests only
+    "pytest": "python3-pytest",
+    "control": "python-control-pip",
+    "mcap_ros2": "mcap-ros2-support",
+}
+
+
+def third_party_imports(folder: Path) -> set[str]:
+    """Top-level modules imported anywhere under ``folder`` that are neither the standard library nor the project's."""
+    names: set[str] = set()
+    for path in folder.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                names.update(alias.name.split(".")[0] for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names.add(node.module.split(".")[0])
+    local = {"pmr_ros", "ros_fixtures", "conftest"}
+    return {n for n in names if n not in sys.stdlib_module_names and n not in local}
+
+
+def message_packages() -> set[str]:
+    """ROS 2 packages of the message types the topic contract names (imported by name at run time)."""
+    text = (ROOT / "msg_defs" / "topics.yaml").read_text()
+    return set(re.findall(r"type:\s*([a-z_0-9]+)/msg/", text))
+
+
+def test_package_xml_declares_what_the_code_imports():
+    root = ElementTree.parse(ROOT / "package.xml").getroot()
+    run = {e.text.strip() for tag in ("depend", "exec_depend") for e in root.iter(tag)}
+    test = {e.text.strip() for tag in ("depend", "test_depend") for e in root.iter(tag)}
+    used = third_party_imports(ROOT / "pmr_ros") | message_packages()
+    tested = third_party_imports(ROOT / "test")
+    unknown = (used | tested) - ROSDEP_KEYS.keys()
+    assert not unknown, f"imports without a decided rosdep key (add them to ROSDEP_KEYS and package.xml): {sorted(unknown)}"
+    missing_run = {ROSDEP_KEYS[n] for n in used if ROSDEP_KEYS[n]} - run
+    assert not missing_run, f"package.xml lacks <exec_depend> of {sorted(missing_run)}"
+    missing_test = {ROSDEP_KEYS[n] for n in tested - used if ROSDEP_KEYS[n]} - test - run
+    assert not missing_test, f"package.xml lacks <test_depend> of {sorted(missing_test)}"
+    comment = (ROOT / "package.xml").read_text()
+    for name in (n for n in used | tested if ROSDEP_KEYS[n] is None):
+        assert re.search(rf"^\s+{name}\s", comment, re.MULTILINE), f"package.xml does not say why {name} has no rosdep key"
