@@ -15,6 +15,6 @@ STAMP="$VENV/.pmr_ros-installed"
 WANT="$(cat "$ROOT/setup.py" "$ROOT/package.xml" | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$WANT" ]; then
   echo "pmr_ros: installing dependencies into $VENV (about a minute the first time)" >&2
-  "$VENV/bin/python" -m pip install -q -e "$ROOT[ros,test]" >&2
+  "$VENV/bin/python" -m pip install -q -e "${ROOT}[ros,test]" >&2
   echo "$WANT" > "$STAMP"
 fi
