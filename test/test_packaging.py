@@ -162,18 +162,29 @@ def test_share_dir_prefers_checkout_then_workspace_then_interpreter(nothing_inst
 # -- executables -----------------------------------------------------------------
 
 
+def executable_file(path: Path, mode: int = 0o755) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("#!/bin/sh\n")
+    path.chmod(mode)
+    return path
+
+
 def test_console_script_prefers_a_sourced_workspace(tmp_path, ament_lookup, monkeypatch):
+    # A venv of its own (beside a fake interpreter) and an empty PATH: the result cannot depend on
+    # whether this environment has pmr_ros's scripts installed.
+    in_venv = executable_file(tmp_path / "venv" / "bin" / "pmr_diagnostician")
+    monkeypatch.setattr(sys, "executable", str(tmp_path / "venv" / "bin" / "python"))
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
     prefix = tmp_path / "install" / "pmr_ros"
-    executable = prefix / "lib" / "pmr_ros" / "pmr_diagnostician"
-    executable.parent.mkdir(parents=True)
-    executable.write_text("#!/bin/sh\n")
+    in_workspace = executable_file(prefix / "lib" / "pmr_ros" / "pmr_diagnostician", mode=0o644)
     (prefix / INDEX_MARKER).parent.mkdir(parents=True)
     (prefix / INDEX_MARKER).write_text("")
     monkeypatch.setenv("AMENT_PREFIX_PATH", str(prefix))
-    # Not executable: not a candidate (the venv's copy, installed by ./test.sh, is taken instead).
-    assert console_script("pmr_diagnostician") != str(executable)
-    executable.chmod(0o755)
-    assert console_script("pmr_diagnostician") == str(executable)
+    assert console_script("pmr_diagnostician") == str(in_venv)  # the workspace's copy is not executable
+    in_workspace.chmod(0o755)
+    assert console_script("pmr_diagnostician") == str(in_workspace)
+    monkeypatch.delenv("AMENT_PREFIX_PATH")
+    assert console_script("pmr_diagnostician") == str(in_venv)
 
 
 def test_console_script_missing_fails_the_test(monkeypatch):
