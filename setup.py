@@ -55,7 +55,7 @@ setup(
         "console_scripts": [
             "pmr-ros = pmr_ros.cli:main",
             # The ROS 2 node set (--ros-args --params-file config/wood_berry.yaml).
-            "wood_berry_plant = pmr_ros.nodes.wood_berry_plant:main",
+            "wood_berry_plant = pmr_ros.nodes.plant:main",
             "prbs_setpoint = pmr_ros.nodes.prbs_setpoint:main",
             "mpc_controller = pmr_ros.nodes.mpc_controller:main",
             "pmr_diagnostician = pmr_ros.nodes.pmr_diagnostician:main",

@@ -41,7 +41,10 @@ def main() -> None:
     bag = open_bag(REFERENCE)
     messages = list(bag.messages())
     n = len(messages)
-    print(f"reference bag: {REFERENCE} ({n} messages, {sum(f.stat().st_size for f in REFERENCE.iterdir()) / 2**20:.1f} MiB)")
+    print(
+        f"reference bag: {REFERENCE} ({n} messages, {sum(f.stat().st_size for f in REFERENCE.iterdir()) / 2**20:.1f} "
+        "MiB)"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for storage in ("mcap", "sqlite3"):
             counter = iter(range(10**6))

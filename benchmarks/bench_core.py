@@ -13,9 +13,9 @@ import platform
 import statistics
 import time
 
+from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
-from pmr_ros.core.diagnosis import diagnose_with
+from pmr_ros.core.diagnosis import diagnose
 from pmr_ros.core.mpc import LinearMpc
 from pmr_ros.core.plant import FoptdPlant
 from pmr_ros.core.prbs import PrbsGenerator
@@ -31,6 +31,7 @@ def closed_loop_rate(config, samples: int, always_solve_qp: bool) -> tuple[float
         plant.advance(mpc.step(y, prbs.value(k)))
     return samples / (time.perf_counter() - t0), mpc
 
+
 def main() -> None:
     config = load_config()
     print(f"pmr_ros core benchmark on {platform.processor() or platform.machine()}, Python {platform.python_version()}")
@@ -38,9 +39,15 @@ def main() -> None:
     rate, mpc = closed_loop_rate(config, samples, always_solve_qp=False)
     solves = mpc.statistics.solve_time_s
     print(f"closed loop (Wood-Berry, default MPC): {rate:,.0f} steps/s  (target >= 3,000)")
-    print(f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve {1e6 * statistics.median(solves):.0f} us")
+    print(
+        f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve "
+        f"{1e6 * statistics.median(solves):.0f} us"
+    )
     rate_qp, mpc_qp = closed_loop_rate(config, samples, always_solve_qp=True)
-    print(f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve {1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us")
+    print(
+        f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve "
+        f"{1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us"
+    )
 
     for label, cfg in (("2x2", config), ("3x3", load_config("config/three_by_three.yaml"))):
         record = simulate(cfg, samples=8192)
@@ -48,10 +55,16 @@ def main() -> None:
             times = []
             for _ in range(10):
                 t0 = time.perf_counter()
-                diagnose_with(record.r, record.u, record.y, cfg.model, cfg.pmr, cfg.parametric, method)
+                diagnose(
+                    record.r, record.u, record.y, model=cfg.model, pmr=cfg.pmr, parametric=cfg.parametric, method=method
+                )
                 times.append(time.perf_counter() - t0)
             target = "  (target <= 50 ms)" if (label, method) == ("2x2", "classic") else ""
-            print(f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, best {1e3 * min(times):.1f} ms{target}")
+            print(
+                f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, "
+                f"best {1e3 * min(times):.1f} ms{target}"
+            )
+
 
 if __name__ == "__main__":
     main()

@@ -23,11 +23,11 @@ NODES = ("pmr_diagnostician", "mpc_controller", "prbs_setpoint", "wood_berry_pla
 
 
 def one_process(samples: int, executor: str) -> float:
-    from pmr_ros.core.config import load_config
-    from pmr_ros.ros.node_set import run_node_set
+    from pmr_ros.config import load_config
+    from pmr_ros.node_set import NodeSetOptions, run_node_set
 
     config = load_config(overrides={"run": {"samples": samples}})
-    result = run_node_set(config, private=True, executor_kind=executor)
+    result = run_node_set(config, NodeSetOptions(private=True, executor_kind=executor))
     assert result.diagnosis.status == "ok", result.diagnosis.reason
     return result.samples_per_second
 
@@ -37,9 +37,10 @@ def four_processes(samples: int, domain_id: int) -> float:
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
 
-    from pmr_ros.core.config import config_dir
-    from pmr_ros.ros.contract import topic
-    from pmr_ros.ros.convert import diagnosis_from_array
+    from pmr_ros.config import config_dir
+    from pmr_ros.contract.layout import diagnosis_from_array
+    from pmr_ros.contract.topics import topic
+    from pmr_ros.ros.topics import message_class, qos_profile
 
     os.environ.update({"ROS_DOMAIN_ID": str(domain_id), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     folder = Path(tempfile.mkdtemp(prefix="bench_nodes_"))
@@ -47,7 +48,8 @@ def four_processes(samples: int, domain_id: int) -> float:
     run_file.write_text(
         "/**:\n  ros__parameters:\n"
         f"    run:\n      samples: {samples}\n"
-        f"    diagnostician:\n      window_samples: {samples}\n      update_period_samples: {samples}\n      min_samples: {samples}\n"
+        f"    diagnostician:\n      window_samples: {samples}\n      update_period_samples: {samples}\n      "
+        f"min_samples: {samples}\n"
     )
     context = Context()
     rclpy.init(context=context, domain_id=domain_id)
@@ -64,17 +66,12 @@ def four_processes(samples: int, domain_id: int) -> float:
 
     for key, callback in (("measured_output", on_y), ("diagnostics", on_diagnostics)):
         t = topic(key)
-        node.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+        node.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    bindir = Path(sys.executable).parent
     procs = []
     try:
-        for name in NODES:
-            procs.append(subprocess.Popen(
-                [str(bindir / name), "--ros-args", "--params-file", str(config_dir() / "wood_berry.yaml"), "--params-file", str(run_file)],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            ))
+        procs = start_nodes([config_dir() / "wood_berry.yaml", run_file])
         deadline = time.monotonic() + 600
         while "final" not in times and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
@@ -82,16 +79,33 @@ def four_processes(samples: int, domain_id: int) -> float:
             raise RuntimeError("no final verdicts from the four processes")
         return samples / (times["final"] - times["first_y"])
     finally:
-        for proc in procs:
-            proc.send_signal(signal.SIGINT)
-        for proc in procs:
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        stop_nodes(procs)
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def start_nodes(params_files: list[Path]) -> list[subprocess.Popen]:
+    """The four node executables as processes, each with the given params files."""
+    bindir = Path(sys.executable).parent
+    arguments = [item for path in params_files for item in ("--params-file", str(path))]
+    return [
+        subprocess.Popen(
+            [str(bindir / name), "--ros-args", *arguments], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
+        for name in NODES
+    ]
+
+
+def stop_nodes(procs: list[subprocess.Popen]) -> None:
+    """Ctrl-C every process; kill what has not stopped after 10 s."""
+    for proc in procs:
+        proc.send_signal(signal.SIGINT)
+    for proc in procs:
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
 
 
 def main() -> None:
@@ -101,8 +115,12 @@ def main() -> None:
     args = parser.parse_args()
     print(f"lockstep node set, {args.samples} samples, Wood-Berry full mismatch, {os.cpu_count()} cores")
     for executor in ("events", "single"):
-        print(f"  one process, {executor:6s} executor : {one_process(args.samples, executor):7.0f} samples/s", flush=True)
-    print(f"  four processes                : {four_processes(args.samples, args.domain_id):7.0f} samples/s", flush=True)
+        print(
+            f"  one process, {executor:6s} executor : {one_process(args.samples, executor):7.0f} samples/s", flush=True
+        )
+    print(
+        f"  four processes                : {four_processes(args.samples, args.domain_id):7.0f} samples/s", flush=True
+    )
 
 
 if __name__ == "__main__":

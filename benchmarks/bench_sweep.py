@@ -14,9 +14,9 @@ import tempfile
 import time
 
 from pmr_ros.cli import main as cli_main
+from pmr_ros.config import load_config
 from pmr_ros.core.batch import run_lockstep
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
 from pmr_ros.core.foptd import SCENARIOS
 
 
@@ -31,8 +31,11 @@ def one_point(samples: int, seeds: int) -> None:
         simulate(config, samples=samples, seed=seed, scenario=scenario)
     serial = time.perf_counter() - t0
     solves = sum(s.solves for s in result.statistics)
-    print(f"one point, {len(runs)} runs x {samples} samples: lockstep {lockstep:.2f} s, simulate() per run {serial:.2f} s "
-          f"(x{serial / lockstep:.1f}); OSQP solves {solves} ({100 * solves / (len(runs) * samples):.0f} % of steps)")
+    print(
+        f"one point, {len(runs)} runs x {samples} samples: lockstep {lockstep:.2f} s, simulate() per run {serial:.2f} "
+        "s "
+        f"(x{serial / lockstep:.1f}); OSQP solves {solves} ({100 * solves / (len(runs) * samples):.0f} % of steps)"
+    )
 
 
 def full_sweep(jobs: int) -> None:
@@ -40,7 +43,10 @@ def full_sweep(jobs: int) -> None:
         t0 = time.perf_counter()
         code = cli_main(["sweep", "--out", f"{tmp}/sweep", "--jobs", str(jobs), "--no-report"])
         wall = time.perf_counter() - t0
-    print(f"default sweep (2 x 37 nu x 5 scenarios x 5 seeds x 16384 samples) on {jobs} processes: {wall:.0f} s (exit {code})")
+    print(
+        f"default sweep (2 x 37 nu x 5 scenarios x 5 seeds x 16384 samples) on {jobs} processes: {wall:.0f} s (exit "
+        f"{code})"
+    )
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
-from .core.config import ConfigError
+from .config import ConfigError
 from .ros.signals import RosInitError
 
 COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
@@ -25,6 +25,7 @@ COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``pmr-ros`` argument parser with every sub-command of :data:`COMMANDS`."""
     parser = argparse.ArgumentParser(
         prog="pmr-ros",
         description="Model-plant mismatch diagnosis for MPC with the plant-model ratio (PMR).",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from pmr_ros.core.config import load_config
+from pmr_ros.config import load_config
 
 
 @pytest.fixture(scope="session")

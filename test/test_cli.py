@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from pmr_ros.cli import main
-from pmr_ros.core.config import config_dir
+from pmr_ros.config import config_dir
 
 
 def test_run_prints_table_and_writes_json_report(tmp_path, capsys):
@@ -18,14 +18,17 @@ def test_run_prints_table_and_writes_json_report(tmp_path, capsys):
     assert "G21" in text and "scenario full" in text and "seed 2" in text
     report = json.loads(out.read_text())
     assert set(report["elements"]) == {"G11", "G12", "G21", "G22"}
+    assert report["method"] == "parametric"  # the declared default
     for element in report["elements"].values():
-        assert isinstance(element["gain_ratio"], float)
-        assert isinstance(element["gain_mismatch"], bool)
-        assert isinstance(element["tau_index"], float)
-        assert isinstance(element["tau_mismatch"], bool)
-        assert isinstance(element["delay_mismatch_samples"], int)
-        assert isinstance(element["delay_mismatch"], bool)
-    assert report["elements"]["G21"]["delay_mismatch_samples"] == 2
+        classic, parametric = element["classic"], element["parametric"]
+        assert isinstance(classic["gain_ratio"], float) and isinstance(classic["gain_mismatch"], bool)
+        assert isinstance(classic["tau_index"], float) and isinstance(classic["tau_mismatch"], bool)
+        assert isinstance(classic["delay_mismatch_samples"], int) and isinstance(classic["delay_mismatch"], bool)
+        assert isinstance(parametric["gain_mismatch_pct"], float) and len(parametric["gain_mismatch_pct_interval"]) == 2
+        assert element["verdict"] == parametric["verdict"] == "mismatch"
+        assert element["model"]["kind"] == "foptd"
+    assert report["elements"]["G21"]["parametric"]["delay_mismatch_samples"] == 2
+    assert report["elements"]["G21"]["classic"]["delay_mismatch_samples"] == 2
     assert report["injected"]["G12"] == {"gain_pct": 15.0, "time_constant_pct": 12.0, "delay_samples": 1}
     assert report["scenario"] == "full" and report["seed"] == 2 and report["status"] == "ok"
 
@@ -39,7 +42,9 @@ def test_insufficient_data_is_a_verdict_and_exit_3(tmp_path, capsys):
 
 def test_bad_config_is_one_line_naming_file_and_field(tmp_path, capsys):
     cfg = tmp_path / "bad.yaml"
-    cfg.write_text((config_dir() / "wood_berry.yaml").read_text().replace("[16.7, 21.0, 10.9, 14.4]", "[16.7, 21.0, -10.9, 14.4]"))
+    cfg.write_text(
+        (config_dir() / "wood_berry.yaml").read_text().replace("[16.7, 21.0, 10.9, 14.4]", "[16.7, 21.0, -10.9, 14.4]")
+    )
     assert main(["run", "--batch", "--config", str(cfg)]) == 2
     err = capsys.readouterr().err
     assert str(cfg) in err and "system.time_constant[2] (G21)" in err and "-10.9" in err
@@ -50,7 +55,10 @@ def test_missing_config_file(capsys):
     assert "/no/such/file.yaml" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv,words", [(["run", "--scenario", "bogus"], "invalid choice: 'bogus'"), (["run", "--samples", "-5"], "must be > 0")])
+@pytest.mark.parametrize(
+    "argv,words",
+    [(["run", "--scenario", "bogus"], "invalid choice: 'bogus'"), (["run", "--samples", "-5"], "must be > 0")],
+)
 def test_bad_options_exit_2(argv, words, capsys):
     with pytest.raises(SystemExit) as info:
         main(argv)
@@ -59,7 +67,16 @@ def test_bad_options_exit_2(argv, words, capsys):
 
 def test_console_script_error_has_no_traceback(tmp_path):
     cfg = tmp_path / "bad.yaml"
-    cfg.write_text((config_dir() / "wood_berry.yaml").read_text().replace("[1.0, 3.0, 7.0, 3.0]", "[1.0, 3.0, 7.5, 3.0]"))
-    proc = subprocess.run([sys.executable, "-m", "pmr_ros.cli", "run", "--batch", "--config", str(cfg)], capture_output=True, text=True, timeout=120)
+    cfg.write_text(
+        (config_dir() / "wood_berry.yaml").read_text().replace("[1.0, 3.0, 7.0, 3.0]", "[1.0, 3.0, 7.5, 3.0]")
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "pmr_ros.cli", "run", "--batch", "--config", str(cfg)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr and "system.delay[2]" in proc.stderr and "whole number of samples" in proc.stderr
+    assert (
+        "Traceback" not in proc.stderr and "system.delay[2]" in proc.stderr and "whole number of samples" in proc.stderr
+    )

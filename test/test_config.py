@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from pmr_ros.core.config import ConfigError, config_dir, flatten_parameters, load_config, read_parameter_file
+from pmr_ros.config import ConfigError, config_dir, flatten_parameters, load_config, read_parameter_file
 
 
 def test_shipped_wood_berry_is_the_standard_matrix(wood_berry):
@@ -54,7 +54,7 @@ def _write(tmp_path: Path, change: dict, base: str = "wood_berry.yaml") -> Path:
     "change,field,words",
     [
         ({"system": {"input_names": ["reflux", "steam", "feed"]}}, "system.input_names", "square"),
-        ({"system": {"gain": [[12.8, -18.9], [6.6]]}}, "system.gain", "ragged"),
+        ({"system": {"gain": [[12.8, -18.9], [6.6]]}}, "system.gain", "must be 2 rows of 2"),
         ({"system": {"gain": [12.8, -18.9, 6.6]}}, "system.gain", "needs 4 entries"),
         ({"system": {"time_constant": [16.7, 21.0, 0.0, 14.4]}}, "system.time_constant[2] (G21)", "> 0"),
         ({"system": {"time_constant": [16.7, -21.0, 10.9, 14.4]}}, "system.time_constant[1] (G12)", "> 0"),
@@ -89,3 +89,99 @@ def test_unreadable_and_malformed_files(tmp_path):
     bad.write_text("system:\n  gain: 1\n")
     with pytest.raises(ConfigError, match="ros__parameters"):
         read_parameter_file(bad)
+
+
+def test_every_default_comes_from_the_declaration(tmp_path):
+    """A file with the system block alone gets every declared default, and the dataclasses carry them."""
+    from pmr_ros.config import schema
+
+    doc = yaml.safe_load((config_dir() / "wood_berry.yaml").read_text())
+    path = tmp_path / "system_only.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": {"system": doc["/**"]["ros__parameters"]["system"]}}}))
+    config = load_config(path)
+    assert config.pmr.method == schema.parameter("pmr.method").default == "parametric"
+    assert config.pmr.tau_index_threshold == schema.parameter("pmr.tau_index_threshold").default == 8.0
+    assert config.parametric.max_condition == schema.parameter("parametric.max_condition").default
+    assert config.diagnostician.window_samples == schema.parameter("diagnostician.window_samples").default
+    np.testing.assert_array_equal(config.mismatch.gain_pct, 0.0)
+    flat = flatten_parameters(config.parameters)
+    for name, spec in schema.parameters().items():
+        if not spec.required and spec.block != "system":
+            assert flat[name] == spec.default, name
+
+
+def test_declared_scenarios_are_the_cores():
+    from pmr_ros.config import schema
+    from pmr_ros.core.foptd import SCENARIOS
+
+    assert schema.parameter("run.scenario").choices == SCENARIOS
+
+
+@pytest.mark.parametrize(
+    "change,field,words",
+    [
+        (
+            {"mpc": {"predicton_horizon": 5}},
+            "mpc.predicton_horizon",
+            "unknown parameter; did you mean mpc.prediction_horizon?",
+        ),
+        ({"system": {"gian": [1.0, 2.0, 3.0, 4.0]}}, "system.gian", "did you mean system.gain?"),
+        (
+            {"diagnostician": {"windw_samples": 10}},
+            "diagnostician.windw_samples",
+            "did you mean diagnostician.window_samples?",
+        ),
+        ({"mcp": {"prediction_horizon": 5}}, "mcp", "unknown block"),
+    ],
+)
+def test_a_typo_is_an_error_naming_the_nearest_known_key(tmp_path, change, field, words):
+    path = _write(tmp_path, change)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: {field}") and words in message
+    if field == "mcp":
+        assert "did you mean mpc?" in message
+
+
+def test_a_block_that_is_not_a_mapping_says_so(tmp_path):
+    for block, value in (("mpc", 5), ("noise", [1, 2])):
+        with pytest.raises(ConfigError, match=f"{block} = .*must be a mapping of parameters"):
+            load_config(_write_raw(tmp_path, {block: value}))
+
+
+def _write_raw(tmp_path: Path, change: dict) -> Path:
+    doc = yaml.safe_load((config_dir() / "wood_berry.yaml").read_text())
+    doc["/**"]["ros__parameters"].update(change)
+    path = tmp_path / "raw.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_a_configuration_without_a_model_is_refused(tmp_path):
+    path = tmp_path / "no_system.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": {"mpc": {"prediction_horizon": 30}}}}))
+    with pytest.raises(ConfigError, match="system: missing: a configuration needs the controller's model"):
+        load_config(path)
+
+
+def test_command_line_values_are_blamed_on_the_command_line():
+    with pytest.raises(ConfigError) as info:
+        load_config(overrides={"run": {"seed": 99999999999999999999}})
+    assert str(info.value).startswith("command line: run.seed") and "wood_berry" not in str(info.value)
+
+
+def test_a_file_that_is_not_utf8_is_one_line(tmp_path):
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes((config_dir() / "wood_berry.yaml").read_bytes() + "# 20 \u00b0C\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"not UTF-8 text: byte 0xb0 on line \d+") as info:
+        load_config(path)
+    assert "\n" not in str(info.value)
+
+
+def test_malformed_yaml_is_one_line_with_the_place(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    system: [1, 2\n")
+    with pytest.raises(ConfigError, match=r"not valid YAML: .* at line \d+, column \d+") as info:
+        load_config(path)
+    assert "\n" not in str(info.value)

@@ -7,7 +7,8 @@ import copy
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 
-from pmr_ros.ros.contract import ContractError, load_contract, msg_defs_dir, parse_contract, topic  # noqa: E402
+from pmr_ros.contract.topics import ContractError, load_contract, msg_defs_dir, parse_contract, topic  # noqa: E402
+from pmr_ros.ros.topics import message_class, qos_profile  # noqa: E402
 
 KEYS = ("setpoint", "measured_output", "manipulated_input", "clock", "diagnostics", "estimates")
 
@@ -24,10 +25,11 @@ def test_contract_lists_every_topic_with_type_qos_and_fields():
     assert topic("clock").name == "/clock"
     for key in KEYS:
         t = topics[key]
-        cls = t.message_class()
+        cls = message_class(t)
         assert cls.__name__ == t.type.split("/")[-1]
-        profile = t.qos.profile()
+        profile = qos_profile(t.qos)
         assert profile.depth == t.qos.depth
+        assert profile.history.name == t.qos.history.upper() and profile.reliability.name == t.qos.reliability.upper()
         assert t.fields and t.description
     for key in ("setpoint", "measured_output", "manipulated_input"):
         assert topics[key].type == "sensor_msgs/msg/JointState"
@@ -35,11 +37,22 @@ def test_contract_lists_every_topic_with_type_qos_and_fields():
 
 
 def test_parse_contract_rejects_malformed_entries():
-    good = {"topics": {"x": {"name": "/x", "type": "std_msgs/msg/Float64", "qos": {"reliability": "reliable", "durability": "volatile", "depth": 1},
-                             "description": "d", "fields": {"data": "value"}}}}
+    good = {
+        "topics": {
+            "x": {
+                "name": "/x",
+                "type": "std_msgs/msg/Float64",
+                "qos": {"reliability": "reliable", "durability": "volatile", "depth": 1},
+                "description": "d",
+                "fields": {"data": "value"},
+            }
+        }
+    }
     assert parse_contract(good)["x"].qos.depth == 1
     cases = [
-        (("name",), "x", "absolute topic name"),
+        (("name",), "", "must be a topic name"),
+        (("name",), "~/private", "must be a topic name"),
+        (("qos", "history"), "keep_some", "history"),
         (("type",), "std_msgs/Float64", "package/msg/Type"),
         (("qos", "reliability"), "sometimes", "reliability"),
         (("qos", "durability"), "forever", "durability"),
@@ -65,3 +78,14 @@ def test_parse_contract_rejects_malformed_entries():
 def test_unknown_topic_key_is_a_clear_error():
     with pytest.raises(ContractError, match="no topic 'nope'"):
         topic("nope")
+
+
+def test_rclpy_and_rosbags_qos_come_from_one_mapping():
+    from pmr_ros.bag.schema import rosbags_qos
+
+    for t in load_contract().values():
+        profile, recorded = qos_profile(t.qos), rosbags_qos(t.qos)
+        assert profile.history.name == recorded.history.name
+        assert profile.reliability.name == recorded.reliability.name
+        assert profile.durability.name == recorded.durability.name
+        assert profile.depth == recorded.depth == t.qos.depth

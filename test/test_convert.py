@@ -1,4 +1,4 @@
-"""Message <-> numpy and core conversions (pmr_ros.ros.convert)."""
+"""Core results <-> the contract's messages (pmr_ros.ros.convert, pmr_ros.contract.layout)."""
 
 from __future__ import annotations
 
@@ -9,32 +9,80 @@ import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 
-from pmr_ros.core.pmr import Diagnosis, ElementDiagnosis  # noqa: E402
+from pmr_ros.contract.layout import (
+    decode_value,
+    diagnosis_from_array,
+    encode_value,
+    read_estimates,
+    read_signal,
+    status_values,
+)  # noqa: E402
+from pmr_ros.core.results import (
+    ClassicResult,
+    Diagnosis,
+    ElementDiagnosis,
+    ElementModel,
+    ParametricResult,
+    compare_diagnoses,
+)  # noqa: E402
 from pmr_ros.ros import convert  # noqa: E402
+
+MODEL = ElementModel("foptd", 12.8, 16.7, 1)
+WINDOW = {"window_samples": 4096, "first_sample": 10, "last_sample": 4105}
+
+
+def _classic(gain_ratio, gain, tau_index, tau, delay) -> ClassicResult:
+    return ClassicResult(gain_ratio, tau_index, delay, gain, tau, delay != 0)
 
 
 def _diagnosis() -> Diagnosis:
-    elements = {
-        "G11": ElementDiagnosis("G11", 1.0123456789012345, False, 1.5, False, 0, False),
-        "G12": ElementDiagnosis("G12", 1.15, True, 20.0, True, 1, True),
-        "G21": ElementDiagnosis("G21", 0.85, True, -3.0, False, 0, False),
-        "G22": ElementDiagnosis("G22", 0.9, True, -18.0, True, 0, False),
+    parts = {
+        "G11": _classic(1.0123456789012345, False, 1.5, False, 0),
+        "G12": _classic(1.15, True, 20.0, True, 1),
+        "G21": _classic(0.85, True, -3.0, False, 0),
+        "G22": _classic(0.9, True, -18.0, True, 0),
     }
-    return Diagnosis(elements, "ok", "", 4096)
+    elements = {
+        name: ElementDiagnosis(name, j // 2, j % 2, MODEL, "classic", classic=part)
+        for j, (name, part) in enumerate(parts.items())
+    }
+    return Diagnosis("classic", "ok", "", 4096, elements)
+
+
+def _parametric() -> Diagnosis:
+    p = ParametricResult(
+        gain_mismatch_pct=15.3,
+        gain_mismatch_pct_interval=(14.8, 15.9),
+        tau_mismatch_pct=-0.2,
+        tau_mismatch_pct_interval=(-0.8, 0.4),
+        delay_mismatch_samples=2,
+        delay_confidence=0.999,
+        gain_verdict="mismatch",
+        tau_verdict="ok",
+        delay_verdict="mismatch",
+        reasons=("a | reason",),
+        warnings=("row 1 mixes time constants",),
+        quality={"coherence": 0.9, "segment_length": 1024},
+    )
+    element = ElementDiagnosis(
+        "G21", 1, 0, MODEL, "parametric", classic=_classic(1.16, True, 21.0, True, 2), parametric=p
+    )
+    return Diagnosis("parametric", "ok", "", 4096, {"G21": element})
 
 
 def test_stamps_round_trip_to_the_nanosecond():
     for seconds in (0.0, 1.0, 16383.0, 12.5, 1e-9 * 7):
-        assert convert.seconds_from_stamp(convert.stamp_from_seconds(seconds)) == pytest.approx(seconds, abs=1e-12)
+        assert convert.stamp_from_seconds(seconds).sec + convert.stamp_from_seconds(
+            seconds
+        ).nanosec * 1e-9 == pytest.approx(seconds, abs=1e-12)
     stamp = convert.stamp_from_seconds(3.25)
     assert (stamp.sec, stamp.nanosec) == (3, 250_000_000)
-    assert convert.seconds_from_stamp(convert.clock_message(42.0).clock) == 42.0
 
 
 def test_signal_message_is_lossless_and_carries_names_and_stamp():
     values = np.random.default_rng(0).standard_normal(3) * 1e3
     msg = convert.signal_message(values, ("a", "b", "c"), 17.0, "sys")
-    stamp, names, back = convert.read_signal(msg)
+    stamp, names, back = read_signal(msg)
     assert stamp == 17.0 and names == ("a", "b", "c") and msg.header.frame_id == "sys"
     assert np.array_equal(back, values)
 
@@ -44,41 +92,120 @@ def test_element_level_counts_mismatched_properties():
     assert convert.element_level(d["G11"]) == DiagnosticStatus.OK
     assert convert.element_level(d["G21"]) == DiagnosticStatus.WARN
     assert convert.element_level(d["G12"]) == DiagnosticStatus.ERROR
+    assert convert.element_level(_parametric().elements["G21"]) == DiagnosticStatus.ERROR  # gain and delay
 
 
-def test_verdicts_round_trip_through_diagnostic_array():
-    diagnosis = _diagnosis()
-    statuses = convert.verdict_statuses(diagnosis, "pmr_diagnostician", "wood_berry", {"window_samples": 4096, "first_sample": 10, "last_sample": 4105})
-    assert [s.name for s in statuses] == ["pmr_diagnostician: G11", "pmr_diagnostician: G12", "pmr_diagnostician: G21", "pmr_diagnostician: G22"]
-    assert statuses[1].message == "gain +15 %, τ larger (index +20), delay +1 samples"
+@pytest.mark.parametrize("make", [_diagnosis, _parametric], ids=["classic", "parametric"])
+def test_verdicts_round_trip_exactly_through_diagnostic_array(make):
+    diagnosis = make()
+    statuses = convert.diagnosis_statuses(
+        diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=WINDOW
+    )
+    assert [s.name for s in statuses] == [f"pmr_diagnostician: {name}" for name in diagnosis.elements]
     msg = convert.diagnostic_array(statuses, 4105.0)
-    back, info = convert.diagnosis_from_array(msg, "pmr_diagnostician")
-    assert back.status == "ok" and back.samples == 4096
-    for name, element in diagnosis.elements.items():
-        assert back.elements[name].to_dict() == element.to_dict()
-    assert info["levels"] == {"G11": "OK", "G12": "ERROR", "G21": "WARN", "G22": "ERROR"}
-    assert info["last_sample"] == 4105 and info["first_sample"] == 10
-    assert convert.diagnosis_from_array(msg, "someone_else")[0].elements == {}
-    assert convert.status_values(statuses[0])["gain_ratio"] == 1.0123456789012345
+    back, info = diagnosis_from_array(msg, "pmr_diagnostician")
+    assert back.status == "ok" and back.samples == 4096 and back.method == diagnosis.method
+    assert back == diagnosis  # every field, every float to the last bit (lossless KeyValues)
+    assert info["last_sample"] == 4105 and info["first_sample"] == 10 and info["status"] == "ok"
+    assert diagnosis_from_array(msg, "someone_else")[0].elements == {}
+
+
+def test_status_message_and_values_are_readable():
+    statuses = convert.diagnosis_statuses(_diagnosis(), node_name="d", hardware_id="s", window=WINDOW)
+    assert statuses[1].message == "gain +15 %, τ larger (index +20), delay +1 samples"
+    values = status_values(statuses[0])
+    assert (
+        values["classic.gain_ratio"] == 1.0123456789012345
+        and values["verdict"] == "ok"
+        and values["model.kind"] == "foptd"
+    )
+    parametric = status_values(
+        convert.diagnosis_statuses(_parametric(), node_name="d", hardware_id="s", window=WINDOW)[0]
+    )
+    assert parametric["parametric.gain_mismatch_pct_interval"] == [14.8, 15.9] and parametric["parametric.reasons"] == [
+        "a | reason"
+    ]
 
 
 def test_no_verdict_statuses_carry_the_reason_and_no_numbers():
-    statuses = convert.no_verdict_statuses(["G11", "G12"], DiagnosticStatus.STALE, "u stopped", "diag", "sys", {"window_samples": 0})
+    models = {"G11": (0, 0, MODEL), "G12": (0, 1, MODEL)}
+    empty = Diagnosis.insufficient(method="parametric", models=models, reason="u stopped", samples=0)
+    statuses = convert.diagnosis_statuses(
+        empty, node_name="diag", hardware_id="sys", window={"window_samples": 0}, state="stale"
+    )
     assert all(s.level == DiagnosticStatus.STALE and s.message == "stale: u stopped" for s in statuses)
-    values = convert.status_values(statuses[0])
-    assert "gain_ratio" not in values and values["reason"] == "u stopped"
-    back, info = convert.diagnosis_from_array(convert.diagnostic_array(statuses, 0.0))
-    assert back.status == "insufficient_data" and back.reason == "u stopped"
-    assert all(e.gain_ratio is None for e in back.elements.values())
-    warn = convert.no_verdict_statuses(["G11"], DiagnosticStatus.WARN, "too short", "diag", "sys", {})
-    assert warn[0].message == "insufficient data: too short"
+    values = status_values(statuses[0])
+    assert values["classic"] is None and values["parametric"] is None and values["reason"] == "u stopped"
+    back, info = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0))
+    assert back.status == "insufficient_data" and back.reason == "u stopped" and info["status"] == "stale"
+    assert all(e.result is None and e.verdict == "inconclusive" for e in back.elements.values())
+    short = Diagnosis.insufficient(method="classic", models=models, reason="too short", samples=10)
+    warn = convert.diagnosis_statuses(short, node_name="diag", hardware_id="sys", window={})
+    assert warn[0].level == DiagnosticStatus.WARN and warn[0].message == "insufficient data: too short"
 
 
 def test_estimates_message_round_trip():
-    diagnosis = _diagnosis()
-    msg = convert.estimates_message(diagnosis, 99.0, "wood_berry")
-    assert msg.name[:3] == ["G11/gain_ratio", "G11/tau_index", "G11/delay_mismatch_samples"]
-    est = convert.read_estimates(msg)
-    assert est["G12"] == {"gain_ratio": 1.15, "tau_index": 20.0, "delay_mismatch_samples": 1.0}
-    empty = Diagnosis({"G11": ElementDiagnosis("G11")}, "insufficient_data", "x")
-    assert math.isnan(convert.read_estimates(convert.estimates_message(empty, 0.0, ""))["G11"]["gain_ratio"])
+    msg = convert.estimates_message(_diagnosis(), 99.0, "wood_berry")
+    assert msg.name[:3] == ["G11/classic.gain_ratio", "G11/classic.tau_index", "G11/classic.delay_mismatch_samples"]
+    est = read_estimates(msg)
+    assert est["G12"] == {"classic.gain_ratio": 1.15, "classic.tau_index": 20.0, "classic.delay_mismatch_samples": 1.0}
+    parametric = read_estimates(convert.estimates_message(_parametric(), 99.0, ""))["G21"]
+    assert (
+        parametric["parametric.gain_mismatch_pct_interval.low"] == 14.8
+        and parametric["parametric.delay_confidence"] == 0.999
+    )
+    empty = ElementDiagnosis("G11", 0, 0, MODEL, "parametric", parametric=ParametricResult(reasons=("no fit",)))
+    values = read_estimates(convert.estimates_message(Diagnosis("parametric", "ok", "", 1, {"G11": empty}), 0.0, ""))[
+        "G11"
+    ]
+    assert set(values) == set(parametric) and all(
+        math.isnan(v) for v in values.values()
+    )  # same names, NaN where no number
+
+
+def test_key_value_encoding_is_lossless_and_keeps_strings():
+    for value in (0.1 + 0.2, 1e-300, -3, True, None, [1.5, 2.0], "mismatch", "a | b"):
+        assert decode_value(encode_value(value)) == value
+    assert math.isnan(decode_value(encode_value(math.nan)))
+
+
+def test_compare_diagnoses_is_exact_for_verdicts_and_tolerant_for_floats():
+    a = _parametric()
+    p = a.elements["G21"].parametric
+    close = ParametricResult(**{**p.__dict__, "gain_mismatch_pct": p.gain_mismatch_pct * (1 + 1e-12)})
+    b = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {
+            "G21": ElementDiagnosis(
+                "G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=close
+            )
+        },
+    )
+    assert compare_diagnoses(a, b) == []
+    far = ParametricResult(**{**p.__dict__, "gain_mismatch_pct": p.gain_mismatch_pct * (1 + 1e-4)})
+    c = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {"G21": ElementDiagnosis("G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=far)},
+    )
+    assert [d.split(":")[0] for d in compare_diagnoses(a, c)] == ["elements.G21.parametric.gain_mismatch_pct"]
+    other = ParametricResult(**{**p.__dict__, "tau_verdict": "mismatch"})
+    d = Diagnosis(
+        "parametric",
+        "ok",
+        "",
+        4096,
+        {
+            "G21": ElementDiagnosis(
+                "G21", 1, 0, MODEL, "parametric", classic=a.elements["G21"].classic, parametric=other
+            )
+        },
+    )
+    assert [line.split(":")[0] for line in compare_diagnoses(a, d)] == [
+        "elements.G21.parametric.tau_verdict"
+    ]  # the verdict stays mismatch

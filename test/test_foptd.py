@@ -11,7 +11,9 @@ def _element(K=12.8, tau=16.7, theta=3.0, ts=1.0):
     return FoptdMatrix([[K]], [[tau]], [[theta]], ts)
 
 
-@pytest.mark.parametrize("K,tau,theta,ts", [(12.8, 16.7, 1.0, 1.0), (-19.4, 14.4, 3.0, 1.0), (6.6, 10.9, 7.0, 1.0), (2.0, 3.0, 1.0, 0.5)])
+@pytest.mark.parametrize(
+    "K,tau,theta,ts", [(12.8, 16.7, 1.0, 1.0), (-19.4, 14.4, 3.0, 1.0), (6.6, 10.9, 7.0, 1.0), (2.0, 3.0, 1.0, 0.5)]
+)
 def test_discrete_step_response_matches_python_control(K, tau, theta, ts):
     model = _element(K, tau, theta, ts)
     n = 200

@@ -36,7 +36,9 @@ def test_tracks_without_offset_under_mismatch_thanks_to_the_bias(wood_berry):
 
 
 def test_input_magnitude_and_rate_limits_hold(wood_berry):
-    tight = replace(wood_berry.mpc, u_min=np.array([-0.3, -0.2]), u_max=np.array([0.3, 0.2]), du_max=np.array([0.05, 0.04]))
+    tight = replace(
+        wood_berry.mpc, u_min=np.array([-0.3, -0.2]), u_max=np.array([0.3, 0.2]), du_max=np.array([0.05, 0.04])
+    )
     r = np.zeros((300, 2))
     r[20:150] = [3.0, -3.0]  # far beyond what the limits allow
     r[150:] = [-3.0, 3.0]

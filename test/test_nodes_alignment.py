@@ -1,11 +1,11 @@
-"""Aligning r, u and y by stamp, and rejecting bad traffic (pmr_ros.ros.alignment, no ROS)."""
+"""Aligning r, u and y by stamp, and rejecting bad traffic (pmr_ros.contract.alignment, no ROS)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pmr_ros.ros.alignment import SampleAligner, check_signal, sample_index
+from pmr_ros.contract.alignment import SampleAligner, check_signal, sample_index
 
 NAMES = {"r": ("x_D", "x_B"), "u": ("reflux", "steam"), "y": ("x_D", "x_B")}
 LABELS = {"r": "r on /pmr/setpoint", "u": "u on /pmr/manipulated_input", "y": "y on /pmr/measured_output"}

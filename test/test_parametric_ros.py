@@ -7,49 +7,66 @@ import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh):
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 
 from pmr_ros import cli  # noqa: E402
+from pmr_ros.config import load_config  # noqa: E402
+from pmr_ros.contract.layout import diagnosis_from_array, read_estimates  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.config import load_config  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose_with  # noqa: E402
-from pmr_ros.ros.convert import diagnosis_from_array, diagnostic_array, element_level, estimates_message, read_estimates, verdict_statuses  # noqa: E402
+from pmr_ros.core.diagnosis import diagnose  # noqa: E402
+from pmr_ros.core.results import ElementDiagnosis, ParametricResult  # noqa: E402
+from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_level, estimates_message  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def parametric_diagnosis():
     config = load_config()
     record = simulate(config, samples=8192)
-    return diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric, "parametric")
+    return diagnose(
+        record.r,
+        record.u,
+        record.y,
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        method="parametric",
+    )
 
 
 def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
     window = {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
-    msg = diagnostic_array(verdict_statuses(parametric_diagnosis, "pmr_diagnostician", "wood_berry", window), 8191.0)
+    statuses = diagnosis_statuses(
+        parametric_diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=window
+    )
+    msg = diagnostic_array(statuses, 8191.0)
     g21 = next(s for s in msg.status if s.name == "pmr_diagnostician: G21")
     assert "[" in g21.message and "MISMATCH" in g21.message  # numbers with intervals, for people
     back, info = diagnosis_from_array(msg)
     assert back.method == "parametric"
-    assert {n: e.to_dict() for n, e in back.elements.items()} == {n: e.to_dict() for n, e in parametric_diagnosis.elements.items()}
+    assert back.elements == parametric_diagnosis.elements
     assert info["levels"]["G21"] == "ERROR"  # three properties off
 
 
 def test_estimates_topic_has_the_intervals(parametric_diagnosis):
     values = read_estimates(estimates_message(parametric_diagnosis, 8191.0, "wood_berry"))
     g12 = values["G12"]
-    assert g12["gain_mismatch_pct_low"] < g12["gain_mismatch_pct"] < g12["gain_mismatch_pct_high"]
-    assert g12["delay_mismatch_samples"] == 1 and g12["delay_confidence"] > 0.95
+    assert (
+        g12["parametric.gain_mismatch_pct_interval.low"]
+        < g12["parametric.gain_mismatch_pct"]
+        < g12["parametric.gain_mismatch_pct_interval.high"]
+    )
+    assert g12["parametric.delay_mismatch_samples"] == 1 and g12["parametric.delay_confidence"] > 0.95
 
 
 def test_inconclusive_without_mismatch_is_a_warning(parametric_diagnosis):
     element = parametric_diagnosis.elements["G11"]
-    p = element.parametric
-    saved = (p.gain_verdict, p.tau_verdict, p.delay_verdict, element.gain_mismatch, element.tau_mismatch, element.delay_mismatch)
-    try:
-        p.gain_verdict, p.tau_verdict, p.delay_verdict = "ok", "inconclusive", "ok"
-        element.gain_mismatch = element.tau_mismatch = element.delay_mismatch = False
-        assert element.verdict == "inconclusive" and element_level(element) == DiagnosticStatus.WARN
-        p.tau_verdict = "ok"
-        assert element_level(element) == DiagnosticStatus.OK
-    finally:
-        p.gain_verdict, p.tau_verdict, p.delay_verdict, element.gain_mismatch, element.tau_mismatch, element.delay_mismatch = saved
+
+    def with_verdicts(gain, tau, delay):
+        p = ParametricResult(
+            **{**element.parametric.__dict__, "gain_verdict": gain, "tau_verdict": tau, "delay_verdict": delay}
+        )
+        return ElementDiagnosis(**{**element.__dict__, "parametric": p})
+
+    inconclusive = with_verdicts("ok", "inconclusive", "ok")
+    assert inconclusive.verdict == "inconclusive" and element_level(inconclusive) == DiagnosticStatus.WARN
+    assert element_level(with_verdicts("ok", "ok", "ok")) == DiagnosticStatus.OK
 
 
 def test_node_set_with_method_parametric_matches_batch(tmp_path, ros_domain, capsys):
@@ -65,9 +82,13 @@ def test_node_set_with_method_parametric_matches_batch(tmp_path, ros_domain, cap
 def test_diagnostician_method_parameter_is_described_and_checked(ros_context):
     from rclpy.parameter import Parameter
 
+    from pmr_ros.config import flatten_parameters
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
+    from pmr_ros.ros.parameters import parameter_overrides
 
-    node = PmrDiagnosticianNode(context=ros_context)
+    node = PmrDiagnosticianNode(
+        context=ros_context, parameter_overrides=parameter_overrides(flatten_parameters(load_config().parameters))
+    )
     try:
         assert "parametric" in node.describe_parameter("pmr.method").description
         assert node.describe_parameter("parametric.gain_tolerance_pct").description
@@ -75,7 +96,7 @@ def test_diagnostician_method_parameter_is_described_and_checked(ros_context):
         refused = node.set_parameters([Parameter("pmr.method", value="bogus")])[0]
         assert not refused.successful and "pmr.method" in refused.reason and "classic, parametric" in refused.reason
         refused = node.set_parameters([Parameter("parametric.confidence_level", value=1.5)])[0]
-        assert not refused.successful and "must be < 1" in refused.reason
+        assert not refused.successful and "must be > 0 and < 1" in refused.reason
         ok = node.set_parameters([Parameter("pmr.method", value="classic")])[0]
         assert ok.successful and node.config.pmr.method == "classic"
     finally:

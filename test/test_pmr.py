@@ -5,10 +5,17 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from pmr_ros.config import load_config
 from pmr_ros.core.batch import worker_context
+from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
-from pmr_ros.core.pmr import InsufficientData, check_record, diagnose, estimate_pmr
+from pmr_ros.core.implicit import estimate_pmr
+from pmr_ros.core.record import InsufficientData, check_record
+
+
+def diagnose(r, u, y, model, settings):
+    return diagnose_classic(r, u, y, model=model, settings=settings)
+
 
 SEEDS = range(1, 6)
 
@@ -16,21 +23,21 @@ SEEDS = range(1, 6)
 def test_noise_free_pmr_with_plant_equal_to_model_is_one_with_zero_delay():
     config = load_config(overrides={"noise": {"std": 0.0}, "run": {"scenario": "none"}})
     rec = simulate(config, samples=8192)
-    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, model=config.model, welch=config.pmr.welch)
     informative = estimate.omega <= 1.0
     np.testing.assert_allclose(estimate.ratio[informative], 1.0, atol=1e-3)
     diagnosis = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     for element in diagnosis.elements.values():
-        assert element.gain_ratio == pytest.approx(1.0, abs=1e-3)
-        assert abs(element.tau_index) < 0.5
-        assert element.delay_mismatch_samples == 0
+        assert element.classic.gain_ratio == pytest.approx(1.0, abs=1e-3)
+        assert abs(element.classic.tau_index) < 0.5
+        assert element.classic.delay_mismatch_samples == 0
         assert element.verdict == "ok"
 
 
 def test_noise_free_pmr_equals_the_true_ratio_under_mismatch():
     config = load_config(overrides={"noise": {"std": 0.0}})
     rec = simulate(config, samples=8192, scenario="full")
-    estimate = estimate_pmr(rec.r, rec.u, rec.y, config.model, config.pmr)
+    estimate = estimate_pmr(rec.r, rec.u, rec.y, model=config.model, welch=config.pmr.welch)
     w = estimate.omega[estimate.omega <= 0.4]
     truth = config.plant("full").discretize().frequency_response(w) / config.model.discretize().frequency_response(w)
     np.testing.assert_allclose(estimate.ratio[: w.size], np.moveaxis(truth, -1, 0), rtol=0.02, atol=0.02)
@@ -46,7 +53,12 @@ def _run(args):
 @pytest.fixture(scope="module")
 def baseline_runs():
     """Every scenario x 5 seeds on Wood-Berry and on the 3x3, two processes at a time."""
-    jobs = [(path, s, seed) for path in (None, "config/three_by_three.yaml") for s in ("none", "gain", "time_constant", "delay", "full") for seed in SEEDS]
+    jobs = [
+        (path, s, seed)
+        for path in (None, "config/three_by_three.yaml")
+        for s in ("none", "gain", "time_constant", "delay", "full")
+        for seed in SEEDS
+    ]
     with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
         results = list(pool.map(_run, jobs))
     out = {}
@@ -56,7 +68,7 @@ def baseline_runs():
 
 
 def _matrix(d, key, n):
-    return np.array([d["elements"][name][key] for name in d["elements"]], dtype=float).reshape(n, n)
+    return np.array([d["elements"][name]["classic"][key] for name in d["elements"]], dtype=float).reshape(n, n)
 
 
 def test_full_mismatch_reproduces_section_3_3_on_wood_berry(baseline_runs, wood_berry):
@@ -78,14 +90,30 @@ def test_each_scenario_flags_exactly_its_own_parameters(baseline_runs, path, sce
     for seed in SEEDS:
         d = baseline_runs[(path, scenario, seed)]
         assert d["status"] == "ok"
-        np.testing.assert_array_equal(_matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "tau_mismatch", n).astype(bool), injected.time_constant_pct != 0, err_msg=f"tau flags, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "delay_mismatch", n).astype(bool), injected.delay_samples != 0, err_msg=f"delay flags, seed {seed}")
-        np.testing.assert_allclose(_matrix(d, "gain_ratio", n), injected.gain_ratio, atol=0.03, err_msg=f"gain ratios, seed {seed}")
-        np.testing.assert_array_equal(_matrix(d, "delay_mismatch_samples", n), injected.delay_samples, err_msg=f"delays, seed {seed}")
+        np.testing.assert_array_equal(
+            _matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}"
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "tau_mismatch", n).astype(bool),
+            injected.time_constant_pct != 0,
+            err_msg=f"tau flags, seed {seed}",
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "delay_mismatch", n).astype(bool),
+            injected.delay_samples != 0,
+            err_msg=f"delay flags, seed {seed}",
+        )
+        np.testing.assert_allclose(
+            _matrix(d, "gain_ratio", n), injected.gain_ratio, atol=0.03, err_msg=f"gain ratios, seed {seed}"
+        )
+        np.testing.assert_array_equal(
+            _matrix(d, "delay_mismatch_samples", n), injected.delay_samples, err_msg=f"delays, seed {seed}"
+        )
         tau = _matrix(d, "tau_index", n)
         moved = injected.time_constant_pct != 0
-        np.testing.assert_array_equal(np.sign(tau[moved]), np.sign(injected.time_constant_pct[moved]), err_msg=f"tau signs, seed {seed}")
+        np.testing.assert_array_equal(
+            np.sign(tau[moved]), np.sign(injected.time_constant_pct[moved]), err_msg=f"tau signs, seed {seed}"
+        )
 
 
 def test_constant_setpoints_are_insufficient_data(wood_berry):
@@ -93,7 +121,7 @@ def test_constant_setpoints_are_insufficient_data(wood_berry):
     rec = simulate(config, samples=4096)
     d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     assert d.status == "insufficient_data" and "no excitation" in d.reason
-    assert all(e.gain_ratio is None and e.verdict == "inconclusive" for e in d.elements.values())
+    assert all(e.classic is None and e.verdict == "inconclusive" for e in d.elements.values())
     assert d.elements["G11"].summary().startswith("insufficient data: no excitation")
     assert d.to_dict()["elements"]["G11"]["reasons"] == [d.reason]
 
@@ -116,9 +144,9 @@ def test_check_record_rejects_nan_and_wrong_shapes(wood_berry):
     y = rec.y.copy()
     y[100, 1] = np.nan
     with pytest.raises(InsufficientData, match="NaN"):
-        check_record(rec.r, rec.u, y, wood_berry.model, wood_berry.pmr)
+        check_record(rec.r, rec.u, y, model=wood_berry.model, welch=wood_berry.pmr.welch)
     with pytest.raises(InsufficientData, match="shape"):
-        check_record(rec.r, rec.u[:, :1], rec.y, wood_berry.model, wood_berry.pmr)
+        check_record(rec.r, rec.u[:, :1], rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)
     with pytest.raises(InsufficientData, match="lengths"):
-        check_record(rec.r, rec.u[:-1], rec.y, wood_berry.model, wood_berry.pmr)
-    check_record(rec.r, rec.u, rec.y, wood_berry.model, wood_berry.pmr)  # a good record passes
+        check_record(rec.r, rec.u[:-1], rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)
+    check_record(rec.r, rec.u, rec.y, model=wood_berry.model, welch=wood_berry.pmr.welch)  # a good record passes

@@ -44,7 +44,7 @@ def test_generator_levels_clock_and_period():
     assert set(np.unique(r[:, 1])) == {1.5, 2.5}
     # each bit is held for clock_period samples
     assert np.all(r[::8] == r[7::8][: r[::8].shape[0]])
-    np.testing.assert_array_equal(r[: gen.period_samples], r[gen.period_samples: 2 * gen.period_samples])
+    np.testing.assert_array_equal(r[: gen.period_samples], r[gen.period_samples : 2 * gen.period_samples])
     assert gen.period_samples == 1023 * 8
 
 
@@ -61,7 +61,9 @@ def test_channels_are_incoherent():
     # Different primitive polynomials, not shifted copies (which would be fully
     # coherent): with the period longer than the record, the coherence between
     # channels is that of independent white noise.
-    gen = PrbsGenerator(_settings(register_length=14, clock_period=1, amplitude=np.ones(3), nominal=np.zeros(3)), seed=1)
+    gen = PrbsGenerator(
+        _settings(register_length=14, clock_period=1, amplitude=np.ones(3), nominal=np.zeros(3)), seed=1
+    )
     r = gen.sequence(16384)
     white = np.random.default_rng(0).standard_normal((16384, 2))
     _, reference = coherence(white[:, 0], white[:, 1], nperseg=512)

@@ -53,4 +53,11 @@ def test_segment_statistics_of_hann_at_half_overlap():
     assert s.bin_correlation == pytest.approx(1 + 2 * (2 / 3) ** 2 + 2 * (1 / 6) ** 2)
     seg = segment_spectra(np.random.default_rng(0).standard_normal((2048, 2)), s)
     assert seg.segments == 7 and seg.ffts.shape == (7, 257, 2)
-    np.testing.assert_allclose(seg.cross(slice(0, 1), slice(1, 2)), cross_spectra(np.random.default_rng(0).standard_normal((2048, 2))[:, :1], np.random.default_rng(0).standard_normal((2048, 2))[:, 1:], s)[1])
+    np.testing.assert_allclose(
+        seg.cross(slice(0, 1), slice(1, 2)),
+        cross_spectra(
+            np.random.default_rng(0).standard_normal((2048, 2))[:, :1],
+            np.random.default_rng(0).standard_normal((2048, 2))[:, 1:],
+            s,
+        )[1],
+    )

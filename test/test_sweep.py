@@ -5,20 +5,31 @@ from __future__ import annotations
 import csv
 import io
 import json
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pmr_ros.cli import main
+from pmr_ros.config import load_config
+from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.config import load_config
 from pmr_ros.core.foptd import SCENARIOS
-from pmr_ros.core.pmr import diagnose
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
-from pmr_ros.sweep.plan import PlanError, SweepPlan, SweepPoint, element_index, nu_grid, parse_nu_list, row_time_constant_ratio
+from pmr_ros.sweep.plan import (
+    PlanError,
+    SweepPlan,
+    SweepPoint,
+    element_index,
+    nu_grid,
+    parse_nu_list,
+    row_time_constant_ratio,
+)
 from pmr_ros.sweep.progress import ProgressBar, format_duration
+from pmr_ros.sweep.report import paper_comparison_applies
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
 SAMPLES = 2048
@@ -33,7 +44,9 @@ def test_default_nu_grid_is_the_papers():
     assert len(grid) == 37 and grid[0] == 1.0 and grid[-1] == 10.0 and grid[5] == 2.25
 
 
-@pytest.mark.parametrize("args", [(5.0, 2.0, 0.25), (0.0, 2.0, 0.5), (1.0, 2.0, 0.0), (1.0, 2.0, -1.0), (1.0, float("inf"), 1.0)])
+@pytest.mark.parametrize(
+    "args", [(5.0, 2.0, 0.25), (0.0, 2.0, 0.5), (1.0, 2.0, 0.0), (1.0, 2.0, -1.0), (1.0, float("inf"), 1.0)]
+)
 def test_bad_nu_grid(args):
     with pytest.raises(PlanError):
         nu_grid(*args)
@@ -97,9 +110,14 @@ def test_small_sweep_csv_shape(small_sweep):
     assert len(rows) == 2 * 2 * 2 * 5 * 1 * 4
     assert {r["sweep"] for r in rows} == {"tau_G11", "tau_G21"}
     assert {r["method"] for r in rows} == {"classic", "parametric"}
-    assert {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(rows)
+    assert {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]) for r in rows}.__len__() == len(
+        rows
+    )
     parametric = [r for r in rows if r["method"] == "parametric"]
-    assert all(r["tau_mismatch_pct"] and float(r["gain_mismatch_pct_low"]) <= float(r["gain_mismatch_pct_high"]) for r in parametric)
+    assert all(
+        r["tau_mismatch_pct"] and float(r["gain_mismatch_pct_low"]) <= float(r["gain_mismatch_pct_high"])
+        for r in parametric
+    )
     assert {r["verdict"] for r in rows} <= {"ok", "mismatch", "inconclusive"}
     assert all(r["status"] == "ok" for r in rows)
     g11 = [r for r in rows if r["sweep"] == "tau_G11" and r["nu"] == "3.0"]
@@ -109,8 +127,13 @@ def test_small_sweep_csv_shape(small_sweep):
 def test_small_sweep_report(small_sweep):
     report = (small_sweep / "reproduction.md").read_text()
     assert "Breakdown points" in report and "eq. 16" in report
+    # The shipped Wood-Berry column: the paper's figures stand beside ours, and the configured loop is quoted.
+    assert "the paper reports ν ≈ 2.25" in report and "ν ≈ 2.5" in report and "Np = 40, Nc = 8" in report
+    assert "τ11/τ12 = 16.7ν/21 for the G11 sweep, τ21/τ22 = 10.9ν/14.4 for the G21 sweep" in report
     figures = sorted(p.name for p in (small_sweep / "figures").glob("*.png"))
-    assert figures == sorted(f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric"))
+    assert figures == sorted(
+        f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric")
+    )
     assert "Classic and parametric side by side" in report
     assert all((small_sweep / "figures" / f).stat().st_size < 300_000 for f in figures)
     assert json.loads((small_sweep / store.MANIFEST_FILE).read_text())["samples"] == SAMPLES
@@ -120,14 +143,22 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
     rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["method"] == "classic"]
     for scenario in SCENARIOS:
         record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
-        diagnosis = diagnose(record.r, record.u, record.y, wood_berry.model, wood_berry.pmr)
+        diagnosis = diagnose_classic(record.r, record.u, record.y, model=wood_berry.model, settings=wood_berry.pmr)
         for sweep in ("tau_G11", "tau_G21"):
             for row in (r for r in rows if r["scenario"] == scenario and r["sweep"] == sweep):
-                e = diagnosis.elements[row["element"]]
+                e = diagnosis.elements[row["element"]].classic
                 assert row["prediction_horizon"] == wood_berry.mpc.prediction_horizon
                 # exactly equal: same loop, same arithmetic, repr-exact CSV
-                assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (e.gain_ratio, e.tau_index, e.delay_mismatch_samples)
-                assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (e.gain_mismatch, e.tau_mismatch, e.delay_mismatch)
+                assert (row["gain_ratio"], row["tau_index"], row["delay_mismatch_samples"]) == (
+                    e.gain_ratio,
+                    e.tau_index,
+                    e.delay_mismatch_samples,
+                )
+                assert (row["gain_mismatch"], row["tau_mismatch"], row["delay_mismatch"]) == (
+                    e.gain_mismatch,
+                    e.tau_mismatch,
+                    e.delay_mismatch,
+                )
 
 
 def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
@@ -136,11 +167,15 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     argv = ["run", "--batch", "--scenario", "full", "--seed", "1", "--samples", str(SAMPLES), "--json", str(report)]
     main([*argv, "--method", "classic"])
     elements = json.loads(report.read_text())["elements"]
-    rows = [r for r in store.read_rows(small_sweep / store.RESULTS_FILE) if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"]
+    rows = [
+        r
+        for r in store.read_rows(small_sweep / store.RESULTS_FILE)
+        if r["nu"] == 1.0 and r["scenario"] == "full" and r["sweep"] == "tau_G11"
+    ]
     classic = [r for r in rows if r["method"] == "classic"]
     assert len(classic) == 4
     for row in classic:
-        e = elements[row["element"]]
+        e = elements[row["element"]]["classic"]
         assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
         assert row["tau_index"] == pytest.approx(e["tau_index"], rel=1e-12)
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"]
@@ -148,10 +183,12 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     main([*argv, "--method", "parametric"])
     elements = json.loads(report.read_text())["elements"]
     for row in (r for r in rows if r["method"] == "parametric"):
-        e = elements[row["element"]]
-        assert row["gain_ratio"] == pytest.approx(e["gain_ratio"], rel=1e-12)
+        e = elements[row["element"]]["parametric"]
+        assert row["gain_ratio"] == pytest.approx(1 + e["gain_mismatch_pct"] / 100, rel=1e-12)
         assert row["tau_mismatch_pct"] == pytest.approx(e["tau_mismatch_pct"], rel=1e-12)
-        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(e["tau_mismatch_pct_interval"], rel=1e-12)
+        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(
+            e["tau_mismatch_pct_interval"], rel=1e-12
+        )
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"] and row["verdict"] == e["verdict"]
 
 
@@ -208,8 +245,81 @@ def test_resume_after_interruption(small_sweep, tmp_path):
     assert sorted(lines) == sorted(full)
 
 
+RESUME = [
+    "--elements",
+    "G11",
+    "--nu",
+    "1,3.25",
+    "--seeds",
+    "2",
+    "--samples",
+    str(SAMPLES),
+    "--methods",
+    "classic,parametric",
+    "--jobs",
+    "1",
+    "--quiet",
+    "--no-report",
+]
+"""A sweep whose point G11 x 3.25 needs Np = 50 for the delay and full plants but only 40 for the others."""
+
+
+def _keyed(rows: list[dict]) -> dict[tuple, dict]:
+    """Rows by their identity (method, sweep, nu, scenario, seed, element)."""
+    return {(r["method"], r["sweep"], round(r["nu"], 9), r["scenario"], r["seed"], r["element"]): r for r in rows}
+
+
+def test_resumed_sweep_equals_the_uninterrupted_one(tmp_path, wood_berry):
+    full_out, out = tmp_path / "full", tmp_path / "resumed"
+    assert main(["sweep", "--out", str(full_out), *RESUME]) == 0
+    full = store.read_rows(full_out / store.RESULTS_FILE)
+    # Interrupted after some runs of the point nu = 3.25: its delay and full runs and (none, seed 1) are done.
+    done = [
+        r
+        for r in full
+        if r["nu"] != 3.25 or r["scenario"] in ("delay", "full") or (r["scenario"], r["seed"]) == ("none", 1)
+    ]
+    remaining = sorted(
+        {r["scenario"] for r in full} - {r["scenario"] for r in done if r["nu"] == 3.25 and r["seed"] == 2}
+    )
+    # The test can fail: the remaining runs' scenarios alone would get a shorter horizon than the plan's five.
+    model = wood_berry.model.with_time_constant(0, 0, 16.7 * 3.25)
+    plants = replace(wood_berry, model=model).plant
+    assert stable_tuning(model, [plants(s) for s in remaining], wood_berry.mpc).tuning.prediction_horizon == 40
+    assert stable_tuning(model, [plants(s) for s in SCENARIOS], wood_berry.mpc).tuning.prediction_horizon == 50
+    out.mkdir()
+    (out / store.MANIFEST_FILE).write_text((full_out / store.MANIFEST_FILE).read_text())
+    store.append_rows(out / store.RESULTS_FILE, done)
+    assert main(["sweep", "--out", str(out), "--resume", *RESUME]) == 0
+    resumed = _keyed(store.read_rows(out / store.RESULTS_FILE))
+    expected = _keyed(full)
+    assert len(resumed) == len(expected) == len(full) and resumed.keys() == expected.keys()
+    # Exactly equal, not approximately: both sweeps ran in this process on this machine (same
+    # arithmetic), and the CSV stores floats repr-exact; any difference is a different tuning or loop.
+    for key, row in expected.items():
+        assert resumed[key] == row, key
+
+
 def test_resume_refuses_other_samples(small_sweep, capsys):
-    assert main(["sweep", "--out", str(small_sweep), "--resume", "--nu", "1", "--seeds", "1", "--samples", "4096", "--quiet", "--no-report"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                "--out",
+                str(small_sweep),
+                "--resume",
+                "--nu",
+                "1",
+                "--seeds",
+                "1",
+                "--samples",
+                "4096",
+                "--quiet",
+                "--no-report",
+            ]
+        )
+        == 2
+    )
     assert "different samples" in capsys.readouterr().err
 
 
@@ -235,9 +345,117 @@ def test_interrupt_keeps_finished_points(tmp_path, wood_berry, monkeypatch):
     assert sorted(t.point.nu for t in left) == [1.0, 2.0]
 
 
+def test_report_only_refuses_another_configuration(small_sweep, tmp_path, capsys):
+    report = tmp_path / "report.md"
+    argv = ["sweep", "--out", str(small_sweep), "--report-only", "--report", str(report)]
+    assert main([*argv, "--config", "config/three_by_three.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert "another configuration" in err and "--config" in err and "Traceback" not in err and not report.exists()
+    assert main(argv) == 0 and "Np = 40" in report.read_text()
+
+
 def test_report_only_needs_results(tmp_path, capsys):
     assert main(["sweep", "--out", str(tmp_path), "--report-only"]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+# A 3x3 system with its own loop: none of the report's settings may be Wood-Berry's.
+OTHER_LOOP = """
+    mpc:
+      prediction_horizon: 50
+      control_horizon: 6
+    noise:
+      std: 0.15
+"""
+
+
+def test_report_of_another_system_quotes_its_own_configuration(tmp_path):
+    config_file = tmp_path / "three_by_three_np50.yaml"
+    config_file.write_text((Path("config") / "three_by_three.yaml").read_text() + OTHER_LOOP)
+    config = load_config(config_file)
+    assert (config.mpc.prediction_horizon, config.mpc.control_horizon, float(config.noise_std[0])) == (50, 6, 0.15)
+    out = tmp_path / "out"
+    argv = [
+        "sweep",
+        "--config",
+        str(config_file),
+        "--out",
+        str(out),
+        "--elements",
+        "G11,G23",
+        "--nu",
+        "1,1.5",
+        "--seeds",
+        "1",
+        "--samples",
+        str(SAMPLES),
+        "--methods",
+        "classic",
+        "--jobs",
+        "1",
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    report = (out / "reproduction.md").read_text()
+    expected = [
+        "three_by_three",
+        "Np = 50",
+        "Nc = 6",
+        "σ = 0.15",
+        "Ts = 1 t.u.",
+        "τ of G11 = 10·ν t.u.",
+        "τ of G23 = 11·ν t.u.",
+        f"τ11/(τ12·τ13)^(1/2) = 10ν/{np.sqrt(12.0 * 14.0):.4g}",
+        f"τ23/(τ21·τ22)^(1/2) = 11ν/{np.sqrt(15.0 * 13.0):.4g}",
+        "ΔK = [10, 0, -12, 0, 15, 0, -10, 0, 12] %",
+        "ΔD = [0, 0, 1, 2, 0, 0, 0, 1, 0] samples",
+        "the paper comparison does not apply",
+        "| G33 |",
+        "2048 samples per run",
+    ]
+    for text in expected:
+        assert text in report, text
+    # Wood-Berry's settings and the paper's published figures: none may appear for another system.
+    wood_berry = [
+        "16.7ν",
+        "16.7·ν",
+        "10.9ν",
+        "10.9·ν",
+        "/21 ",
+        "14.4 for",
+        "Np = 40",
+        "Nc = 8",
+        "Ts = 1 min",
+        "·ν min",
+        "eq. (15) on",
+        "paper eq. 16",
+        "paper eq. 17",
+        "paper ΔD",
+        "the paper reports",
+        "the paper:",
+        "paper's breakdown",
+        "Wood-Berry matrix",
+        "eq. (19)",
+        "beside the paper",
+        "the five of Table 2",
+        "Reproduction:",
+        "+20.85",
+        "-37.49",
+        "ν ≈ 2.25",
+        "ν ≈ 2.5",
+    ]
+    for text in wood_berry:
+        assert text not in report, text
+
+
+def test_paper_comparison_applies_to_the_shipped_wood_berry_column_only(wood_berry):
+    assert paper_comparison_applies(wood_berry)
+    assert not paper_comparison_applies(load_config("config/three_by_three.yaml"))
+    # Still named wood_berry, but another system or mismatch than the paper's: its numbers do not compare.
+    assert not paper_comparison_applies(load_config(overrides={"system": {"time_constant": [16.7, 21.0, 10.9, 20.0]}}))
+    assert not paper_comparison_applies(load_config(overrides={"mismatch": {"gain_pct": 5.0}}))
+    # Settings of the loop do not change the system: the comparison still applies.
+    assert paper_comparison_applies(load_config(overrides={"mpc": {"prediction_horizon": 60}, "noise": {"std": 0.2}}))
 
 
 # --- pieces -------------------------------------------------------------------------------------
@@ -245,9 +463,25 @@ def test_report_only_needs_results(tmp_path, capsys):
 
 def test_store_round_trip(tmp_path):
     row = dict.fromkeys(store.COLUMNS)
-    row.update(method="classic", sweep="tau_G11", element_swept="G11", nu=2.25, scenario="full", seed=3, element="G12",
-               gain_ratio=1.0 / 3.0, tau_index=float("nan"), gain_mismatch=True, tau_mismatch=False, status="ok",
-               delay_mismatch_samples=-2, samples=16384, mpc_solves=7, mpc_failures=0, tracking_rms=0.5)
+    row.update(
+        method="classic",
+        sweep="tau_G11",
+        element_swept="G11",
+        nu=2.25,
+        scenario="full",
+        seed=3,
+        element="G12",
+        gain_ratio=1.0 / 3.0,
+        tau_index=float("nan"),
+        gain_mismatch=True,
+        tau_mismatch=False,
+        status="ok",
+        delay_mismatch_samples=-2,
+        samples=16384,
+        mpc_solves=7,
+        mpc_failures=0,
+        tracking_rms=0.5,
+    )
     path = tmp_path / "r.csv"
     store.append_rows(path, [row])
     store.append_rows(path, [row])
@@ -258,7 +492,9 @@ def test_store_round_trip(tmp_path):
     assert store.complete_rows(back, 2) == back and store.complete_rows(back[:1], 2) == []
     store.rewrite(path, back[:1])
     assert len(store.read_rows(path)) == 1
-    assert store.config_fingerprint({"a": 1}) == store.config_fingerprint({"a": 1}) != store.config_fingerprint({"a": 2})
+    assert (
+        store.config_fingerprint({"a": 1}) == store.config_fingerprint({"a": 1}) != store.config_fingerprint({"a": 2})
+    )
     store.write_manifest(tmp_path, {"samples": 5})
     assert store.read_manifest(tmp_path) == {"samples": 5}
     (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
@@ -267,8 +503,15 @@ def test_store_round_trip(tmp_path):
 
 
 def _row(**kw):
-    row = {"status": "ok", "gain_ratio": 1.1, "true_gain_ratio": 1.1, "tau_index": 20.0, "true_time_constant_pct": 10.0,
-           "delay_mismatch_samples": 0, "true_delay_samples": 0}
+    row = {
+        "status": "ok",
+        "gain_ratio": 1.1,
+        "true_gain_ratio": 1.1,
+        "tau_index": 20.0,
+        "true_time_constant_pct": 10.0,
+        "delay_mismatch_samples": 0,
+        "true_delay_samples": 0,
+    }
     row.update(kw)
     return row
 
@@ -281,21 +524,46 @@ def test_run_correctness():
     assert run_correctness(_row(tau_index=5.0, true_time_constant_pct=0.0), 8.0)["tau"] is True
     assert run_correctness(_row(tau_index=9.0, true_time_constant_pct=0.0), 8.0)["tau"] is False
     assert run_correctness(_row(delay_mismatch_samples=1), 8.0)["delay"] is False
-    assert run_correctness(_row(status="insufficient_data", gain_ratio=None), 8.0) == {"gain": False, "tau": False, "delay": False}
+    assert run_correctness(_row(status="insufficient_data", gain_ratio=None), 8.0) == {
+        "gain": False,
+        "tau": False,
+        "delay": False,
+    }
 
 
 def _synthetic(nu, seed, gain):
     base = {c: None for c in store.COLUMNS}
-    base.update(method="classic", sweep="tau_G11", element_swept="G11", nu=nu, scenario="gain", seed=seed, element="G11",
-                row_time_constant_ratio=nu * 0.8, prediction_horizon=40, loop_spectral_radius=0.97, mpc_solves=10,
-                mpc_failures=0, samples=100, tracking_rms=1.0, true_time_constant_pct=0.0, tau_index=0.0)
+    base.update(
+        method="classic",
+        sweep="tau_G11",
+        element_swept="G11",
+        nu=nu,
+        scenario="gain",
+        seed=seed,
+        element="G11",
+        row_time_constant_ratio=nu * 0.8,
+        prediction_horizon=40,
+        loop_spectral_radius=0.97,
+        mpc_solves=10,
+        mpc_failures=0,
+        samples=100,
+        tracking_rms=1.0,
+        true_time_constant_pct=0.0,
+        tau_index=0.0,
+    )
     base.update(_row(gain_ratio=gain, tau_index=0.0, true_time_constant_pct=0.0))
     return base
 
 
 def test_summary_and_breakdown():
     rows = []
-    for nu, gains in ((1.0, (1.1, 1.1, 1.1)), (2.0, (1.1, 1.5, 1.1)), (3.0, (1.5, 1.5, 1.1)), (4.0, (1.1, 1.1, 1.1)), (5.0, (1.5, 1.5, 1.5))):
+    for nu, gains in (
+        (1.0, (1.1, 1.1, 1.1)),
+        (2.0, (1.1, 1.5, 1.1)),
+        (3.0, (1.5, 1.5, 1.1)),
+        (4.0, (1.1, 1.1, 1.1)),
+        (5.0, (1.5, 1.5, 1.5)),
+    ):
         rows += [_synthetic(nu, s, g) for s, g in enumerate(gains)]
     summary = summarize(rows, 8.0)
     assert [p.gain_wrong for p in summary] == [0, 1, 2, 0, 3]

@@ -1,8 +1,8 @@
 """Offline diagnosis of a bag: the live diagnostician's alignment and windows, without ROS.
 
 The recorded r, u and y messages go, in recording order, through the same
-:class:`~pmr_ros.ros.alignment.SampleAligner` and the same update schedule and
-window evaluation (:mod:`pmr_ros.ros.windowing`) as in the live
+:class:`~pmr_ros.contract.alignment.SampleAligner` and the same update schedule and
+window evaluation (:mod:`pmr_ros.contract.windowing`) as in the live
 ``pmr_diagnostician``, with the model, PMR settings and diagnostician window
 of the recorded configuration (or of ``--config``).  Every window the live
 node diagnosed is diagnosed again, and the verdicts recorded on /diagnostics
@@ -12,16 +12,16 @@ are compared with the offline ones number for number.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
-from ..core.config import ConfigError, PmrConfig, load_config, parse_config
-from ..core.pmr import Diagnosis, ElementDiagnosis
-from ..ros.alignment import SIGNALS, SampleAligner
-from ..ros.contract import topic
-from ..ros.layout import diagnosis_from_array, read_signal
-from ..ros.parameters import NodeSettings, parse_node_settings
-from ..ros.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
+from ..config import PmrConfig, load_config, parse_config
+from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.layout import diagnosis_from_array, read_signal
+from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
+from ..core.results import Diagnosis, compare_diagnoses
 from .reader import Bag
-from .schema import SIGNAL_KEYS, BagError
+from .schema import BagError
 
 DIAGNOSTICIAN_NODE = "pmr_diagnostician"
 """Name of the live diagnostician whose recorded statuses are compared."""
@@ -39,10 +39,11 @@ class RecordedVerdict:
     """
 
     diagnosis: Diagnosis
-    info: dict
+    info: dict[str, Any]
 
     @property
     def window(self) -> tuple[int, int] | None:
+        """``(first_sample, last_sample)`` of the diagnosed window, if the status names one."""
         if "first_sample" not in self.info:
             return None
         return int(self.info["first_sample"]), int(self.info["last_sample"])
@@ -55,9 +56,7 @@ class OfflineResult:
     Attributes
     ----------
     config : PmrConfig
-        The configuration diagnosed with (model, PMR settings).
-    settings : NodeSettings
-        The diagnostician's window settings used.
+        The configuration diagnosed with (model, PMR settings, the diagnostician's window).
     config_origin : str
         ``bag`` or the ``--config`` file.
     outcomes : list of WindowOutcome
@@ -78,11 +77,10 @@ class OfflineResult:
     """
 
     config: PmrConfig
-    settings: NodeSettings
     config_origin: str
     outcomes: list[WindowOutcome]
     recorded: list[RecordedVerdict]
-    comparisons: list[dict] = field(default_factory=list)
+    comparisons: list[dict[str, Any]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     messages: dict[str, int] = field(default_factory=dict)
     end_of_bag: bool = False
@@ -94,25 +92,29 @@ class OfflineResult:
 
     @property
     def final_diagnosis(self) -> Diagnosis:
+        """The diagnosis of the last window (without numbers when it had no verdict)."""
         outcome = self.final
         if outcome is None:
-            names = self.config.model.element_names()
-            return Diagnosis({n: ElementDiagnosis(n) for n in names}, "insufficient_data", "no diagnostician update in the bag's data", 0)
-        if outcome.kind == VERDICT:
-            return outcome.diagnosis
-        names = self.config.model.element_names()
-        return Diagnosis({n: ElementDiagnosis(n) for n in names}, "insufficient_data", outcome.reason, int(outcome.window.get("window_samples", 0)))
+            models = self.config.model.element_models()
+            return Diagnosis.insufficient(
+                method=self.config.pmr.method,
+                models=models,
+                reason="no diagnostician update in the bag's data",
+                samples=0,
+            )
+        return outcome.diagnosis
 
     @property
     def all_equal(self) -> bool:
+        """Whether every recorded window agrees with its offline diagnosis."""
         return all(c["equal"] for c in self.comparisons)
 
 
-def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConfig, NodeSettings, str]:
-    """The model, PMR and window settings to diagnose ``bag`` with.
+def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConfig, str]:
+    """The model, PMR and window settings to diagnose ``bag`` with, and where they came from.
 
-    The recorded configuration, unless ``config_path`` is given; a params file
-    there is laid over the shipped defaults like any ``--config``.
+    The recorded configuration, unless ``config_path`` is given (a params file
+    with at least the ``system`` block; the rest takes the declared defaults).
 
     Raises
     ------
@@ -122,31 +124,23 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
         The configuration is invalid.
     """
     if config_path is not None:
-        config = load_config(config_path)
-        tree = config.parameters
-        origin = str(config_path)
-    else:
-        recorded = bag.run_config()
-        if recorded is None:
-            raise BagError(f"{bag.path}: the bag holds no run configuration; pass --config FILE with the controller's model")
-        tree = recorded.params
-        origin = "bag"
-        config = parse_config(tree, f"{bag.path} (recorded configuration)")
-    try:
-        settings = parse_node_settings(tree, origin)
-    except ConfigError:
-        # A plain system file without the node-set block: the shipped diagnostician defaults.
-        settings = parse_node_settings(load_config().parameters, origin)
-    return config, settings, origin
+        return load_config(config_path), str(config_path)
+    recorded = bag.run_config()
+    if recorded is None:
+        raise BagError(
+            f"{bag.path}: the bag holds no run configuration; pass --config FILE with the controller's model"
+        )
+    return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
 
 
-def _recorded_verdicts(bag: Bag) -> list[RecordedVerdict]:
+def _recorded_verdicts(bag: Bag, config: PmrConfig) -> list[RecordedVerdict]:
     name = topic("diagnostics").name
     if name not in bag.topics:
         return []
     out = []
+    models = config.model.element_models()
     for message in bag.messages({name}):
-        diagnosis, info = diagnosis_from_array(bag.decode(message), DIAGNOSTICIAN_NODE)
+        diagnosis, info = diagnosis_from_array(bag.decode(message), DIAGNOSTICIAN_NODE, models=models)
         if info.get("levels"):
             out.append(RecordedVerdict(diagnosis, info))
     return out
@@ -154,7 +148,45 @@ def _recorded_verdicts(bag: Bag) -> list[RecordedVerdict]:
 
 def required_topics() -> dict[str, str]:
     """Topic name -> type the offline diagnosis needs (r, u, y)."""
-    return {topic(key).name: topic(key).type for key in SIGNAL_KEYS.values()}
+    return {topic(key).name: topic(key).type for key in SIGNAL_TOPICS.values()}
+
+
+def _replay(bag: Bag, config: PmrConfig) -> tuple[list[WindowOutcome], list[str], dict[str, int], bool]:
+    """Feed the bag's r, u, y through the live diagnostician's aligner and schedule."""
+    model, window = config.model, config.diagnostician
+    labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
+    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+    aligner = SampleAligner(model.sample_time, names, labels, window.window_samples, window.max_lag_samples)
+    by_topic = {topic(SIGNAL_TOPICS[s]).name: s for s in SIGNALS}
+    outcomes: list[WindowOutcome] = []
+    warnings: list[str] = []
+    counts = dict.fromkeys(SIGNALS, 0)
+    for message in bag.messages(set(by_topic)):
+        signal = by_topic[message.topic]
+        counts[signal] += 1
+        stamp, channel_names, values = read_signal(bag.decode(message))
+        offer = offer_signal(
+            aligner,
+            signal,
+            stamp_s=stamp,
+            names=channel_names,
+            values=values,
+            update_period_samples=window.update_period_samples,
+        )
+        warnings.extend(offer.result.warnings)
+        if offer.newly_lagging:
+            warnings.append(offer.newly_lagging)
+            outcomes.append(evaluate_window(aligner, config))
+        if offer.update_due:
+            outcomes.append(evaluate_window(aligner, config))
+    end_of_bag = False
+    if aligner.stretch_last is not None and (
+        not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last
+    ):
+        # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
+        outcomes.append(evaluate_window(aligner, config))
+        end_of_bag = True
+    return outcomes, warnings, counts, end_of_bag
 
 
 def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = None) -> OfflineResult:
@@ -169,59 +201,39 @@ def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = 
         A needed topic is missing, empty or of the wrong type, or no configuration.
     """
     bag.require(required_topics())
-    config, settings, origin = bag_configuration(bag, config_path)
+    config, origin = bag_configuration(bag, config_path)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
-    model = config.model
-    labels = {s: f"{s} on {topic(SIGNAL_KEYS[s]).name}" for s in SIGNALS}
-    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-    aligner = SampleAligner(model.sample_time, names, labels, settings.window_samples, settings.max_lag_samples)
-    by_topic = {topic(SIGNAL_KEYS[s]).name: s for s in SIGNALS}
-    outcomes: list[WindowOutcome] = []
-    warnings: list[str] = []
-    counts = dict.fromkeys(SIGNALS, 0)
-    for message in bag.messages(set(by_topic)):
-        signal = by_topic[message.topic]
-        counts[signal] += 1
-        stamp, channel_names, values = read_signal(bag.decode(message))
-        offer = offer_signal(aligner, signal, stamp, channel_names, values, settings.update_period_samples)
-        warnings.extend(offer.result.warnings)
-        if offer.newly_lagging:
-            warnings.append(offer.newly_lagging)
-            outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
-        if offer.update_due:
-            outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
-    end_of_bag = False
-    if aligner.stretch_last is not None and (not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last):
-        # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
-        outcomes.append(evaluate_window(aligner, config, settings.window_samples, settings.min_samples))
-        end_of_bag = True
-    result = OfflineResult(config, settings, origin, outcomes, _recorded_verdicts(bag), warnings=warnings, messages=counts, end_of_bag=end_of_bag)
+    outcomes, warnings, counts, end_of_bag = _replay(bag, config)
+    result = OfflineResult(
+        config,
+        origin,
+        outcomes,
+        _recorded_verdicts(bag, config),
+        warnings=warnings,
+        messages=counts,
+        end_of_bag=end_of_bag,
+    )
     result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
     if others:
-        result.warnings.insert(0, f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})")
+        result.warnings.insert(
+            0,
+            f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})",
+        )
     return result
 
 
-def verdict_numbers(diagnosis: Diagnosis | None) -> dict:
-    """Element -> every field of its report entry (empty for None).
-
-    /diagnostics carries all of them losslessly (``repr`` floats, the parametric
-    intervals, verdicts, reasons and quality included), so all are compared.
-    """
-    if diagnosis is None:
-        return {}
-    return {name: element.to_dict() for name, element in diagnosis.elements.items()}
-
-
-def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None) -> list[dict]:
-    """For every recorded verdict with a window, whether the offline one for that window is equal.
+def compare(
+    outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None
+) -> list[dict[str, Any]]:
+    """For every recorded verdict with a window, whether the offline one for that window agrees.
 
     With ``method``, recorded verdicts made with another method are left out.
-
-    Equal means the same kind (verdict or none) and, for a verdict, the same
-    numbers and flags exactly (KeyValues are lossless ``repr`` floats).
+    Agreeing means the same kind (verdict or none) and, for a verdict,
+    :func:`~pmr_ros.core.results.compare_diagnoses` finds no difference:
+    verdicts, flags, delays and strings equal, floats within its tolerance
+    (the same data diagnosed on another machine differ in the last digits).
     """
     offline = {}
     for outcome in outcomes:
@@ -230,21 +242,27 @@ def compare(outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], meth
     out = []
     for verdict in recorded:
         window = verdict.window
-        if window is None or (method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method):
+        if window is None or (
+            method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method
+        ):
             continue
         mine = offline.get(window)
-        entry = {"first_sample": window[0], "last_sample": window[1], "recorded_status": verdict.diagnosis.status}
+        entry: dict[str, Any] = {
+            "first_sample": window[0],
+            "last_sample": window[1],
+            "recorded_status": verdict.diagnosis.status,
+        }
         if mine is None:
             entry.update(equal=False, offline_status="not diagnosed offline")
         else:
             mine_ok = mine.kind == VERDICT
             entry["offline_status"] = "ok" if mine_ok else mine.kind
             if verdict.diagnosis.status == "ok" and mine_ok:
-                entry["equal"] = verdict_numbers(verdict.diagnosis) == verdict_numbers(mine.diagnosis)
+                entry["differences"] = compare_diagnoses(
+                    verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"]
+                )
+                entry["equal"] = not entry["differences"]
             else:
                 entry["equal"] = verdict.diagnosis.status != "ok" and not mine_ok
-            if not entry["equal"]:
-                entry.update(recorded=verdict_numbers(verdict.diagnosis), offline=verdict_numbers(mine.diagnosis))
         out.append(entry)
     return out
-

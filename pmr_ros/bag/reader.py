@@ -69,6 +69,7 @@ class Bag:
 
     @property
     def message_count(self) -> int:
+        """Messages in the bag, all topics."""
         return sum(self.counts.values())
 
     def messages(self, topics: set[str] | None = None) -> Iterator[BagMessage]:
@@ -83,7 +84,10 @@ class Bag:
         try:
             return typestore().deserialize_cdr(message.data, message.msgtype)
         except Exception as exc:  # any decoding failure of stored bytes means a corrupted record
-            raise BagError(f"{self.path}: a {message.msgtype} message on {message.topic} cannot be decoded ({type(exc).__name__}: {exc}); the bag is corrupted") from None
+            raise BagError(
+                f"{self.path}: a {message.msgtype} message on {message.topic} cannot be decoded "
+                f"({type(exc).__name__}: {exc}); the bag is corrupted"
+            ) from None
 
     def run_config(self) -> RunConfig | None:
         """The recorded configuration: metadata.yaml custom_data, else the run_config topic."""
@@ -107,7 +111,10 @@ class Bag:
         """
         for name, msgtype in topic_names.items():
             if name not in self.topics:
-                raise BagError(f"{self.path}: topic {name} ({msgtype}) is not in the bag (it has {', '.join(sorted(self.topics)) or 'no topics'})")
+                raise BagError(
+                    f"{self.path}: topic {name} ({msgtype}) is not in the bag (it has "
+                    f"{', '.join(sorted(self.topics)) or 'no topics'})"
+                )
             if self.topics[name] != msgtype:
                 raise BagError(f"{self.path}: topic {name} has type {self.topics[name]}, expected {msgtype}")
             if not self.counts.get(name):
@@ -115,11 +122,27 @@ class Bag:
 
 
 def _reader_error_types():
-    """What reading a damaged file raises: rosbags' ReaderError, but also whatever a garbage
-    length or offset makes the parser hit (OverflowError, AssertionError, struct.error, ...)."""
+    """What reading a damaged file raises.
+
+    rosbags' ReaderError, but also whatever a garbage length or offset makes
+    the parser hit (OverflowError, AssertionError, struct.error, ...).
+    """
     from rosbags.rosbag2.errors import ReaderError
 
-    return (ReaderError, OSError, struct.error, ValueError, KeyError, IndexError, EOFError, ArithmeticError, AssertionError, TypeError, AttributeError, MemoryError)
+    return (
+        ReaderError,
+        OSError,
+        struct.error,
+        ValueError,
+        KeyError,
+        IndexError,
+        EOFError,
+        ArithmeticError,
+        AssertionError,
+        TypeError,
+        AttributeError,
+        MemoryError,
+    )
 
 
 def _read_rosbag2(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
@@ -161,7 +184,10 @@ def open_bag(path: str | Path) -> Bag:
         if len(mcaps) == 1:
             return _recover_mcap(path, mcaps[0])
         if any(f.suffix == ".db3" for f in files):
-            raise BagError(f"{path}: no metadata.yaml (the recorder did not close this sqlite3 bag); run 'ros2 bag reindex {path}' first")
+            raise BagError(
+                f"{path}: no metadata.yaml (the recorder did not close this sqlite3 bag); run 'ros2 bag reindex "
+                f"{path}' first"
+            )
         raise BagError(f"{path}: not a rosbag2 bag (no metadata.yaml and no .mcap file)")
     return _open_complete(path)
 
@@ -187,43 +213,53 @@ def _open_complete(path: Path) -> Bag:
     return bag
 
 
+class _McapScan:
+    """The whole records of an MCAP stream, in order, up to the first broken one."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.schemas: dict[int, str] = {}
+        self.channels: dict[int, tuple[str, str]] = {}
+        self.messages: list[BagMessage] = []
+        self.footer = False
+
+    def take(self, record: object) -> None:
+        from mcap.records import Channel, Footer, Message, Schema
+
+        if isinstance(record, Schema):
+            self.schemas[record.id] = record.name
+        elif isinstance(record, Channel):
+            self.channels[record.id] = (record.topic, self.schemas.get(record.schema_id, ""))
+        elif isinstance(record, Message):
+            if record.channel_id not in self.channels:
+                raise BagError(f"{self.path}: message on unknown channel {record.channel_id}; the file is corrupted")
+            topic, msgtype = self.channels[record.channel_id]
+            self.messages.append(BagMessage(topic, msgtype, record.log_time, bytes(record.data)))
+        elif isinstance(record, Footer):
+            self.footer = True
+
+
 def _recover_mcap(path: Path, mcap_file: Path) -> Bag:
     """Read an MCAP file record by record up to the first incomplete record (a killed recording)."""
-    try:
-        from mcap.exceptions import McapError
-        from mcap.records import Channel, Footer, Message, Schema
-        from mcap.stream_reader import StreamReader
-    except ImportError:  # pragma: no cover - mcap is a dependency of pmr_ros
-        raise BagError(f"{path}: reading a bag without metadata.yaml needs the 'mcap' package") from None
+    from mcap.exceptions import McapError
+    from mcap.stream_reader import StreamReader
+
     if mcap_file.stat().st_size == 0:
         raise BagError(f"{path}: the bag is empty ({mcap_file.name} has 0 bytes)")
-    schemas: dict[int, str] = {}
-    channels: dict[int, tuple[str, str]] = {}
-    messages: list[BagMessage] = []
-    footer = False
+    scan = _McapScan(path)
     with mcap_file.open("rb") as handle:
-        records = StreamReader(handle, record_size_limit=1 << 30).records
         try:
-            for record in records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record.name
-                elif isinstance(record, Channel):
-                    channels[record.id] = (record.topic, schemas.get(record.schema_id, ""))
-                elif isinstance(record, Message):
-                    if record.channel_id not in channels:
-                        raise BagError(f"{path}: message on unknown channel {record.channel_id}; the file is corrupted")
-                    topic, msgtype = channels[record.channel_id]
-                    messages.append(BagMessage(topic, msgtype, record.log_time, bytes(record.data)))
-                elif isinstance(record, Footer):
-                    footer = True
+            for record in StreamReader(handle, record_size_limit=1 << 30).records:
+                scan.take(record)
         except (McapError, *_reader_error_types()) as exc:
             # The end of a killed recording: everything before this record is whole.
-            if not channels:
+            if not scan.channels:
                 raise BagError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
-    if not messages:
+    if not scan.messages:
         raise BagError(f"{path}: the bag is empty (no complete messages in {mcap_file.name})")
-    topics = {topic: msgtype for topic, msgtype in channels.values()}
+    topics = dict(scan.channels.values())
     counts: dict[str, int] = dict.fromkeys(topics, 0)
-    for m in messages:
+    for m in scan.messages:
         counts[m.topic] += 1
-    return Bag(path, "mcap", footer and path.is_dir() and (path / "metadata.yaml").is_file(), topics, counts, {}, messages)
+    complete = scan.footer and path.is_dir() and (path / "metadata.yaml").is_file()
+    return Bag(path, "mcap", complete, topics, counts, {}, scan.messages)

@@ -16,19 +16,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cache
+from typing import Any
 
 import yaml
 
 from .. import __version__
-from ..ros.contract import Topic, TopicQos, load_contract
+from ..contract.topics import Topic, TopicQos, load_contract
 
 RUN_CONFIG_KEY = "run_config"
 """Contract key of the latched topic with the run's configuration."""
 
-SIGNAL_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
-"""Contract keys of the diagnostician's signals."""
-
-CUSTOM_DATA_KEYS = ("pmr_ros.version", "pmr_ros.source", "pmr_ros.scenario", "pmr_ros.seed", "pmr_ros.samples", "pmr_ros.params")
+CUSTOM_DATA_KEYS = (
+    "pmr_ros.version",
+    "pmr_ros.source",
+    "pmr_ros.scenario",
+    "pmr_ros.seed",
+    "pmr_ros.samples",
+    "pmr_ros.params",
+)
 """Keys of the run's configuration in ``metadata.yaml`` ``custom_data`` (all strings)."""
 
 STORAGES = ("mcap", "sqlite3")
@@ -52,15 +57,19 @@ def recorded_topics() -> dict[str, Topic]:
     return dict(load_contract())
 
 
-def rosbags_qos(qos: TopicQos):
-    """The contract's QoS as the ``rosbags`` QoS of a connection (``offered_qos_profiles``)."""
+def rosbags_qos(qos: TopicQos) -> Any:
+    """The contract's QoS as the ``rosbags`` QoS of a connection (``offered_qos_profiles``).
+
+    Policy names come from :meth:`TopicQos.policies`, as for rclpy's profile.
+    """
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
+    names = qos.policies()
     return Qos(
-        history=QosHistory.KEEP_LAST,
+        history=getattr(QosHistory, names["history"]),
         depth=qos.depth,
-        reliability=QosReliability.RELIABLE if qos.reliability == "reliable" else QosReliability.BEST_EFFORT,
-        durability=QosDurability.TRANSIENT_LOCAL if qos.durability == "transient_local" else QosDurability.VOLATILE,
+        reliability=getattr(QosReliability, names["reliability"]),
+        durability=getattr(QosDurability, names["durability"]),
         deadline=QosTime(0, 0),
         lifespan=QosTime(0, 0),
         liveliness=QosLiveliness.AUTOMATIC,
@@ -90,14 +99,17 @@ class RunConfig:
 
     @property
     def scenario(self) -> str:
+        """The recorded ``run.scenario`` (empty when the run had none)."""
         return str(self.params.get("run", {}).get("scenario", ""))
 
     @property
     def seed(self) -> int | None:
+        """The recorded ``run.seed``, if any."""
         return self.params.get("run", {}).get("seed")
 
     @property
     def samples(self) -> int | None:
+        """The recorded ``run.samples``, if any."""
         return self.params.get("run", {}).get("samples")
 
     def params_yaml(self) -> str:
@@ -106,7 +118,13 @@ class RunConfig:
 
     def to_text(self) -> str:
         """The document published on the ``run_config`` topic (YAML)."""
-        return yaml.safe_dump({"pmr_ros_run_config": {"version": self.version, "source": self.source}, "/**": {"ros__parameters": self.params}}, sort_keys=False)
+        return yaml.safe_dump(
+            {
+                "pmr_ros_run_config": {"version": self.version, "source": self.source},
+                "/**": {"ros__parameters": self.params},
+            },
+            sort_keys=False,
+        )
 
     def custom_data(self) -> dict[str, str]:
         """``metadata.yaml`` custom_data entries (rosbag2 allows strings only)."""
@@ -121,7 +139,9 @@ class RunConfig:
             params = doc["/**"]["ros__parameters"]
             head = doc.get("pmr_ros_run_config", {}) or {}
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})") from None
+            raise BagError(
+                f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})"
+            ) from None
         if not isinstance(params, dict):
             raise BagError("the recorded run configuration has no parameter mapping under '/**: ros__parameters'")
         return cls(params, str(head.get("source", "")), str(head.get("version", "")))
@@ -135,5 +155,7 @@ class RunConfig:
         try:
             params = yaml.safe_load(text)["/**"]["ros__parameters"]
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})") from None
+            raise BagError(
+                f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})"
+            ) from None
         return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""))

@@ -17,7 +17,7 @@ import shutil
 import time
 from pathlib import Path
 
-from ..ros.contract import Topic
+from ..contract.topics import Topic
 from .schema import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 
 ROSBAG2_VERSION = 9
@@ -82,7 +82,15 @@ class BagWriter:
         When the bag cannot be created.
     """
 
-    def __init__(self, path: str | Path, *, storage: str = "mcap", force: bool = False, flush_period_s: float = DEFAULT_FLUSH_PERIOD_S, topics: dict[str, Topic] | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        storage: str = "mcap",
+        force: bool = False,
+        flush_period_s: float = DEFAULT_FLUSH_PERIOD_S,
+        topics: dict[str, Topic] | None = None,
+    ) -> None:
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.rosbag2.errors import WriterError
 
@@ -104,7 +112,9 @@ class BagWriter:
         store = typestore()
         self._connections = {}
         for t in self.topics.values():
-            self._connections[t.name] = self._writer.add_connection(t.name, t.type, typestore=store, offered_qos_profiles=[rosbags_qos(t.qos)])
+            self._connections[t.name] = self._writer.add_connection(
+                t.name, t.type, typestore=store, offered_qos_profiles=[rosbags_qos(t.qos)]
+            )
         self._types = {t.name: t.type for t in self.topics.values()}
         self._last_flush = time.monotonic()
         self._closed = False
@@ -158,6 +168,7 @@ class BagWriter:
     # -- end -----------------------------------------------------------------
     @property
     def message_count(self) -> int:
+        """Messages written so far, all topics."""
         return sum(self.counts.values())
 
     def close(self) -> None:

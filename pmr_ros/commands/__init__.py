@@ -19,7 +19,7 @@ EXIT_INTERRUPTED = 130
 
 
 def positive_int(text: str) -> int:
-    """argparse type: a whole number > 0."""
+    """Argparse type: a whole number > 0."""
     try:
         value = int(text)
     except ValueError:
@@ -30,7 +30,7 @@ def positive_int(text: str) -> int:
 
 
 def number(text: str) -> float:
-    """argparse type: a number (its range is checked by the command, with a clearer message)."""
+    """Argparse type: a number (its range is checked by the command, with a clearer message)."""
     try:
         return float(text)
     except ValueError:
@@ -38,7 +38,7 @@ def number(text: str) -> float:
 
 
 def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
+    """Argparse type: a finite number > 0."""
     try:
         value = float(text)
     except ValueError:
@@ -49,7 +49,7 @@ def positive_float(text: str) -> float:
 
 
 def nonnegative_int(text: str) -> int:
-    """argparse type: a whole number >= 0."""
+    """Argparse type: a whole number >= 0."""
     try:
         value = int(text)
     except ValueError:
@@ -63,15 +63,23 @@ def add_system_arguments(parser: argparse.ArgumentParser) -> None:
     """--config/--scenario/--samples/--seed, shared by commands that simulate."""
     from ..core.foptd import SCENARIOS
 
-    parser.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
-    parser.add_argument("--scenario", choices=SCENARIOS, help="which part of the configured mismatch the plant gets (default: run.scenario)")
+    parser.add_argument(
+        "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
+    )
+    parser.add_argument(
+        "--scenario",
+        choices=SCENARIOS,
+        help="which part of the configured mismatch the plant gets (default: run.scenario)",
+    )
     parser.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples (default: run.samples)")
-    parser.add_argument("--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)")
+    parser.add_argument(
+        "--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)"
+    )
 
 
 def add_method_argument(parser: argparse.ArgumentParser) -> None:
     """--method classic|parametric, shared by commands that diagnose."""
-    from ..core.pmr import METHODS
+    from ..core.diagnosis import METHODS
 
     parser.add_argument(
         "--method",

@@ -3,7 +3,9 @@
 The bag's r, u and y go through the live diagnostician's alignment and window
 schedule (:mod:`pmr_ros.bag.offline`) with the recorded configuration (or
 ``--config``).  The table shows the last window; every window the live
-diagnostician published on /diagnostics is re-diagnosed and compared exactly.
+diagnostician published on /diagnostics is re-diagnosed and compared
+(:func:`pmr_ros.core.results.compare_diagnoses`: verdicts exact, numbers to a
+stated tolerance, since the bag may come from another machine).
 """
 
 from __future__ import annotations
@@ -18,16 +20,22 @@ EXIT_DIFFERENT = 4
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros diagnose`` to the sub-command parsers."""
     p = sub.add_parser(
         "diagnose",
         help="diagnose a recorded rosbag2 bag offline (no ROS graph)",
         description=(
-            "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and model), "
+            "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and "
+            "model), "
             "with the bag's recorded configuration or --config, and compare with the verdicts recorded on /diagnostics."
         ),
     )
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
-    p.add_argument("--config", metavar="FILE", help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)")
+    p.add_argument(
+        "--config",
+        metavar="FILE",
+        help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)",
+    )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_method_argument(p)
     p.set_defaults(handler=handle)
@@ -35,7 +43,7 @@ def register(sub) -> None:
 
 def offline_report(result, bag) -> dict:
     """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields)."""
-    from ..core.report import build_report
+    from ..report import build_report
 
     config = result.config
     recorded = bag.run_config()
@@ -64,10 +72,12 @@ def offline_report(result, bag) -> dict:
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from ..bag.offline import diagnose_bag
     from ..bag.reader import open_bag
     from ..bag.schema import BagError
-    from ..core.report import format_table, write_json
+    from ..core.results import RELATIVE_TOLERANCE
+    from ..report import format_table, write_json
 
     try:
         bag = open_bag(args.bag)
@@ -78,14 +88,30 @@ def handle(args: argparse.Namespace) -> int:
     sys.stdout.write(format_table(report))
     window = report["window"]
     if window.get("window_samples"):
-        print(f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} samples), configuration from {result.config_origin}")
+        print(
+            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} "
+            f"samples), configuration from {result.config_origin}"
+        )
     if result.end_of_bag:
-        print("note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag")
+        print(
+            "note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag"
+        )
     if not bag.complete:
-        print(f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)")
+        print(
+            f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)"
+        )
     compared = report["recorded_comparison"]
     if compared["windows"]:
-        print(f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows give exactly the same verdicts offline")
+        print(
+            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows agree offline "
+            f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
+        )
+        for entry in compared["different"][:3]:
+            detail = (
+                "; ".join(entry.get("differences", [])[:3])
+                or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+            )
+            print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
     if args.json:
         try:
             write_json(report, args.json)

@@ -18,16 +18,20 @@ from . import CommandError, add_system_arguments, positive_float, run_overrides
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
     """--storage/--force, shared with ``pmr-ros run --bag``."""
-    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage plugin (default: mcap)")
+    parser.add_argument(
+        "--storage", choices=("mcap", "sqlite3"), default="mcap", help="rosbag2 storage plugin (default: mcap)"
+    )
     parser.add_argument("--force", action="store_true", help="overwrite an existing bag at the path")
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros record`` to the sub-command parsers."""
     p = sub.add_parser(
         "record",
         help="record the contract's topics of a live ROS graph into a rosbag2 bag",
         description=(
-            "Subscribe to every topic of the pmr_ros contract (r, u, y, /clock, /diagnostics, /pmr/estimates, /pmr/run_config) "
+            "Subscribe to every topic of the pmr_ros contract (r, u, y, /clock, /diagnostics, /pmr/estimates, "
+            "/pmr/run_config) "
             "and write them into a rosbag2 bag until Ctrl-C/SIGTERM. The run's configuration is taken from --config, "
             "else from /pmr/run_config, else from the live pmr_diagnostician's parameters."
         ),
@@ -35,19 +39,30 @@ def register(sub) -> None:
     p.add_argument("bag", metavar="DIR", help="bag directory to create")
     add_storage_arguments(p)
     add_system_arguments(p)
-    p.add_argument("--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician")
-    p.add_argument("--flush-period", type=positive_float, default=None, metavar="S", help="seconds between flushes to disk (default: 0.5)")
-    p.add_argument("--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time")
+    p.add_argument(
+        "--no-parameters", action="store_true", help="do not fetch the configuration from the live pmr_diagnostician"
+    )
+    p.add_argument(
+        "--flush-period",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="seconds between flushes to disk (default: 0.5)",
+    )
+    p.add_argument(
+        "--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time"
+    )
     p.set_defaults(handler=handle)
 
 
 def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros record`` until Ctrl-C, SIGTERM or ``--duration``; the exit code."""
     from ..bag.schema import BagError, RunConfig
     from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 
     run_config = None
     if args.config is not None or run_overrides(args):
-        from ..core.config import load_config
+        from ..config import load_config
 
         config = load_config(args.config, run_overrides(args))
         run_config = RunConfig(config.parameters, source=str(config.source))
@@ -66,10 +81,19 @@ def handle(args: argparse.Namespace) -> int:
     node = None
     with rclpy_session() as stop:
         try:
-            node = BagRecorderNode(writer, run_config=run_config, parameter_source=None if args.no_parameters else "pmr_diagnostician", flush_period_s=flush)
+            node = BagRecorderNode(
+                writer,
+                run_config=run_config,
+                parameter_source=None if args.no_parameters else "pmr_diagnostician",
+                flush_period_s=flush,
+            )
             executor = SingleThreadedExecutor()
             executor.add_node(node)
-            print(f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop", file=sys.stderr, flush=True)
+            print(
+                f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop",
+                file=sys.stderr,
+                flush=True,
+            )
             deadline = time.monotonic() + args.duration if args.duration else None
             while not stop and (deadline is None or time.monotonic() < deadline):
                 executor.spin_once(timeout_sec=0.1)

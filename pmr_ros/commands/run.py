@@ -16,12 +16,14 @@ from .record import add_storage_arguments, start_recording
 
 
 def register(sub) -> None:
+    """Add ``pmr-ros run`` to the sub-command parsers."""
     p = sub.add_parser(
         "run",
         help="run the closed loop (PRBS setpoints, MPC, plant) and diagnose it",
         description=(
             "Run the closed loop for N samples on a configured system and print the per-element PMR verdicts. "
-            "Default: the four ROS 2 nodes in this process over real topics, verdicts from /diagnostics; --batch: the pure core."
+            "Default: the four ROS 2 nodes in this process over real topics, verdicts from /diagnostics; --batch: the "
+            "pure core."
         ),
     )
     add_system_arguments(p)
@@ -31,9 +33,14 @@ def register(sub) -> None:
     p.add_argument(
         "--visible",
         action="store_true",
-        help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); default: private to this process",
+        help="let other processes see the node set's topics (ROS_DOMAIN_ID / ROS_AUTOMATIC_DISCOVERY_RANGE apply); "
+        "default: private to this process",
     )
-    p.add_argument("--bag", metavar="DIR", help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)")
+    p.add_argument(
+        "--bag",
+        metavar="DIR",
+        help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
+    )
     add_storage_arguments(p)
     p.set_defaults(handler=handle)
 
@@ -41,32 +48,36 @@ def register(sub) -> None:
 def _node_set_report(config):
     """Run the node set; the core diagnosis from /diagnostics and the extras the node path knows."""
     try:
-        from ..ros.node_set import NodeSetError, run_node_set
+        from ..node_set import NodeSetError, NodeSetOptions, run_node_set
     except ImportError as exc:
         raise CommandError(f"the ROS 2 node set needs rclpy ({exc}); install pmr_ros[ros] or use --batch") from None
-    return run_node_set, NodeSetError
+    return run_node_set, NodeSetOptions, NodeSetError
 
 
 def handle(args: argparse.Namespace) -> int:
-    from ..core.config import load_config
-    from ..core.report import build_report, format_table
+    """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
+    from ..config import load_config
+    from ..report import build_report, format_table
 
     config = load_config(args.config, run_overrides(args))
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     if args.batch:
         from ..core.closed_loop import simulate
-        from ..core.diagnosis import diagnose_with
+        from ..core.diagnosis import diagnose
 
         record = simulate(config)
-        diagnosis = diagnose_with(record.r, record.u, record.y, config.model, config.pmr, config.parametric)
+        diagnosis = diagnose(
+            record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
+        )
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
-        run_node_set, NodeSetError = _node_set_report(config)
+        run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
         recording = start_recording(args, config) if args.bag else None
         try:
-            result = run_node_set(config, private=not args.visible, extra_nodes=recording.nodes if recording else None)
+            options = NodeSetOptions(private=not args.visible, extra_nodes=recording.nodes if recording else None)
+            result = run_node_set(config, options)
         except NodeSetError as exc:
             raise CommandError(str(exc), code=1) from None
         finally:
@@ -85,11 +96,15 @@ def handle(args: argparse.Namespace) -> int:
             "diagnostician_warnings": result.warnings,
         }
         if recording is not None:
-            report["bag"] = {"path": str(recording.writer.path), "storage": recording.writer.storage, "messages": recording.writer.counts}
+            report["bag"] = {
+                "path": str(recording.writer.path),
+                "storage": recording.writer.storage,
+                "messages": recording.writer.counts,
+            }
     sys.stdout.write(format_table(report))
     if args.json:
         try:
-            from ..core.report import write_json
+            from ..report import write_json
 
             write_json(report, args.json)
         except OSError as exc:

@@ -13,9 +13,8 @@ from . import CommandError, nonnegative_int, number, positive_int
 DEFAULT_OUT = "out/sweep"
 
 
-
-
 def register(sub) -> None:
+    """Add ``pmr-ros sweep`` to the sub-command parsers."""
     p = sub.add_parser(
         "sweep",
         help="sweep a time constant (paper's Figs. 2-7): CSV of every estimate, figures, report",
@@ -27,14 +26,26 @@ def register(sub) -> None:
             "tau21 = 10.9 nu (eq. 19; the paper's figures call it G12), nu = 1, 1.25, ..., 10, 5 seeds."
         ),
     )
-    p.add_argument("--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)")
-    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})")
+    p.add_argument(
+        "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
+    )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        default=DEFAULT_OUT,
+        help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})",
+    )
     grid = p.add_argument_group("nu grid (--nu or a range)")
     grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
     grid.add_argument("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)")
     grid.add_argument("--nu-stop", type=number, default=10.0, metavar="X", help="last nu, included (default: 10)")
     grid.add_argument("--nu-step", type=number, default=0.25, metavar="X", help="nu step (default: 0.25)")
-    p.add_argument("--elements", default="G11,G21", metavar="LIST", help="elements whose time constant is swept, one sweep each (default: G11,G21)")
+    p.add_argument(
+        "--elements",
+        default="G11,G21",
+        metavar="LIST",
+        help="elements whose time constant is swept, one sweep each (default: G11,G21)",
+    )
     p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
     p.add_argument(
         "--methods",
@@ -45,20 +56,46 @@ def register(sub) -> None:
         help="diagnosis methods applied to every run, side by side in the report: classic, parametric "
         "(default: classic, the paper's study; classic,parametric adds the parametric fit, about 1.3x the time)",
     )
-    p.add_argument("--first-seed", type=nonnegative_int, metavar="S", help="seeds are S, S+1, ... (default: run.seed of the config)")
-    p.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples per run (default: run.samples of the config)")
-    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N", help="worker processes (default: the number of cores)")
+    p.add_argument(
+        "--first-seed",
+        type=nonnegative_int,
+        metavar="S",
+        help="seeds are S, S+1, ... (default: run.seed of the config)",
+    )
+    p.add_argument(
+        "--samples",
+        type=positive_int,
+        metavar="N",
+        help="closed-loop samples per run (default: run.samples of the config)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="worker processes (default: the number of cores)",
+    )
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
-    p.add_argument("--resume", action="store_true", help="continue an interrupted sweep in --out: skip the runs already in results.csv")
-    p.add_argument("--report", metavar="FILE", help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted sweep in --out: skip the runs already in results.csv",
+    )
+    p.add_argument(
+        "--report",
+        metavar="FILE",
+        help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)",
+    )
     p.add_argument("--no-report", action="store_true", help="only write results.csv")
-    p.add_argument("--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv")
+    p.add_argument(
+        "--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=handle)
 
 
 def _plan(args: argparse.Namespace, config):
-    from ..core.pmr import METHODS
+    from ..core.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
     try:
@@ -78,10 +115,13 @@ def _plan(args: argparse.Namespace, config):
         raise CommandError(str(exc)) from None
     first = config.run.seed if args.first_seed is None else args.first_seed
     samples = config.run.samples if args.samples is None else args.samples
-    return SweepPlan(elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods)
+    return SweepPlan(
+        elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods
+    )
 
 
 def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None:
+    """Check ``--out`` against ``--force``/``--resume``, clear it for ``--force``, create it."""
     from ..sweep import store
 
     if out.exists() and not out.is_dir():
@@ -90,41 +130,77 @@ def _prepare_folder(args: argparse.Namespace, out: Path, manifest: dict) -> None
     if args.force and args.resume:
         raise CommandError("--force and --resume contradict each other: choose one")
     if has_sweep and not (args.force or args.resume):
-        raise CommandError(f"--out {out}: folder exists and is not empty; use --force to start afresh or --resume to continue")
+        raise CommandError(
+            f"--out {out}: folder exists and is not empty; use --force to start afresh or --resume to continue"
+        )
     if args.force:
         for name in (store.RESULTS_FILE, store.MANIFEST_FILE):
             (out / name).unlink(missing_ok=True)
     if args.resume:
-        old = store.read_manifest(out)
-        if old is not None:
-            for key in ("config_fingerprint", "samples"):
-                if old.get(key) != manifest[key]:
-                    raise CommandError(
-                        f"--resume: {out} holds a sweep with a different {key.replace('_', ' ')} "
-                        f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
-                    )
-            manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
-            manifest["cpu_time_s"] = float(old.get("cpu_time_s", 0.0))
+        _continue_manifest(out, manifest)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise CommandError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
 
 
-def handle(args: argparse.Namespace) -> int:
-    from ..core.config import load_config
+def _continue_manifest(out: Path, manifest: dict) -> None:
+    """For ``--resume``: refuse a sweep of another configuration or sample count; carry its times on."""
     from ..sweep import store
-    from ..sweep.execute import execute, plan_tasks
+
+    old = store.read_manifest(out)
+    if old is None:
+        return
+    for key in ("config_fingerprint", "samples"):
+        if old.get(key) != manifest[key]:
+            raise CommandError(
+                f"--resume: {out} holds a sweep with a different {key.replace('_', ' ')} "
+                f"({old.get(key)} vs {manifest[key]}); use --force to start afresh"
+            )
+    manifest["wall_time_s"] = float(old.get("wall_time_s", 0.0))
+    manifest["cpu_time_s"] = float(old.get("cpu_time_s", 0.0))
+
+
+def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros sweep``; the exit code."""
+    from ..config import load_config
+    from ..sweep import store
 
     config = load_config(args.config)
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE
     if args.report_only:
-        if not results.is_file():
-            raise CommandError(f"--report-only: {results} does not exist; run the sweep first")
-        _write_report(results, report_path, config, store.read_manifest(out) or {})
+        _report_only(results, report_path, config)
         return 0
+    manifest = _sweep(args, config, out, results)
+    if not args.no_report:
+        _write_report(results, report_path, config, manifest)
+    return 0
+
+
+def _report_only(results: Path, report_path: Path, config) -> None:
+    """``--report-only``: the report of the sweep in ``results``' folder, which must have run with ``config``."""
+    from ..sweep import store
+
+    if not results.is_file():
+        raise CommandError(f"--report-only: {results} does not exist; run the sweep first")
+    manifest = store.read_manifest(results.parent) or {}
+    recorded = manifest.get("config_fingerprint")
+    # The report quotes the configuration's settings beside the results: they must be the ones the sweep ran with.
+    if recorded is not None and recorded != store.config_fingerprint(config.parameters):
+        raise CommandError(
+            f"--report-only: {results.parent} was swept with another configuration "
+            f"({manifest.get('config', 'see its manifest')}); "
+            "pass that file with --config"
+        )
+    _write_report(results, report_path, config, manifest)
+
+
+def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
+    """Run the runs of the plan not yet in ``results``; the manifest, written beside it."""
+    from ..sweep import store
+    from ..sweep.execute import execute, plan_tasks
 
     plan = _plan(args, config)
     manifest = {
@@ -135,25 +211,26 @@ def handle(args: argparse.Namespace) -> int:
         "cpu_time_s": 0.0,
     }
     _prepare_folder(args, out, manifest)
-    done: set[tuple] = set()
-    n_elements = config.model.n_outputs * config.model.n_inputs
-    if results.is_file():
-        try:
-            rows = store.complete_rows(store.read_rows(results), n_elements)
-        except ValueError as exc:
-            raise CommandError(str(exc)) from None
-        store.rewrite(results, rows)
-        done = {store.run_key(r) for r in rows}
-    tasks = plan_tasks(config, plan, done)
+    tasks = plan_tasks(config, plan, _done_runs(results, config.model.n_outputs * config.model.n_inputs))
     manifest.update(
-        elements=list(plan.elements), nu=list(plan.nu), seeds=list(plan.seeds), scenarios=list(plan.scenarios),
-        methods=list(plan.methods), jobs=args.jobs, cpu_count=os.cpu_count(),
+        elements=list(plan.elements),
+        nu=list(plan.nu),
+        seeds=list(plan.seeds),
+        scenarios=list(plan.scenarios),
+        methods=list(plan.methods),
+        jobs=args.jobs,
+        cpu_count=os.cpu_count(),
     )
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
-        print(f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x {len(plan.seeds)} seeds "
-              f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {min(args.jobs, max(len(tasks), 1))} process(es)", file=sys.stderr)
+        print(
+            f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
+            f"{len(plan.seeds)} seeds "
+            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on "
+            f"{min(args.jobs, max(len(tasks), 1))} process(es)",
+            file=sys.stderr,
+        )
     t0 = time.perf_counter()
     outcome = None
     try:
@@ -165,9 +242,21 @@ def handle(args: argparse.Namespace) -> int:
         store.write_manifest(out, manifest)
     if not args.quiet:
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
-    if not args.no_report:
-        _write_report(results, report_path, config, manifest)
-    return 0
+    return manifest
+
+
+def _done_runs(results: Path, n_elements: int) -> set[tuple]:
+    """Keys (:func:`store.run_key`) of the complete runs in ``results``, which is rewritten without torn ones."""
+    from ..sweep import store
+
+    if not results.is_file():
+        return set()
+    try:
+        rows = store.complete_rows(store.read_rows(results), n_elements)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    store.rewrite(results, rows)
+    return {store.run_key(r) for r in rows}
 
 
 def _write_report(results: Path, report_path: Path, config, manifest: dict) -> None:

@@ -27,10 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .closed_loop import RunRecord
-from .config import PmrConfig
-from .foptd import SCENARIOS
-from .mpc import LinearMpc, MpcStatistics
+from .closed_loop import LoopConfig, RunRecord
+from .foptd import SCENARIOS, FoptdMatrix
+from .mpc import LinearMpc, MpcStatistics, MpcTuning
 from .plant import noise_generator
 from .prbs import PrbsGenerator
 
@@ -103,12 +102,56 @@ def _plant_groups(spaces: list) -> list[_PlantGroup]:
     return groups
 
 
-def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> LockstepResult:
+class _BatchMpc:
+    """:meth:`LinearMpc.step` for every run at once, in the same floating-point operations.
+
+    One controller per run holds that run's OSQP warm start and statistics;
+    the unconstrained step, the same linear map for every run, is one batched
+    product.
+    """
+
+    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, n_runs: int) -> None:
+        self.controllers = [LinearMpc(model, tuning) for _ in range(n_runs)]
+        self.mats = self.controllers[0].matrices
+        self.tuning = tuning
+        self.n_in = model.n_inputs
+        self.neg_gradient = -self.mats.weighted_dynamic  # LinearMpc computes q = (-Theta'Q) @ (target - free)
+        self.x = np.zeros((n_runs, self.mats.A.shape[0]))
+        self.u_prev = np.zeros((n_runs, self.n_in))
+
+    def step(self, y: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
+        """``u(k)`` of every run from ``y(k)`` and ``r(k)`` (rows: runs); advances the models."""
+        mats, tuning = self.mats, self.tuning
+        bias = y - _mv(mats.C, self.x)
+        target = np.tile(setpoint - bias, (1, tuning.prediction_horizon))
+        free = _mv(mats.free_state, self.x) + _mv(mats.free_input, self.u_prev)
+        q = _mv(self.neg_gradient, target - free)
+        u_rep = np.tile(self.u_prev, (1, tuning.control_horizon))
+        moves = _mv(mats.unconstrained_gain, q)
+        u_path = u_rep + _mv(mats.cumulative, moves)
+        feasible = np.all(np.abs(moves) <= mats.du_bound, axis=1) & np.all(
+            (u_path >= mats.u_min_path) & (u_path <= mats.u_max_path), axis=1
+        )
+        move = moves[:, : self.n_in].copy()
+        for j in np.flatnonzero(~feasible):
+            lower = np.concatenate([mats.u_min_path - u_rep[j], -mats.du_bound])
+            upper = np.concatenate([mats.u_max_path - u_rep[j], mats.du_bound])
+            # The run's own controller and solver, so warm starts and counters match simulate().
+            move[j] = self.controllers[j].solve_constrained(q[j].copy(), lower=lower, upper=upper)
+        du_first = mats.du_bound[: self.n_in]
+        u_min, u_max = np.asarray(tuning.u_min, dtype=float), np.asarray(tuning.u_max, dtype=float)
+        u = np.clip(self.u_prev + np.clip(move, -du_first, du_first), u_min, u_max)
+        self.x = _mv(mats.A, self.x) + _mv(mats.B, u)
+        self.u_prev = u
+        return u
+
+
+def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> LockstepResult:
     """Simulate ``runs`` closed loops that share ``config.model`` and ``config.mpc``.
 
     Parameters
     ----------
-    config : PmrConfig
+    config : LoopConfig
         Controller model ``Ghat``, MPC tuning, mismatch, noise and PRBS.
     runs : sequence of (scenario, seed)
         The plant of each run is ``config.plant(scenario)``; ``seed`` picks its
@@ -126,68 +169,31 @@ def run_lockstep(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: in
         raise ValueError(f"samples must be > 0, got {samples}")
     if not runs:
         return LockstepResult([], [])
-    model = config.model
-    n_out, n_in = model.n_outputs, model.n_inputs
-    n_runs = len(runs)
-
+    n_out, n_runs = config.model.n_outputs, len(runs)
     # Plants grouped by state size (stacked, not padded: see _mv on why the arithmetic must match).
     groups = _plant_groups([config.plant(scenario).state_space() for scenario, _ in runs])
-
     noise_std = np.broadcast_to(np.asarray(config.noise_std, dtype=float), (n_out,))
     # One draw of the whole stream equals ``samples`` draws of n_out (numpy Generator).
     noise = np.stack([noise_generator(seed).standard_normal((samples, n_out)) for _, seed in runs], axis=1)
     setpoints = np.stack([PrbsGenerator(config.prbs, seed).sequence(samples) for _, seed in runs], axis=1)
-
-    # One controller per run: they hold each run's OSQP warm start and statistics.
-    controllers = [LinearMpc(model, config.mpc) for _ in runs]
-    mats = controllers[0].matrices
-    Np, Nc = config.mpc.prediction_horizon, config.mpc.control_horizon
-    neg_gradient = -mats.weighted_dynamic  # LinearMpc computes q = (-Theta'Q) @ (target - free)
-    du_bound, u_min_path, u_max_path = mats.du_bound, mats.u_min_path, mats.u_max_path
-    du_first = du_bound[:n_in]
-    u_min, u_max = np.asarray(config.mpc.u_min, dtype=float), np.asarray(config.mpc.u_max, dtype=float)
-
-    xm = np.zeros((n_runs, mats.A.shape[0]))
-    u_prev = np.zeros((n_runs, n_in))
+    mpc = _BatchMpc(config.model, config.mpc, n_runs)
     y = np.empty((n_runs, n_out))
     y_rec = np.empty((samples, n_runs, n_out))
-    u_rec = np.empty((samples, n_runs, n_in))
+    u_rec = np.empty((samples, n_runs, config.model.n_inputs))
     for k in range(samples):
         for group in groups:
             y[group.runs] = _mv(group.C, group.x) + noise_std * noise[k, group.runs]
         y_rec[k] = y
-        # LinearMpc.step, for every run at once and in the same floating-point operations.
-        bias = y - _mv(mats.C, xm)
-        target = np.tile(setpoints[k] - bias, (1, Np))
-        free = _mv(mats.free_state, xm) + _mv(mats.free_input, u_prev)
-        q = _mv(neg_gradient, target - free)
-        u_rep = np.tile(u_prev, (1, Nc))
-        moves = _mv(mats.unconstrained_gain, q)
-        u_path = u_rep + _mv(mats.cumulative, moves)
-        feasible = np.all(np.abs(moves) <= du_bound, axis=1) & np.all((u_path >= u_min_path) & (u_path <= u_max_path), axis=1)
-        move = moves[:, :n_in].copy()
-        for j in np.flatnonzero(~feasible):
-            lower = np.concatenate([u_min_path - u_rep[j], -du_bound])
-            upper = np.concatenate([u_max_path - u_rep[j], du_bound])
-            # The run's own controller and solver, so warm starts and counters match simulate().
-            move[j] = controllers[j]._solve_constrained(q[j].copy(), lower, upper)
-        u = np.clip(u_prev + np.clip(move, -du_first, du_first), u_min, u_max)
-        u_rec[k] = u
-        xm = _mv(mats.A, xm) + _mv(mats.B, u)
-        u_prev = u
+        u = u_rec[k] = mpc.step(y, setpoints[k])
         for group in groups:
             group.x = _mv(group.A, group.x) + _mv(group.B, u[group.runs])
-
-    for c in controllers:
+    for c in mpc.controllers:
         c.statistics.steps += samples
-    records = [
-        RunRecord(np.ascontiguousarray(setpoints[:, j]), np.ascontiguousarray(u_rec[:, j]), np.ascontiguousarray(y_rec[:, j]))
-        for j in range(n_runs)
-    ]
-    return LockstepResult(records, [c.statistics for c in controllers])
+    records = [RunRecord(*(np.ascontiguousarray(a[:, j]) for a in (setpoints, u_rec, y_rec))) for j in range(n_runs)]
+    return LockstepResult(records, [c.statistics for c in mpc.controllers])
 
 
-def simulate_many(config: PmrConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[RunRecord]:
+def simulate_many(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[RunRecord]:
     """The records of :func:`run_lockstep` (one per ``(scenario, seed)`` in ``runs``)."""
     return run_lockstep(config, runs, samples).records
 

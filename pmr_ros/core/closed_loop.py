@@ -3,13 +3,40 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from .config import PmrConfig
-from .mpc import LinearMpc
+from .foptd import FoptdMatrix
+from .mpc import LinearMpc, MpcTuning
 from .plant import FoptdPlant
-from .prbs import PrbsGenerator
+from .prbs import PrbsGenerator, PrbsSettings
+
+
+class RunPlan(Protocol):
+    """The run settings a simulation reads (``pmr_ros.config.RunSettings`` is one)."""
+
+    samples: int
+    seed: int
+    scenario: str
+
+
+class LoopConfig(Protocol):
+    """What a closed-loop simulation needs; :class:`pmr_ros.config.PmrConfig` is one.
+
+    The core names only this shape, so it never depends on how a
+    configuration is read.
+    """
+
+    model: FoptdMatrix
+    noise_std: np.ndarray
+    prbs: PrbsSettings
+    mpc: MpcTuning
+    run: RunPlan
+
+    def plant(self, scenario: str | None = None) -> FoptdMatrix:
+        """The true plant under ``scenario``."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -32,10 +59,13 @@ class RunRecord:
 
     @property
     def samples(self) -> int:
+        """Samples in the record."""
         return self.r.shape[0]
 
 
-def simulate(config: PmrConfig, samples: int | None = None, seed: int | None = None, scenario: str | None = None) -> RunRecord:
+def simulate(
+    config: LoopConfig, samples: int | None = None, seed: int | None = None, scenario: str | None = None
+) -> RunRecord:
     """Run the closed loop in batch.
 
     At each sample k: the setpoint r(k) is read, the plant is measured (y(k)),
@@ -44,7 +74,7 @@ def simulate(config: PmrConfig, samples: int | None = None, seed: int | None = N
 
     Parameters
     ----------
-    config : PmrConfig
+    config : LoopConfig
     samples, seed, scenario : optional
         Override ``config.run``.
     """

@@ -104,9 +104,9 @@ def hamon_hannan_delay(
     log_magnitude = np.log(np.maximum(np.abs(response), 1e-12))
     inside = np.flatnonzero(band)
     if inside.size and inside[-1] < omega.size - 1:
-        top = inside[-max(3, inside.size // 4):]
+        top = inside[-max(3, inside.size // 4) :]
         log_magnitude = log_magnitude.copy()
-        log_magnitude[inside[-1] + 1:] = np.median(log_magnitude[top])
+        log_magnitude[inside[-1] + 1 :] = np.median(log_magnitude[top])
     delay_free = minimum_phase(omega, log_magnitude)
     residual = np.angle(response) - delay_free
     kappa2 = np.clip(coherence, 0.0, 0.999)

@@ -1,30 +1,46 @@
-"""One entry point for both diagnosis methods."""
+"""One entry point for every diagnosis method."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
+from .classic import PmrSettings, diagnose_classic
 from .foptd import FoptdMatrix
 from .parametric import ParametricSettings, diagnose_parametric
-from .pmr import METHODS, Diagnosis, PmrSettings, diagnose
+from .results import Diagnosis
+
+__all__ = ["METHODS", "diagnose"]
 
 
-def diagnose_with(
+def _classic(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
+    return diagnose_classic(r, u, y, model=model, settings=pmr)
+
+
+def _parametric(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: FoptdMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
+    return diagnose_parametric(r, u, y, model=model, classic=pmr, settings=parametric)
+
+
+METHODS: dict[str, Callable[..., Diagnosis]] = {"classic": _classic, "parametric": _parametric}
+"""Diagnosis methods by name: the paper's Table 1, or the FOPTD-ratio fit of :mod:`pmr_ros.core.parametric`."""
+
+
+def diagnose(
     r: np.ndarray,
     u: np.ndarray,
     y: np.ndarray,
+    *,
     model: FoptdMatrix,
-    settings: PmrSettings,
-    parametric: ParametricSettings | None = None,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
     method: str | None = None,
 ) -> Diagnosis:
-    """Diagnose a record with ``method`` (default ``settings.method``).
-
-    ``classic`` is :func:`pmr_ros.core.pmr.diagnose`.  ``parametric`` runs it
-    too (its delays seed the fit and its tau index is kept for reference), then
-    replaces each element's gain ratio, delay, flags and verdict by those of
-    :func:`pmr_ros.core.parametric.diagnose_parametric`; the classic numbers
-    stay in ``ElementDiagnosis.classic``.
+    """Diagnose a record with ``method`` (default ``pmr.method``).
 
     Parameters
     ----------
@@ -32,29 +48,18 @@ def diagnose_with(
         Setpoints, inputs and measured outputs, one row per sample.
     model : FoptdMatrix
         The controller's model ``Ghat``.
-    settings : PmrSettings
-    parametric : ParametricSettings, optional
-        Default: its defaults.
+    pmr : PmrSettings
+        Spectral settings and the classic thresholds.
+    parametric : ParametricSettings
     method : str, optional
-        ``classic`` or ``parametric``.
+        A key of :data:`METHODS`.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method.
     """
-    method = method or settings.method
+    method = method or pmr.method
     if method not in METHODS:
         raise ValueError(f"unknown diagnosis method {method!r}; choose one of {', '.join(METHODS)}")
-    diagnosis = diagnose(r, u, y, model, settings)
-    diagnosis.method = method
-    if method == "classic" or diagnosis.status != "ok":
-        return diagnosis
-    parametric = parametric or ParametricSettings()
-    _, _, estimates = diagnose_parametric(r, u, y, model, settings, parametric)
-    for name, element in diagnosis.elements.items():
-        p = estimates[name]
-        element.classic = {"gain_ratio": element.gain_ratio, "tau_index": element.tau_index, "delay_mismatch_samples": element.delay_mismatch_samples}
-        element.parametric = p
-        element.gain_ratio = None if p.gain_mismatch_pct is None else 1.0 + p.gain_mismatch_pct / 100.0
-        element.gain_mismatch = p.gain_verdict == "mismatch"
-        element.tau_mismatch = p.tau_verdict == "mismatch"
-        element.delay_mismatch_samples = p.delay_mismatch_samples
-        element.delay_mismatch = p.delay_verdict == "mismatch"
-        element.reasons = list(p.reasons)
-    return diagnosis
+    return METHODS[method](r, u, y, model=model, pmr=pmr, parametric=parametric)

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .results import ElementModel
+
 SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
 
@@ -46,11 +48,11 @@ class DiscreteFoptd:
 
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:
         """Complex response at ``omega`` [rad/sample], shape (n_out, n_in, len(omega))."""
-        z1 = np.exp(-1j * np.asarray(omega, dtype=float))
+        z_inv = np.exp(-1j * np.asarray(omega, dtype=float))
         a = self.pole[..., None]
         b = self.numerator[..., None]
         d = self.delay_samples[..., None]
-        return b * z1 ** (1 + d) / (1.0 - a * z1)
+        return b * z_inv ** (1 + d) / (1.0 - a * z_inv)
 
     def filter_coefficients(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``(b, a)`` polynomials in z^-1 of element (i, k) for ``scipy.signal.lfilter``."""
@@ -93,6 +95,7 @@ class Mismatch:
 
     @classmethod
     def zero(cls, n_outputs: int, n_inputs: int) -> Mismatch:
+        """No mismatch at all: the plant equals the model."""
         z = np.zeros((n_outputs, n_inputs))
         return cls(z, z.copy(), z.astype(int))
 
@@ -154,10 +157,12 @@ class FoptdMatrix:
 
     @property
     def n_outputs(self) -> int:
+        """Controlled outputs (rows)."""
         return self.gain.shape[0]
 
     @property
     def n_inputs(self) -> int:
+        """Manipulated inputs (columns)."""
         return self.gain.shape[1]
 
     @property
@@ -170,12 +175,30 @@ class FoptdMatrix:
         n = max(self.n_outputs, self.n_inputs)
         return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
 
+    def element_models(self) -> dict[str, tuple[int, int, ElementModel]]:
+        """Row-major element name to ``(row, column, ElementModel)``, as diagnoses report them."""
+        names = self.element_names()
+        delays = self.delay_samples
+        out = {}
+        for j, name in enumerate(names):
+            i, k = divmod(j, self.n_inputs)
+            out[name] = (
+                i,
+                k,
+                ElementModel("foptd", float(self.gain[i, k]), float(self.time_constant[i, k]), int(delays[i, k])),
+            )
+        return out
+
     def settling_samples(self, time_constants: float = 8.0) -> int:
         """Samples until every element forgets its initial state to ``exp(-time_constants)``.
 
         ``time_constants`` x the largest tau plus the largest delay, in samples.
         """
-        return int(np.ceil(time_constants * self.time_constant.max() / self.sample_time)) + int(self.delay_samples.max()) + 1
+        return (
+            int(np.ceil(time_constants * self.time_constant.max() / self.sample_time))
+            + int(self.delay_samples.max())
+            + 1
+        )
 
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""

@@ -26,7 +26,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from .foptd import FoptdMatrix
+from .foptd import FoptdMatrix, StateSpace
 
 
 @dataclass(frozen=True)
@@ -107,6 +107,55 @@ class MpcStatistics:
     solve_time_s: list[float] | None = None
 
 
+def prediction_matrices(
+    ss: StateSpace, *, prediction_horizon: int, control_horizon: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The condensed predictions ``Phi``, ``Psi``, ``Theta`` of a model over the horizons.
+
+    ``yhat(k+1..k+Np) = Phi x(k) + Psi u(k-1) + Theta dU`` with ``dU`` the
+    moves of the control horizon (the input held after it).
+
+    Parameters
+    ----------
+    ss : StateSpace
+        The model's realization.
+    prediction_horizon, control_horizon : int
+        Np and Nc [samples].
+
+    Returns
+    -------
+    Phi : ndarray, shape (Np*n_out, nx)
+        Effect of the current state.
+    Psi : ndarray, shape (Np*n_out, n_in)
+        Effect of holding the previous input.
+    Theta : ndarray, shape (Np*n_out, Nc*n_in)
+        Effect of the moves: block (j, m) is the step response ``S_(j-m)``.
+    """
+    A, B, C = ss.A, ss.B, ss.C
+    Np, Nc = prediction_horizon, control_horizon
+    n_out, n_in, nx = C.shape[0], B.shape[1], A.shape[0]
+    markov = []  # C A^j B, j = 0..Np-1
+    Apow = np.eye(nx)
+    for _ in range(Np):
+        markov.append(C @ Apow @ B)
+        Apow = A @ Apow
+    Phi = np.zeros((Np * n_out, nx))
+    Psi = np.zeros((Np * n_out, n_in))
+    Apow = np.eye(nx)
+    acc = np.zeros((n_out, n_in))
+    for j in range(Np):
+        Apow = A @ Apow  # A^(j+1)
+        Phi[j * n_out : (j + 1) * n_out] = C @ Apow
+        acc = acc + markov[j]
+        Psi[j * n_out : (j + 1) * n_out] = acc
+    step = np.cumsum(np.stack(markov), axis=0)  # step[j] = sum_{t<=j} C A^t B
+    Theta = np.zeros((Np * n_out, Nc * n_in))
+    for j in range(Np):
+        for m in range(min(j + 1, Nc)):
+            Theta[j * n_out : (j + 1) * n_out, m * n_in : (m + 1) * n_in] = step[j - m]
+    return Phi, Psi, Theta
+
+
 class LinearMpc:
     """Constrained MPC for a FOPTD matrix model.
 
@@ -122,58 +171,41 @@ class LinearMpc:
         and for checking the unconstrained shortcut).
     """
 
-    def __init__(self, model: FoptdMatrix, tuning: MpcTuning, record_solve_times: bool = False, always_solve_qp: bool = False) -> None:
+    def __init__(
+        self, model: FoptdMatrix, tuning: MpcTuning, *, record_solve_times: bool = False, always_solve_qp: bool = False
+    ) -> None:
         self.model = model
         self.always_solve_qp = always_solve_qp
         self.tuning = tuning
         ss = model.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C
-        n_out, n_in = model.n_outputs, model.n_inputs
         Np, Nc = tuning.prediction_horizon, tuning.control_horizon
         if Nc > Np:
             raise ValueError("control_horizon must not exceed prediction_horizon")
-
-        # Step-response-style prediction matrices.
-        nx = self._A.shape[0]
-        Phi = np.zeros((Np * n_out, nx))  # effect of the current state
-        Psi = np.zeros((Np * n_out, n_in))  # effect of holding u_prev
-        markov = []  # C A^j B, j = 0..Np-1
-        Apow = np.eye(nx)
-        for _ in range(Np):
-            markov.append(self._C @ Apow @ self._B)
-            Apow = self._A @ Apow
-            # Apow is now A^(j+1)
-        Apow = np.eye(nx)
-        acc = np.zeros((n_out, n_in))
-        for j in range(Np):
-            Apow = self._A @ Apow
-            Phi[j * n_out:(j + 1) * n_out] = self._C @ Apow
-            acc = acc + markov[j]
-            Psi[j * n_out:(j + 1) * n_out] = acc
-        # Theta[j, l]: effect on y(k+1+j) of the move at k+l (l < Nc): step response S_(j-l).
-        step = np.cumsum(np.stack(markov), axis=0)  # step[j] = sum_{t<=j} C A^t B
-        Theta = np.zeros((Np * n_out, Nc * n_in))
-        for j in range(Np):
-            for m in range(min(j + 1, Nc)):
-                Theta[j * n_out:(j + 1) * n_out, m * n_in:(m + 1) * n_in] = step[j - m]
-        self._Phi, self._Psi, self._Theta = Phi, Psi, Theta
-
+        self._Phi, self._Psi, self._Theta = prediction_matrices(ss, prediction_horizon=Np, control_horizon=Nc)
+        n_in = model.n_inputs
         Q = np.tile(np.asarray(tuning.output_weight, dtype=float), Np)
         R = np.tile(np.asarray(tuning.move_weight, dtype=float), Nc)
-        self._QTheta_T = (Theta * Q[:, None]).T  # Theta' Q
-        H = self._QTheta_T @ Theta + np.diag(R)
+        self._QTheta_T = (self._Theta * Q[:, None]).T  # Theta' Q
+        H = self._QTheta_T @ self._Theta + np.diag(R)
         H = 0.5 * (H + H.T)
-        cumulative = np.kron(np.tril(np.ones((Nc, Nc))), np.eye(n_in))
-        A_con = sp.vstack([sp.csc_matrix(cumulative), sp.identity(Nc * n_in, format="csc")], format="csc")
+        self._cumulative = np.kron(np.tril(np.ones((Nc, Nc))), np.eye(n_in))
         self._du_bound = np.tile(np.asarray(tuning.du_max, dtype=float), Nc)
         self._u_min = np.tile(np.asarray(tuning.u_min, dtype=float), Nc)
         self._u_max = np.tile(np.asarray(tuning.u_max, dtype=float), Nc)
         self._unconstrained = -np.linalg.solve(H, np.eye(H.shape[0]))  # dU* = this @ q
-        self._cumulative = cumulative
-        self._solver = osqp.OSQP()
-        self._solver.setup(
+        self._solver = self._setup_solver(H)
+        self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
+        self.reset()
+
+    def _setup_solver(self, H: np.ndarray) -> osqp.OSQP:
+        """OSQP with the fixed Hessian and constraint matrix, factored once."""
+        n_moves = H.shape[0]
+        A_con = sp.vstack([sp.csc_matrix(self._cumulative), sp.identity(n_moves, format="csc")], format="csc")
+        solver = osqp.OSQP()
+        solver.setup(
             sp.triu(sp.csc_matrix(H), format="csc"),
-            np.zeros(Nc * n_in),
+            np.zeros(n_moves),
             A_con,
             np.concatenate([self._u_min, -self._du_bound]),
             np.concatenate([self._u_max, self._du_bound]),
@@ -184,8 +216,7 @@ class LinearMpc:
             max_iter=10000,
             polishing=False,
         )
-        self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
-        self.reset()
+        return solver
 
     def reset(self) -> None:
         """Forget the model state and past input (plant at rest)."""
@@ -251,14 +282,23 @@ class LinearMpc:
         else:
             lower = np.concatenate([self._u_min - u_rep, -self._du_bound])
             upper = np.concatenate([self._u_max - u_rep, self._du_bound])
-            move = self._solve_constrained(q, lower, upper)
+            move = self.solve_constrained(q, lower=lower, upper=upper)
         n_in = self.model.n_inputs
-        u = np.clip(self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]), self.tuning.u_min, self.tuning.u_max)
+        u = np.clip(
+            self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]),
+            self.tuning.u_min,
+            self.tuning.u_max,
+        )
         self._x = self._A @ self._x + self._B @ u
         self._u_prev = u
         return u
 
-    def _solve_constrained(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    def solve_constrained(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+        """The first move of the constrained QP for linear term ``q`` and move bounds (OSQP, warm-started).
+
+        Counts the solve in :attr:`statistics`; on a failed solve the input is
+        held (a zero move), the safe fallback of industrial MPC.
+        """
         self._solver.update(q=q, l=lower, u=upper)
         t0 = time.perf_counter()
         result = self._solver.solve(raise_error=False)

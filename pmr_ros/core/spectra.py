@@ -19,6 +19,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
+from .foptd import FoptdMatrix
+
 
 @dataclass(frozen=True)
 class WelchSettings:
@@ -102,6 +104,7 @@ class SegmentSpectra:
 
     @property
     def segments(self) -> int:
+        """Segments averaged."""
         return self.ffts.shape[0]
 
     def cross(self, a: slice | np.ndarray, b: slice | np.ndarray) -> np.ndarray:
@@ -156,3 +159,77 @@ def cross_spectra(x: np.ndarray, y: np.ndarray, settings: WelchSettings) -> tupl
     p = x.shape[1]
     seg = segment_spectra(np.hstack([x, np.asarray(y, dtype=float)]), settings)
     return seg.omega, seg.cross(slice(0, p), slice(p, None))
+
+
+@dataclass(frozen=True)
+class RecordSpectra:
+    """The cross-spectra of a record that the PMR needs, from one Welch transform.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (F,)
+        Frequencies 0 .. pi [rad/sample].
+    rr : ndarray, shape (F, n_r, n_r)
+        Setpoint spectra ``S_{r r}``.
+    ry : ndarray, shape (F, n_r, n_out)
+        ``S_{r_l y_i}``.
+    ryhat : ndarray, shape (F, n_r, n_out, n_in)
+        ``S_{r_l yhat_ik}``.
+    yy : ndarray, shape (F, n_out)
+        Output auto-spectra ``S_{y_i y_i}`` (real).
+    yhat_y : ndarray, shape (F, n_out, n_in)
+        ``S_{yhat_ik y_i}``.
+    yhat_yhat : ndarray, shape (F, n_out, n_in, n_in)
+        ``S_{yhat_ik yhat_im}``.
+    segments : int
+        Welch segments averaged.
+    equivalent_segments : float
+        Independent segments they are worth (overlap).
+    settings : WelchSettings
+    """
+
+    omega: np.ndarray
+    rr: np.ndarray
+    ry: np.ndarray
+    ryhat: np.ndarray
+    yy: np.ndarray
+    yhat_y: np.ndarray
+    yhat_yhat: np.ndarray
+    segments: int
+    equivalent_segments: float
+    settings: WelchSettings
+
+
+def record_spectra(
+    r: np.ndarray, u: np.ndarray, y: np.ndarray, model: FoptdMatrix, welch: WelchSettings
+) -> RecordSpectra:
+    """Spectra of setpoints, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
+
+    The model's settling time (:meth:`FoptdMatrix.settling_samples`) is dropped
+    from the start of every signal: ``yhat``'s filters start from a guessed state.
+    The record must have passed :func:`check_record`.
+    """
+    n_out, n_in = model.n_outputs, model.n_inputs
+    n_r = r.shape[1]
+    yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
+    warmup = model.settling_samples()
+    seg = segment_spectra(np.hstack([r, y, yhat])[warmup:], welch)
+    R = slice(0, n_r)
+    Y = slice(n_r, n_r + n_out)
+    F = seg.omega.size
+    yhat_cols = np.arange(n_r + n_out, n_r + n_out + n_out * n_in).reshape(n_out, n_in)
+    yy = np.stack([seg.cross([n_r + i], [n_r + i])[:, 0, 0].real for i in range(n_out)], axis=1)
+    yhat_y = np.stack([seg.cross(yhat_cols[i], [n_r + i])[:, :, 0] for i in range(n_out)], axis=1)
+    yhat_yhat = np.stack([seg.cross(yhat_cols[i], yhat_cols[i]) for i in range(n_out)], axis=1)
+    return RecordSpectra(
+        omega=seg.omega,
+        rr=seg.cross(R, R),
+        ry=seg.cross(R, Y),
+        ryhat=seg.cross(R, yhat_cols.ravel()).reshape(F, n_r, n_out, n_in),
+        yy=yy,
+        yhat_y=yhat_y,
+        yhat_yhat=yhat_yhat,
+        segments=seg.segments,
+        equivalent_segments=welch.equivalent_segments(seg.segments),
+        settings=welch,
+    )

@@ -25,7 +25,8 @@ from rclpy.node import Node
 
 from ..bag.reader import Bag, BagMessage
 from ..bag.schema import RUN_CONFIG_KEY, BagError, typestore
-from ..ros.contract import load_contract
+from ..contract.topics import load_contract
+from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
 DEFAULT_MAX_SAMPLES_PER_S = 1000.0
@@ -91,7 +92,15 @@ class BagPlayerNode(Node):
         Topic name -> messages published.
     """
 
-    def __init__(self, bag: Bag, *, include_outputs: bool = False, publish_config: bool = True, node_name: str = NODE_NAME, **kwargs) -> None:
+    def __init__(
+        self,
+        bag: Bag,
+        *,
+        include_outputs: bool = False,
+        publish_config: bool = True,
+        node_name: str = NODE_NAME,
+        **kwargs,
+    ) -> None:
         super().__init__(node_name, start_parameter_services=False, **kwargs)
         self.bag = bag
         contract = load_contract()
@@ -100,7 +109,10 @@ class BagPlayerNode(Node):
         if not publish_config:
             self.topics.pop(self.config_topic, None)
         by_name = {t.name: t for t in contract.values()}
-        self._outlets = {name: self.create_publisher(by_name[name].message_class(), name, by_name[name].qos.profile()) for name in self.topics}
+        self._outlets = {
+            name: self.create_publisher(message_class(by_name[name]), name, qos_profile(by_name[name].qos))
+            for name in self.topics
+        }
         self.published = dict.fromkeys(self.topics, 0)
         self.clock_topic = contract["clock"].name
         if publish_config:
@@ -117,9 +129,11 @@ class BagPlayerNode(Node):
             return
         t = load_contract()[RUN_CONFIG_KEY]
         if self.config_topic not in self._outlets:
-            self._outlets[self.config_topic] = self.create_publisher(t.message_class(), t.name, t.qos.profile())
+            self._outlets[self.config_topic] = self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
             self.published[self.config_topic] = 0
-        data = typestore().serialize_cdr(typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String")
+        data = typestore().serialize_cdr(
+            typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String"
+        )
         self._send(self.config_topic, bytes(data))
 
     def _send(self, name: str, data: bytes) -> None:
@@ -139,8 +153,14 @@ class BagPlayerNode(Node):
             spin()
         return True
 
-    def play(self, *, rate: float | None = None, max_samples_per_s: float | None = DEFAULT_MAX_SAMPLES_PER_S,
-             after_sample: Callable[[int], None] | None = None, should_stop: Callable[[], bool] | None = None) -> int:
+    def play(
+        self,
+        *,
+        rate: float | None = None,
+        max_samples_per_s: float | None = DEFAULT_MAX_SAMPLES_PER_S,
+        after_sample: Callable[[int], None] | None = None,
+        should_stop: Callable[[], bool] | None = None,
+    ) -> int:
         """Publish every sample of the bag; the number of samples published.
 
         Parameters

@@ -17,15 +17,18 @@ from __future__ import annotations
 
 import time
 from contextlib import suppress
+from typing import Any
 
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from ..bag.schema import RUN_CONFIG_KEY, RunConfig, typestore
 from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
-from ..ros.contract import load_contract
-from ..ros.layout import diagnosis_from_array
-from ..ros.parameters import default_parameters, nested
+from ..config import nested
+from ..contract.layout import diagnosis_from_array
+from ..contract.topics import load_contract
+from ..ros.parameters import node_parameters, plain_value
+from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_recorder"
 PARAMETER_SOURCE_NODE = "pmr_diagnostician"
@@ -58,8 +61,17 @@ class BagRecorderNode(Node):
         Topic name -> messages written.
     """
 
-    def __init__(self, writer: BagWriter, *, run_config: RunConfig | None = None, parameter_source: str | None = PARAMETER_SOURCE_NODE,
-                 flush_period_s: float = DEFAULT_FLUSH_PERIOD_S, expected_samples: int | None = None, node_name: str = NODE_NAME, **kwargs) -> None:
+    def __init__(
+        self,
+        writer: BagWriter,
+        *,
+        run_config: RunConfig | None = None,
+        parameter_source: str | None = PARAMETER_SOURCE_NODE,
+        flush_period_s: float = DEFAULT_FLUSH_PERIOD_S,
+        expected_samples: int | None = None,
+        node_name: str = NODE_NAME,
+        **kwargs,
+    ) -> None:
         super().__init__(node_name, start_parameter_services=False, **kwargs)
         self.writer = writer
         self.counts = dict.fromkeys((t.name for t in writer.topics.values()), 0)
@@ -69,7 +81,9 @@ class BagRecorderNode(Node):
         self.expected_samples = expected_samples
         self._final_seen = False
         self._final_has_verdict = False
-        self._signal_topics = [load_contract()[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")]
+        self._signal_topics = [
+            load_contract()[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")
+        ]
         self._diagnostics_topic = load_contract()["diagnostics"].name
         self._estimates_topic = load_contract()["estimates"].name
         if run_config is not None:
@@ -78,7 +92,11 @@ class BagRecorderNode(Node):
             self.has_config = True
         self._subs = []
         for t in writer.topics.values():
-            self._subs.append(self.create_subscription(t.message_class(), t.name, self._writer_of(t.name), t.qos.profile(), raw=True))
+            self._subs.append(
+                self.create_subscription(
+                    message_class(t), t.name, self._writer_of(t.name), qos_profile(t.qos), raw=True
+                )
+            )
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._flush_timer = self.create_timer(max(flush_period_s, 0.01), writer.flush, clock=wall)
         self._parameter_client = None
@@ -143,17 +161,21 @@ class BagRecorderNode(Node):
                 self._store_parameters(self._parameter_future.result())
             return
         if self._parameter_client.services_are_ready():
-            self._parameter_future = self._parameter_client.get_parameters(sorted(default_parameters()))
+            self._parameter_future = self._parameter_client.get_parameters(self._parameter_names())
 
-    def _store_parameters(self, response) -> None:
+    def _parameter_names(self) -> list[str]:
+        return [p.name for p in node_parameters(PARAMETER_SOURCE_NODE)]
+
+    def _store_parameters(self, response: Any) -> None:
         from rclpy.parameter import parameter_value_to_python
 
         if self.has_config or response is None:
             return
-        names = sorted(default_parameters())
-        values = [parameter_value_to_python(v) for v in response.values]
-        flat = {n: (list(v) if isinstance(v, (list, tuple)) or hasattr(v, "tolist") else v) for n, v in zip(names, values, strict=False) if v is not None}
-        self.writer.write_run_config(RunConfig(nested(flat), source=f"parameters of /{self._parameter_source}"), time.time_ns())
+        values = [plain_value(parameter_value_to_python(v)) for v in response.values]
+        flat = {n: v for n, v in zip(self._parameter_names(), values, strict=False) if v is not None}
+        self.writer.write_run_config(
+            RunConfig(nested(flat), source=f"parameters of /{self._parameter_source}"), time.time_ns()
+        )
         self.counts[self._config_topic] += 1
         self.has_config = True
         self.get_logger().info("recorded the run configuration from the live diagnostician's parameters")
@@ -173,7 +195,7 @@ class RunRecording:
     """Records an in-process node-set run (``pmr-ros run --bag``) into a bag.
 
     :meth:`nodes` is the ``extra_nodes`` hook of
-    :func:`pmr_ros.ros.node_set.run_node_set`: it adds a recorder whose
+    :func:`pmr_ros.node_set.run_node_set`: it adds a recorder whose
     configuration is every parameter the nodes got, and whose ``done`` waits
     for the whole run and its final verdicts.
 
@@ -191,8 +213,11 @@ class RunRecording:
         self.recorder: BagRecorderNode | None = None
 
     def nodes(self, context, parameters: dict) -> list[Node]:
+        """The ``extra_nodes`` hook: a recorder of every contract topic with the run's parameters."""
         config = RunConfig(nested(parameters), source=self.source)
-        self.recorder = BagRecorderNode(self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context)
+        self.recorder = BagRecorderNode(
+            self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context
+        )
         return [self.recorder]
 
     def close(self) -> None:

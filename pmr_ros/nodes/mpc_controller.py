@@ -8,13 +8,16 @@ setpoint is replaced by the newest earlier one.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from ..contract.alignment import check_signal, sample_index
+from ..contract.layout import read_signal
+from ..contract.topics import topic
 from ..core.mpc import LinearMpc
-from ..ros.alignment import check_signal, sample_index
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.contract import topic
-from ..ros.convert import read_signal, signal_message
+from ..ros.convert import signal_message
 
 NODE_NAME = "mpc_controller"
 
@@ -22,8 +25,8 @@ NODE_NAME = "mpc_controller"
 class MpcControllerNode(ConfiguredNode):
     """MPC in the loop over topics."""
 
-    def __init__(self, **kwargs) -> None:
-        super().__init__(kwargs.pop("node_name", NODE_NAME), sim_time=True, **kwargs)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, sim_time=True, **kwargs)
         self.model = self.config.model
         self.controller = LinearMpc(self.model, self.config.mpc)
         self.sample_time = self.model.sample_time
@@ -36,7 +39,7 @@ class MpcControllerNode(ConfiguredNode):
         self._r_sub = self.contract_subscription("setpoint", lambda msg: self._on_signal("r", msg))
         self._y_sub = self.contract_subscription("measured_output", lambda msg: self._on_signal("y", msg))
 
-    def _on_signal(self, signal: str, msg) -> None:
+    def _on_signal(self, signal: str, msg: Any) -> None:
         stamp, names, values = read_signal(msg)
         problem = check_signal(self._labels[signal], names, values, self.model.output_names)
         if problem:
@@ -52,7 +55,7 @@ class MpcControllerNode(ConfiguredNode):
 
     def _answer(self) -> None:
         ready = sorted(k for k in self._y if k in self._r)
-        if not ready and not self.settings.lockstep and self._y and self._latest_r is not None:
+        if not ready and not self.config.simulation.lockstep and self._y and self._latest_r is not None:
             k = min(self._y)
             self._r[k] = self._latest_r  # real time: a late setpoint is held
             ready = [k]
@@ -60,7 +63,9 @@ class MpcControllerNode(ConfiguredNode):
             if k < self.next_sample:
                 continue
             if k > self.next_sample:
-                self.get_logger().warning(f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}")
+                self.get_logger().warning(
+                    f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}"
+                )
             u = self.controller.step(self._y.pop(k), self._r.pop(k))
             self.next_sample = k + 1
             self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))

@@ -3,7 +3,7 @@
 It subscribes to the setpoints, inputs and outputs and to nothing else, holds
 the controller's model Ghat as parameters (so it can watch any controller),
 aligns the three signals by their sample stamps, keeps a rolling window of the
-newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnose`
+newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.diagnosis.diagnose`
 every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
 per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
 reason and no numbers when the data do not support a verdict); the numbers
@@ -14,19 +14,21 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable
+from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 
-from ..ros.alignment import SIGNALS, SampleAligner
+from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.layout import STALE as STALE_STATUS
+from ..contract.layout import read_signal
+from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.windowing import STALE, VERDICT, evaluate_window, offer_signal, window_info
+from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.contract import topic
-from ..ros.convert import diagnostic_array, estimates_message, no_verdict_statuses, read_signal, verdict_statuses
-from ..ros.windowing import STALE, VERDICT, evaluate_window, offer_signal, window_info
+from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message
 
 NODE_NAME = "pmr_diagnostician"
-TOPIC_KEYS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
-"""The only topics the diagnostician subscribes to, by signal."""
 
 
 class PmrDiagnosticianNode(ConfiguredNode):
@@ -43,19 +45,19 @@ class PmrDiagnosticianNode(ConfiguredNode):
         Messages of r, u and y taken, good or bad.
     """
 
-    def __init__(self, **kwargs) -> None:
-        super().__init__(kwargs.pop("node_name", NODE_NAME), live_parameters=True, **kwargs)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, live_parameters=True, **kwargs)
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0
-        self._labels = {s: f"{s} on {topic(TOPIC_KEYS[s]).name}" for s in SIGNALS}
+        self._labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
         self.aligner = self._new_aligner()
         self._last_arrival = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
-        self._subs = [self.contract_subscription(TOPIC_KEYS[s], self._callback(s)) for s in SIGNALS]
+        self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=wall)
 
@@ -63,29 +65,41 @@ class PmrDiagnosticianNode(ConfiguredNode):
     def _new_aligner(self) -> SampleAligner:
         model = self.config.model
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-        return SampleAligner(model.sample_time, names, self._labels, self.settings.window_samples, self.settings.max_lag_samples)
+        return SampleAligner(
+            model.sample_time,
+            names,
+            self._labels,
+            self.config.diagnostician.window_samples,
+            self.config.diagnostician.max_lag_samples,
+        )
 
     def _stale_check_period(self) -> float:
-        return min(1.0, self.settings.stale_timeout_s / 4)
+        return min(1.0, self.config.diagnostician.stale_timeout_s / 4)
 
     def on_configuration_changed(self, names: list[str]) -> None:
         """A new model or window applies from the next update; a new system restarts the window."""
         model = self.config.model
         al = self.aligner
-        if al.sample_time_s != model.sample_time or al.channel_names != {"r": model.output_names, "u": model.input_names, "y": model.output_names}:
+        if al.sample_time_s != model.sample_time or al.channel_names != {
+            "r": model.output_names,
+            "u": model.input_names,
+            "y": model.output_names,
+        }:
             self.aligner = self._new_aligner()
             self._warn("system channels or sample time changed: the window restarts")
         else:
-            al.resize(self.settings.window_samples)
-            al.max_lag_samples = self.settings.max_lag_samples
+            al.resize(self.config.diagnostician.window_samples)
+            al.max_lag_samples = self.config.diagnostician.max_lag_samples
         self._stale_timer.cancel()
         self.destroy_timer(self._stale_timer)
-        self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._stale_timer = self.create_timer(
+            self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
         self.get_logger().info(f"parameters changed: {', '.join(names)}")
 
     # -- input ---------------------------------------------------------------
-    def _callback(self, signal: str):
-        def on_message(msg) -> None:
+    def _callback(self, signal: str) -> Callable[[Any], None]:
+        def on_message(msg: Any) -> None:
             self._on_signal(signal, msg)
 
         return on_message
@@ -94,11 +108,14 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.warnings.append(text)
         self.get_logger().warning(text)
 
-    def _on_signal(self, signal: str, msg) -> None:
+    def _on_signal(self, signal: str, msg: Any) -> None:
         self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
-        offer = offer_signal(self.aligner, signal, stamp, names, values, self.settings.update_period_samples)
+        period = self.config.diagnostician.update_period_samples
+        offer = offer_signal(
+            self.aligner, signal, stamp_s=stamp, names=names, values=values, update_period_samples=period
+        )
         for text in offer.result.warnings:
             self._warn(text)
         if offer.newly_lagging:
@@ -109,7 +126,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _check_silence(self) -> None:
         now = time.monotonic()
-        limit = self.settings.stale_timeout_s
+        limit = self.config.diagnostician.stale_timeout_s
         silent = [s for s in SIGNALS if (now - (self._last_arrival[s] or self._created)) > limit]
         if not silent:
             self._stale_reported = None
@@ -122,15 +139,26 @@ class PmrDiagnosticianNode(ConfiguredNode):
         reason = "; ".join(parts) if len(never) < len(SIGNALS) else f"no data received in {now - self._created:.1f} s"
         if len(never) < len(SIGNALS):
             self._warn(reason)
-        self._publish_statuses(no_verdict_statuses(self.config.model.element_names(), DiagnosticStatus.STALE, reason, self.get_name(), self.config.model.name, self._window_info()))
+        window = self._window_info()
+        silent_diagnosis = Diagnosis.insufficient(
+            method=self.config.pmr.method,
+            models=self.config.model.element_models(),
+            reason=reason,
+            samples=int(window.get("window_samples", 0)),
+        )
+        self._publish(silent_diagnosis, window, STALE_STATUS)
 
     # -- output --------------------------------------------------------------
-    def _window_info(self) -> dict:
-        return window_info(self.aligner, self.settings.window_samples)
+    def _window_info(self) -> dict[str, int]:
+        return window_info(self.aligner, self.config.diagnostician.window_samples)
 
-    def _publish_statuses(self, statuses: list) -> None:
+    def _publish(self, diagnosis: Diagnosis, window: dict[str, int], state: str | None = None) -> None:
         al = self.aligner
         newest = al.stretch_last if al.stretch_last is not None else 0
+        model = self.config.model
+        statuses = diagnosis_statuses(
+            diagnosis, node_name=self.get_name(), hardware_id=model.name, window=window, state=state
+        )
         msg = diagnostic_array(statuses, newest * al.sample_time_s)
         self.last_published = msg
         self._diag_pub.publish(msg)
@@ -138,18 +166,15 @@ class PmrDiagnosticianNode(ConfiguredNode):
     def publish_diagnostics(self) -> None:
         """Diagnose the current window (or say why not) and publish the statuses.
 
-        The decision and the diagnosis are :func:`pmr_ros.ros.windowing.evaluate_window`,
+        The decision and the diagnosis are :func:`pmr_ros.contract.windowing.evaluate_window`,
         which the offline diagnosis of a bag shares.
         """
-        model = self.config.model
-        names, node, system = model.element_names(), self.get_name(), model.name
-        outcome = evaluate_window(self.aligner, self.config, self.settings.window_samples, self.settings.min_samples)
+        outcome = evaluate_window(self.aligner, self.config)
         if outcome.kind != VERDICT:
-            level = DiagnosticStatus.STALE if outcome.kind == STALE else DiagnosticStatus.WARN
-            self._publish_statuses(no_verdict_statuses(names, level, outcome.reason, node, system, outcome.window))
+            self._publish(outcome.diagnosis, outcome.window, STALE_STATUS if outcome.kind == STALE else None)
             return
-        self._publish_statuses(verdict_statuses(outcome.diagnosis, node, system, outcome.window))
-        self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, system))
+        self._publish(outcome.diagnosis, outcome.window)
+        self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, self.config.model.name))
 
 
 def main(args: list[str] | None = None) -> int:

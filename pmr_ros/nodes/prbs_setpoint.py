@@ -7,10 +7,13 @@ plant's /clock reaches k Ts.
 
 from __future__ import annotations
 
+from typing import Any
+
+from ..contract.alignment import sample_index
+from ..contract.layout import seconds_from_stamp
 from ..core.prbs import PrbsGenerator
-from ..ros.alignment import sample_index
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.convert import seconds_from_stamp, signal_message
+from ..ros.convert import signal_message
 
 NODE_NAME = "prbs_setpoint"
 
@@ -18,8 +21,8 @@ NODE_NAME = "prbs_setpoint"
 class PrbsSetpointNode(ConfiguredNode):
     """Setpoint generator keyed on the plant's /clock."""
 
-    def __init__(self, **kwargs) -> None:
-        super().__init__(kwargs.pop("node_name", NODE_NAME), sim_time=True, **kwargs)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, sim_time=True, **kwargs)
         self.generator = PrbsGenerator(self.config.prbs, self.config.run.seed)
         self.names = self.config.model.output_names
         self.sample_time = self.config.model.sample_time
@@ -27,13 +30,15 @@ class PrbsSetpointNode(ConfiguredNode):
         self._pub = self.contract_publisher("setpoint")
         self._clock_sub = self.contract_subscription("clock", self._on_clock)
 
-    def _on_clock(self, msg) -> None:
+    def _on_clock(self, msg: Any) -> None:
         stamp = seconds_from_stamp(msg.clock)
         k, _ = sample_index(stamp, self.sample_time)
         if k <= self.sample:
             return  # time stood still or went back (a restarted plant): nothing new to publish
         self.sample = k
-        self._pub.publish(signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name))
+        self._pub.publish(
+            signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name)
+        )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -1,6 +1,5 @@
-"""The thin ROS 2 shell of pmr_ros: topic contract, message conversion, parameters, node set.
+"""The thin rclpy shell of pmr_ros: node base, parameters, message builders, QoS, signals.
 
-Nothing here computes: the numerics live in :mod:`pmr_ros.core`.  Modules that
-need rclpy import it themselves, so ``pmr_ros.ros.alignment`` stays usable
-without ROS.
+Nothing here computes: the numerics live in :mod:`pmr_ros.core`, the
+contract's plain-data side in :mod:`pmr_ros.contract`.
 """

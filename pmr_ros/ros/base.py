@@ -1,4 +1,4 @@
-"""What every pmr_ros node shares: parameters validated by the core, clean start and stop."""
+"""What every pmr_ros node shares: declared parameters checked by the config reader, contract topics, start and stop."""
 
 from __future__ import annotations
 
@@ -6,113 +6,126 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from ..core.config import ConfigError
-from .contract import ContractError, topic
-from .parameters import FLOAT_RANGES, INT_RANGES, default_parameters, describe, ros_value, validate
+from ..config import ConfigError, PmrConfig, nested, parse_config
+from ..config.schema import closest_name, parameters
+from ..contract.topics import ContractError, topic
+from .parameters import ROS_OWN_PARAMETERS, descriptor, node_parameters, plain_value, ros_value
 from .signals import RosInitError, rclpy_session
+from .topics import message_class, qos_profile
+
+__all__ = ["SPIN_TIMEOUT_S", "ConfiguredNode", "run_node"]
 
 SPIN_TIMEOUT_S = 0.1
 """Longest a node process takes to notice Ctrl-C or SIGTERM [s]."""
 
 
-def descriptor(name: str) -> ParameterDescriptor:
-    """The descriptor of a config parameter: description, range if scalar, any type.
-
-    Dynamic typing because a per-channel setting may be one number or a list;
-    :func:`pmr_ros.ros.parameters.validate` checks types and values instead.
-    """
-    desc = ParameterDescriptor(name=name, description=describe(name), dynamic_typing=True)
-    if name in INT_RANGES:
-        low, high = INT_RANGES[name]
-        desc.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
-        desc.additional_constraints = f"whole number in [{low}, {high}]"
-    elif name in FLOAT_RANGES:
-        low, high = FLOAT_RANGES[name]
-        desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
-        desc.additional_constraints = f"number in [{low:g}, {high:g}]"
-    return desc
-
-
 class ConfiguredNode(Node):
-    """A node with every pmr_ros parameter declared and validated.
+    """A node with the declared parameters of its executable, validated into a :class:`PmrConfig`.
 
     Attributes
     ----------
     config : PmrConfig
-        The validated configuration (core types).
-    settings : NodeSettings
-        Node-set settings (timing, diagnostician window).
+        The validated configuration (blocks the node does not declare take
+        their declared defaults).
 
     Parameters
     ----------
     node_name : str
+    executable : str
+        The executable whose parameters the node declares (``nodes`` in ``config/parameters.yaml``).
     live_parameters : bool
-        Whether valid runtime changes are accepted (the diagnostician) or
-        refused because the node built its simulation from them at start.
+        Valid runtime changes are accepted (the diagnostician); otherwise every
+        parameter is read-only (the node built its simulation from them at start).
     sim_time : bool
-        Force ``use_sim_time``: the simulation nodes run on the plant's /clock.
+        The node lives on the plant's /clock: ``use_sim_time`` defaults to true
+        (a value given explicitly, e.g. ``-p use_sim_time:=false``, is kept).
     **kwargs
         Passed to :class:`rclpy.node.Node` (``context``, ``parameter_overrides``).
+
+    Raises
+    ------
+    ConfigError
+        A parameter given to the node is unknown (with the nearest known name),
+        the model (``system``) is missing, or a value is invalid.
     """
 
-    def __init__(self, node_name: str, *, live_parameters: bool = False, sim_time: bool = False, **kwargs: Any) -> None:
+    def __init__(
+        self, node_name: str, *, executable: str, live_parameters: bool = False, sim_time: bool = False, **kwargs: Any
+    ) -> None:
         super().__init__(node_name, **kwargs)
-        if sim_time:
+        if sim_time and "use_sim_time" not in self._parameter_overrides:
             self.set_parameters([Parameter("use_sim_time", value=True)])
         self._live_parameters = live_parameters
         self._source = f"parameters of node {self.get_fully_qualified_name()}"
-        defaults = default_parameters()
-        declared = []
-        for name, value in defaults.items():
-            try:
-                declared.append(self.declare_parameter(name, ros_value(value), descriptor(name)))
-            except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
-                given = self._parameter_overrides[name].value if name in self._parameter_overrides else value
-                raise ConfigError(self._source, name, given, str(exc).split(": ", 1)[-1]) from None
-        self.config, self.settings = validate(self._current(), self._source)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._declared = [p.name for p in node_parameters(executable)]
+        self._check_overrides()
+        for spec in node_parameters(executable):
+            self._declare(spec, read_only=not live_parameters)
+        self.config: PmrConfig = self._build(self._current())
+        if live_parameters:
+            self.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def _check_overrides(self) -> None:
+        """A parameter given to this node that pmr_ros does not declare is a typo: refuse it."""
+        known = parameters()
+        for name, given in self._parameter_overrides.items():
+            if name in known or name.startswith(ROS_OWN_PARAMETERS):
+                continue
+            guess = closest_name(name)
+            hint = f"; did you mean {guess}?" if guess else ""
+            raise ConfigError(self._source, name, plain_value(given.value), f"unknown parameter{hint}")
+
+    def _declare(self, spec: Any, *, read_only: bool) -> None:
+        value = None if spec.required else ros_value(spec.default)
+        try:
+            if value is None:
+                self.declare_parameter(spec.name, descriptor=descriptor(spec, read_only=read_only))
+            else:
+                self.declare_parameter(spec.name, value, descriptor(spec, read_only=read_only))
+        except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
+            given = self._parameter_overrides[spec.name].value if spec.name in self._parameter_overrides else value
+            raise ConfigError(self._source, spec.name, plain_value(given), str(exc).split(": ", 1)[-1]) from None
 
     def _current(self, changes: dict[str, Any] | None = None) -> dict[str, Any]:
-        flat = {name: self.get_parameter(name).value for name in default_parameters()}
-        flat = {k: (list(v) if hasattr(v, "tolist") or isinstance(v, (tuple, list)) else v) for k, v in flat.items()}
+        flat = {name: plain_value(self.get_parameter(name).value) for name in self._declared}
         flat.update(changes or {})
-        return flat
+        return {name: value for name, value in flat.items() if value is not None}
 
-    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        ours = {p.name: (list(p.value) if isinstance(p.value, (list, tuple)) or hasattr(p.value, "tolist") else p.value) for p in parameters if p.name in default_parameters()}
+    def _build(self, flat: dict[str, Any]) -> PmrConfig:
+        return parse_config(nested(flat), self._source)
+
+    def _on_set_parameters(self, changes: list[Parameter]) -> SetParametersResult:
+        ours = {p.name: plain_value(p.value) for p in changes if p.name in self._declared}
         if not ours:
             return SetParametersResult(successful=True)
         try:
-            config, settings = validate(self._current(ours), self._source)
+            config = self._build(self._current(ours))
         except ConfigError as exc:
             self.get_logger().warning(f"parameter change refused: {exc}")
             return SetParametersResult(successful=False, reason=str(exc))
-        if not self._live_parameters:
-            reason = f"{', '.join(sorted(ours))}: {self.get_name()} builds its simulation from its parameters at start; restart it to change them"
-            return SetParametersResult(successful=False, reason=reason)
-        self.config, self.settings = config, settings
+        self.config = config
         self.on_configuration_changed(sorted(ours))
         return SetParametersResult(successful=True)
 
     def on_configuration_changed(self, names: list[str]) -> None:
-        """Hook of live nodes: ``self.config``/``self.settings`` now hold the new values."""
+        """Hook of live nodes: ``self.config`` now holds the new values."""
 
     # -- topics of the contract --------------------------------------------
-    def contract_publisher(self, key: str):
+    def contract_publisher(self, key: str) -> Any:
         """A publisher of contract topic ``key`` with the contract's type and QoS."""
         t = topic(key)
-        return self.create_publisher(t.message_class(), t.name, t.qos.profile())
+        return self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
 
-    def contract_subscription(self, key: str, callback: Callable):
+    def contract_subscription(self, key: str, callback: Callable[[Any], None], *, raw: bool = False) -> Any:
         """A subscription to contract topic ``key`` with the contract's type and QoS."""
         t = topic(key)
-        return self.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+        return self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos), raw=raw)
 
 
 def run_node(factory: Callable[[], Node], program: str, args: list[str] | None = None) -> int:

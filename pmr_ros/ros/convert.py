@@ -1,48 +1,46 @@
-"""Messages <-> numpy and core results: the only place that knows message layouts.
+"""Core results and numpy arrays into the contract's rclpy messages.
 
 Layouts follow ``msg_defs/topics.yaml``: signals are ``sensor_msgs/JointState``
 (stamp = sample time, ``name`` = channel names, ``position`` = values), the
-verdicts a ``diagnostic_msgs/DiagnosticArray`` with one status per element,
-the numeric estimates a ``JointState`` named ``<element>/<quantity>``.
-Floats travel as float64 (signals) or ``repr`` strings (KeyValue): both lossless.
-The readers (``read_signal``, ``diagnosis_from_array``, ...) live in
-:mod:`pmr_ros.ros.layout`, free of ROS imports, so bags decoded with ``rosbags``
-are read by the same code; they are re-exported here.
+verdicts a ``diagnostic_msgs/DiagnosticArray`` with one status per element
+(KeyValues from :mod:`pmr_ros.contract.layout`), the numeric estimates a
+``JointState`` named ``<element>/<quantity>``.  Floats travel as float64
+(signals) or shortest round-tripping JSON (KeyValues): both lossless.  The
+readers live in :mod:`pmr_ros.contract.layout`, free of ROS imports, so bags
+decoded with ``rosbags`` are read by the same code.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..core.pmr import Diagnosis, ElementDiagnosis
-from .layout import BOOL_KEYS as _BOOL_KEYS
-from .layout import FLOAT_KEYS as _FLOAT_KEYS
-from .layout import INT_KEYS as _INT_KEYS
-from .layout import (
-    PARAMETRIC_FLOAT_KEYS,
-    diagnosis_from_array,
-    parametric_pairs,
-    read_estimates,
-    read_signal,
-    seconds_from_stamp,
-    status_values,
-)
+from ..contract.layout import STALE, element_pairs, encode_value, estimate_pairs
+from ..core.results import Diagnosis, ElementDiagnosis
 
 __all__ = [
-    "ESTIMATE_QUANTITIES", "LEVEL_NAMES", "clock_message", "diagnosis_from_array", "diagnostic_array", "element_level", "estimates_message",
-    "no_verdict_statuses", "read_estimates", "read_signal", "seconds_from_stamp", "signal_message", "stamp_from_seconds", "status_values", "verdict_statuses",
+    "LEVEL_NAMES",
+    "clock_message",
+    "diagnosis_statuses",
+    "diagnostic_array",
+    "element_level",
+    "estimates_message",
+    "signal_message",
+    "stamp_from_seconds",
 ]
 
-ESTIMATE_QUANTITIES = ("gain_ratio", "tau_index", "delay_mismatch_samples")
-"""Quantities of each element on the estimates topic, in this order."""
-
-LEVEL_NAMES = {DiagnosticStatus.OK: "OK", DiagnosticStatus.WARN: "WARN", DiagnosticStatus.ERROR: "ERROR", DiagnosticStatus.STALE: "STALE"}
+LEVEL_NAMES = {
+    DiagnosticStatus.OK: "OK",
+    DiagnosticStatus.WARN: "WARN",
+    DiagnosticStatus.ERROR: "ERROR",
+    DiagnosticStatus.STALE: "STALE",
+}
 
 
 def stamp_from_seconds(seconds: float) -> Time:
@@ -67,59 +65,60 @@ def clock_message(seconds: float) -> Clock:
 
 
 def element_level(element: ElementDiagnosis) -> bytes:
-    """Diagnostic level of a verdict: OK none, WARN one mismatched property, ERROR two or more.
+    """Diagnostic level of a verdict: OK none, WARN one mismatched property (or inconclusive), ERROR two or more.
 
     An element off in more than one property needs re-identification, one off
     in a single property often only a re-tune, hence the two levels.
     """
-    count = sum(bool(flag) for flag in (element.gain_mismatch, element.tau_mismatch, element.delay_mismatch))
+    count = len(element.mismatches)
     if count == 0:
         # the data cannot tell: a warning, with the reasons in the message
         return DiagnosticStatus.WARN if element.verdict == "inconclusive" else DiagnosticStatus.OK
     return DiagnosticStatus.WARN if count == 1 else DiagnosticStatus.ERROR
 
 
-def _values(pairs: dict) -> list[KeyValue]:
-    # repr of a Python float round-trips exactly; numpy scalars print their type, so convert first
-    return [KeyValue(key=k, value=repr(float(v)) if isinstance(v, float) else str(v)) for k, v in pairs.items()]
+def _key_values(pairs: dict[str, str]) -> list[KeyValue]:
+    return [KeyValue(key=k, value=v) for k, v in pairs.items()]
 
 
-def verdict_statuses(diagnosis: Diagnosis, node_name: str, hardware_id: str, window: dict) -> list[DiagnosticStatus]:
-    """One DiagnosticStatus per element of a diagnosis with verdicts.
+def diagnosis_statuses(
+    diagnosis: Diagnosis, *, node_name: str, hardware_id: str, window: dict[str, Any], state: str | None = None
+) -> list[DiagnosticStatus]:
+    """One DiagnosticStatus per element of a diagnosis, with or without verdicts.
 
     Parameters
     ----------
     diagnosis : Diagnosis
-        With ``status == "ok"``.
     node_name : str
         Prefix of each status name (``pmr_diagnostician: G21``).
     hardware_id : str
         The system's name.
     window : dict
         ``window_samples``, ``first_sample``, ``last_sample`` of the diagnosed window.
+    state : str, optional
+        ``stale`` when the statuses say a signal stopped (level STALE);
+        default: the diagnosis's status (``ok`` or ``insufficient_data``, WARN).
     """
+    state = state or diagnosis.status
+    common = {"status": state, "reason": diagnosis.reason, **{k: encode_value(v) for k, v in window.items()}}
     statuses = []
     for name, element in diagnosis.elements.items():
-        pairs = {"verdict": element.verdict}
-        for key in _FLOAT_KEYS + _BOOL_KEYS + _INT_KEYS:
-            pairs[key] = getattr(element, key)
-        pairs.update(gain_direction=element.gain_direction, tau_direction=element.tau_direction)
-        pairs.update(parametric_pairs(element))
-        pairs.update(window)
-        statuses.append(DiagnosticStatus(level=element_level(element), name=f"{node_name}: {name}", message=element.summary(), hardware_id=hardware_id, values=_values(pairs)))
+        if state == "ok":
+            level, message = element_level(element), element.summary()
+        else:
+            level = DiagnosticStatus.STALE if state == STALE else DiagnosticStatus.WARN
+            message = f"{'stale' if state == STALE else 'insufficient data'}: {diagnosis.reason}"
+        pairs = {**common, **element_pairs(element)}
+        statuses.append(
+            DiagnosticStatus(
+                level=level,
+                name=f"{node_name}: {name}",
+                message=message,
+                hardware_id=hardware_id,
+                values=_key_values(pairs),
+            )
+        )
     return statuses
-
-
-def no_verdict_statuses(element_names: Sequence[str], level: bytes, reason: str, node_name: str, hardware_id: str, window: dict) -> list[DiagnosticStatus]:
-    """Statuses without numbers, for insufficient (WARN) or stale (STALE) data, with the reason.
-
-    The message is ``insufficient data: <reason>`` or ``stale: <reason>``; the
-    ``reason`` KeyValue holds the reason alone.
-    """
-    status = "stale" if level == DiagnosticStatus.STALE else "insufficient_data"
-    message = f"{'stale' if status == 'stale' else 'insufficient data'}: {reason}"
-    pairs = {"verdict": "insufficient_data", "status": status, "reason": reason, **window}
-    return [DiagnosticStatus(level=level, name=f"{node_name}: {name}", message=message, hardware_id=hardware_id, values=_values(pairs)) for name in element_names]
 
 
 def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> DiagnosticArray:
@@ -130,13 +129,11 @@ def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> Diagno
 
 
 def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> JointState:
-    """The numeric estimates of a diagnosis with verdicts, named ``<element>/<quantity>``."""
-    names, values = [], []
+    """The numeric estimates of a diagnosis, named ``<element>/<part>.<quantity>`` (NaN where there is none)."""
+    names: list[str] = []
+    values: list[float] = []
     for name, element in diagnosis.elements.items():
-        quantities = {quantity: getattr(element, quantity) for quantity in ESTIMATE_QUANTITIES}
-        pairs = parametric_pairs(element)
-        quantities.update({quantity: pairs[quantity] for quantity in PARAMETRIC_FLOAT_KEYS if pairs})
-        for quantity, value in quantities.items():
+        for quantity, value in estimate_pairs(element).items():
             names.append(f"{name}/{quantity}")
             values.append(math.nan if value is None else float(value))
     return signal_message(values, names, stamp_s, frame_id)

@@ -49,7 +49,7 @@ class RosInitError(RuntimeError):
 
 @contextmanager
 def rclpy_session(args: list[str] | None = None) -> Iterator[list[int]]:
-    """rclpy on the default Context, stopped by the yielded :func:`stop_requests` list.
+    """Rclpy on the default Context, stopped by the yielded :func:`stop_requests` list.
 
     rclpy is initialised without its own signal handlers and shut down on exit
     (after the body has destroyed its nodes).

@@ -16,78 +16,123 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..config import PmrConfig
 from ..core.batch import run_lockstep, worker_context
 from ..core.closed_loop import RunRecord
-from ..core.config import PmrConfig
-from ..core.diagnosis import diagnose_with
+from ..core.diagnosis import diagnose
 from ..core.foptd import FoptdMatrix
-from ..core.pmr import ElementDiagnosis, diagnose
+from ..core.results import Diagnosis, ElementDiagnosis
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
 from .progress import ProgressBar
 from .tuning import stable_tuning
 
 
-def _common_fields(element: ElementDiagnosis) -> dict:
+def _classic_fields(element: ElementDiagnosis) -> dict[str, Any]:
+    c = element.classic
     return {
-        "gain_ratio": element.gain_ratio,
-        "tau_index": element.tau_index,
-        "delay_mismatch_samples": element.delay_mismatch_samples,
-        "gain_mismatch": element.gain_mismatch,
-        "tau_mismatch": element.tau_mismatch,
-        "delay_mismatch": element.delay_mismatch,
+        "gain_ratio": None if c is None else c.gain_ratio,
+        "tau_index": None if c is None else c.tau_index,
+        "delay_mismatch_samples": None if c is None else c.delay_mismatch_samples,
+        "gain_mismatch": None if c is None else c.gain_mismatch,
+        "tau_mismatch": None if c is None else c.tau_mismatch,
+        "delay_mismatch": None if c is None else c.delay_mismatch,
         "verdict": element.verdict,
     }
 
 
-def classic_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
-    """The classic (Table 1) diagnosis of one run: status and per-element numbers and flags."""
-    diagnosis = diagnose(record.r, record.u, record.y, model, config.pmr)
-    return diagnosis.status, {name: _common_fields(e) for name, e in diagnosis.elements.items()}
+def classic_fields(diagnosis: Diagnosis) -> dict[str, dict[str, Any]]:
+    """The classic (Table 1) CSV fields of every element: gain ratio, tau index, delay, flags, verdict."""
+    return {name: _classic_fields(e) for name, e in diagnosis.elements.items()}
 
 
-def parametric_method(record: RunRecord, model: FoptdMatrix, config: PmrConfig) -> tuple[str, dict[str, dict]]:
-    """The parametric diagnosis of one run: fitted dK, dtau, dD with intervals, and the verdicts.
+def parametric_fields(diagnosis: Diagnosis) -> dict[str, dict[str, Any]]:
+    """The parametric CSV fields of every element: fitted dK, dtau, dD with intervals, flags and verdict.
 
     ``gain_ratio`` is the fitted ``1 + dK/100``; ``tau_index`` stays the classic
     index (for reference), the fitted time constant is ``tau_mismatch_pct``.
     """
-    diagnosis = diagnose_with(record.r, record.u, record.y, model, config.pmr, config.parametric, "parametric")
     elements = {}
     for name, e in diagnosis.elements.items():
         p = e.parametric
-        gain_interval = p.gain_mismatch_pct_interval if p is not None and p.gain_mismatch_pct_interval else (None, None)
-        tau_interval = p.tau_mismatch_pct_interval if p is not None and p.tau_mismatch_pct_interval else (None, None)
+        if p is None:  # insufficient data: no numbers at all
+            elements[name] = {**_classic_fields(e), **dict.fromkeys(PARAMETRIC_ONLY)}
+            continue
+        gain_interval = p.gain_mismatch_pct_interval or (None, None)
+        tau_interval = p.tau_mismatch_pct_interval or (None, None)
         elements[name] = {
-            **_common_fields(e),
-            "tau_mismatch_pct": None if p is None else p.tau_mismatch_pct,
+            **_classic_fields(e),
+            "gain_ratio": None if p.gain_mismatch_pct is None else 1.0 + p.gain_mismatch_pct / 100.0,
+            "delay_mismatch_samples": p.delay_mismatch_samples,
+            "gain_mismatch": p.gain_verdict == "mismatch",
+            "tau_mismatch": p.tau_verdict == "mismatch",
+            "delay_mismatch": p.delay_verdict == "mismatch",
+            "tau_mismatch_pct": p.tau_mismatch_pct,
             "gain_mismatch_pct_low": gain_interval[0],
             "gain_mismatch_pct_high": gain_interval[1],
             "tau_mismatch_pct_low": tau_interval[0],
             "tau_mismatch_pct_high": tau_interval[1],
-            "delay_confidence": None if p is None else p.delay_confidence,
+            "delay_confidence": p.delay_confidence,
         }
-    return diagnosis.status, elements
+    return elements
 
 
-METHODS: dict[str, Callable[[RunRecord, FoptdMatrix, PmrConfig], tuple[str, dict[str, dict]]]] = {"classic": classic_method, "parametric": parametric_method}
-"""Diagnosis methods by name: ``(record, model, config) -> (status, {element: fields})``.
+PARAMETRIC_ONLY = (
+    "tau_mismatch_pct",
+    "gain_mismatch_pct_low",
+    "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low",
+    "tau_mismatch_pct_high",
+    "delay_confidence",
+)
+"""CSV fields of the parametric method beyond the classic ones."""
 
-Another method (e.g. a parametric fit) registers here and fills the same fields.
-"""
+
+ROW_FIELDS: dict[str, Callable[[Diagnosis], dict[str, dict[str, Any]]]] = {
+    "classic": classic_fields,
+    "parametric": parametric_fields,
+}
+"""Per diagnosis method, the CSV fields of each element of its diagnosis."""
+
+
+def method_fields(
+    method: str, record: RunRecord, model: FoptdMatrix, config: PmrConfig
+) -> tuple[str, dict[str, dict[str, Any]]]:
+    """Diagnose one run with ``method``: its status and each element's CSV fields."""
+    diagnosis = diagnose(
+        record.r, record.u, record.y, model=model, pmr=config.pmr, parametric=config.parametric, method=method
+    )
+    return diagnosis.status, ROW_FIELDS[method](diagnosis)
 
 
 @dataclass(frozen=True)
 class PointTask:
-    """The runs of one sweep point still to do."""
+    """The runs of one sweep point still to do, and what the point's MPC tuning depends on.
+
+    Attributes
+    ----------
+    point : SweepPoint
+    runs : tuple of (str, int)
+        The (scenario, seed) runs still to do; after an interruption only some of the plan's.
+    methods : tuple of str
+        Diagnosis methods applied to every run.
+    samples : int
+        Closed-loop samples per run [sample].
+    scenarios : tuple of str
+        Every scenario of the plan.  The MPC tuning is chosen to stabilise the
+        plants of all of them, not of ``runs`` only, so a point's tuning (and
+        every number of its runs) is the same however the sweep was interrupted.
+    """
 
     point: SweepPoint
     runs: tuple[tuple[str, int], ...]
     methods: tuple[str, ...]
     samples: int
+    scenarios: tuple[str, ...]
 
 
 def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
@@ -99,7 +144,7 @@ def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
     point = task.point
     model = point.model(config.model)
     base = replace(config, model=model)
-    chosen = stable_tuning(model, [base.plant(s) for s in sorted({s for s, _ in task.runs})], config.mpc)
+    chosen = stable_tuning(model, [base.plant(s) for s in task.scenarios], config.mpc)
     point_config = replace(base, mpc=chosen.tuning)
     result = run_lockstep(point_config, task.runs, task.samples)
     names = model.element_names()
@@ -125,19 +170,21 @@ def run_point(config: PmrConfig, task: PointTask) -> list[dict]:
             "tracking_rms": float(np.sqrt(np.mean((record.y - record.r) ** 2))),
         }
         for method in task.methods:
-            status, numbers = METHODS[method](record, model, point_config)
+            status, numbers = method_fields(method, record, model, point_config)
             for j, name in enumerate(names):
                 i, k = divmod(j, n_in)
-                rows.append({
-                    **common,
-                    "method": method,
-                    "element": name,
-                    "true_gain_ratio": float(truth.gain_ratio[i, k]),
-                    "true_time_constant_pct": float(truth.time_constant_pct[i, k]),
-                    "true_delay_samples": int(truth.delay_samples[i, k]),
-                    "status": status,
-                    **numbers[name],
-                })
+                rows.append(
+                    {
+                        **common,
+                        "method": method,
+                        "element": name,
+                        "true_gain_ratio": float(truth.gain_ratio[i, k]),
+                        "true_time_constant_pct": float(truth.time_constant_pct[i, k]),
+                        "true_delay_samples": int(truth.delay_samples[i, k]),
+                        "status": status,
+                        **numbers[name],
+                    }
+                )
     return rows
 
 
@@ -146,11 +193,12 @@ def plan_tasks(config: PmrConfig, plan: SweepPlan, done: set[tuple]) -> list[Poi
     tasks = []
     for point in plan.points(config.model):
         missing = tuple(
-            run for run in plan.runs()
+            run
+            for run in plan.runs()
             if any((m, point.sweep, round(point.nu, 9), run[0], run[1]) not in done for m in plan.methods)
         )
         if missing:
-            tasks.append(PointTask(point, missing, plan.methods, plan.samples))
+            tasks.append(PointTask(point, missing, plan.methods, plan.samples, plan.scenarios))
     return tasks
 
 
@@ -180,7 +228,9 @@ class SweepOutcome:
     cpu_time_s: float = 0.0
 
 
-def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True) -> SweepOutcome:
+def execute(
+    config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True
+) -> SweepOutcome:
     """Run ``tasks`` on ``jobs`` processes, appending each point's rows to ``results``.
 
     ``jobs = 1`` runs in this process (no pool).  On Ctrl-C the pool is
@@ -224,7 +274,11 @@ def execute(config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int 
     except KeyboardInterrupt:
         if bar:
             bar.close()
-        print(f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with --resume", file=sys.stderr)
+        print(
+            f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with "
+            "--resume",
+            file=sys.stderr,
+        )
         raise
     if bar:
         bar.close()

@@ -77,7 +77,10 @@ def element_index(model: FoptdMatrix, element: str) -> tuple[int, int]:
     """
     names = model.element_names()
     if element not in names:
-        raise PlanError(f"unknown element {element!r} to sweep; this {model.n_outputs}x{model.n_inputs} system has {', '.join(names)}")
+        raise PlanError(
+            f"unknown element {element!r} to sweep; this {model.n_outputs}x{model.n_inputs} system has "
+            f"{', '.join(names)}"
+        )
     return divmod(names.index(element), model.n_inputs)
 
 
@@ -123,6 +126,7 @@ class SweepPoint:
 
     @property
     def sweep(self) -> str:
+        """The CSV's ``sweep`` label."""
         return sweep_name(self.element)
 
     @property
@@ -179,4 +183,5 @@ class SweepPlan:
 
     @property
     def total_runs(self) -> int:
+        """Runs of the whole plan."""
         return len(self.elements) * len(self.nu) * len(self.scenarios) * len(self.seeds)

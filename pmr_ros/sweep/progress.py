@@ -48,8 +48,10 @@ class ProgressBar:
         elapsed = time.monotonic() - self.start
         eta = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
         eta_text = format_duration(eta) if self.done else "?"
-        return (f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} runs "
-                f"{100 * frac:3.0f}% {format_duration(elapsed)} elapsed, ETA {eta_text}")
+        return (
+            f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} runs "
+            f"{100 * frac:3.0f}% {format_duration(elapsed)} elapsed, ETA {eta_text}"
+        )
 
     def update(self, advance: int) -> None:
         """Count ``advance`` more units done and redraw."""

@@ -15,23 +15,73 @@ from collections.abc import Iterable
 from pathlib import Path
 
 COLUMNS = (
-    "method", "sweep", "element_swept", "nu", "time_constant_swept", "row_time_constant_ratio",
-    "scenario", "seed", "samples", "prediction_horizon", "control_horizon", "loop_spectral_radius",
-    "mpc_solves", "mpc_failures", "tracking_rms",
-    "element", "true_gain_ratio", "true_time_constant_pct", "true_delay_samples",
-    "status", "gain_ratio", "tau_index", "delay_mismatch_samples", "gain_mismatch", "tau_mismatch", "delay_mismatch",
-    "verdict", "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high",
-    "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence",
-)  # fmt: skip
+    "method",
+    "sweep",
+    "element_swept",
+    "nu",
+    "time_constant_swept",
+    "row_time_constant_ratio",
+    "scenario",
+    "seed",
+    "samples",
+    "prediction_horizon",
+    "control_horizon",
+    "loop_spectral_radius",
+    "mpc_solves",
+    "mpc_failures",
+    "tracking_rms",
+    "element",
+    "true_gain_ratio",
+    "true_time_constant_pct",
+    "true_delay_samples",
+    "status",
+    "gain_ratio",
+    "tau_index",
+    "delay_mismatch_samples",
+    "gain_mismatch",
+    "tau_mismatch",
+    "delay_mismatch",
+    "verdict",
+    "tau_mismatch_pct",
+    "gain_mismatch_pct_low",
+    "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low",
+    "tau_mismatch_pct_high",
+    "delay_confidence",
+)
 """Column order of ``results.csv``.  A method adds rows (``method``); the last seven columns are
 the parametric method's own (empty on classic rows, whose verdict is filled)."""
 
 RESULTS_FILE = "results.csv"
 MANIFEST_FILE = "sweep.json"
 
-_INT_COLUMNS = {"seed", "samples", "prediction_horizon", "control_horizon", "mpc_solves", "mpc_failures", "true_delay_samples", "delay_mismatch_samples"}
-_FLOAT_COLUMNS = {"nu", "time_constant_swept", "row_time_constant_ratio", "loop_spectral_radius", "tracking_rms", "true_gain_ratio", "true_time_constant_pct", "gain_ratio", "tau_index",
-                  "tau_mismatch_pct", "gain_mismatch_pct_low", "gain_mismatch_pct_high", "tau_mismatch_pct_low", "tau_mismatch_pct_high", "delay_confidence"}
+_INT_COLUMNS = {
+    "seed",
+    "samples",
+    "prediction_horizon",
+    "control_horizon",
+    "mpc_solves",
+    "mpc_failures",
+    "true_delay_samples",
+    "delay_mismatch_samples",
+}
+_FLOAT_COLUMNS = {
+    "nu",
+    "time_constant_swept",
+    "row_time_constant_ratio",
+    "loop_spectral_radius",
+    "tracking_rms",
+    "true_gain_ratio",
+    "true_time_constant_pct",
+    "gain_ratio",
+    "tau_index",
+    "tau_mismatch_pct",
+    "gain_mismatch_pct_low",
+    "gain_mismatch_pct_high",
+    "tau_mismatch_pct_low",
+    "tau_mismatch_pct_high",
+    "delay_confidence",
+}
 _BOOL_COLUMNS = {"gain_mismatch", "tau_mismatch", "delay_mismatch"}
 
 
@@ -122,10 +172,12 @@ def config_fingerprint(parameters: dict) -> str:
 
 
 def write_manifest(folder: Path, manifest: dict) -> None:
+    """Write the sweep's manifest (its plan and configuration hash) into ``folder``."""
     (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
 
 
 def read_manifest(folder: Path) -> dict | None:
+    """The manifest of the sweep in ``folder``, or None when there is none."""
     path = folder / MANIFEST_FILE
     if not path.is_file():
         return None

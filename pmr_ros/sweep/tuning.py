@@ -28,7 +28,9 @@ HORIZON_STEP = 10
 """Samples added to the prediction horizon per search step."""
 
 
-def loop_spectral_radius(model: FoptdMatrix, plant: FoptdMatrix, tuning: MpcTuning, controller: LinearMpc | None = None) -> float:
+def loop_spectral_radius(
+    model: FoptdMatrix, plant: FoptdMatrix, tuning: MpcTuning, controller: LinearMpc | None = None
+) -> float:
     """Spectral radius of the unconstrained closed loop of the MPC on ``model`` and ``plant``.
 
     With no limit active the MPC is linear in (plant state, model state,
@@ -64,10 +66,10 @@ def loop_spectral_radius(model: FoptdMatrix, plant: FoptdMatrix, tuning: MpcTuni
     n = npx + nmx + n_in
     M = np.zeros((n, n))
     M[:npx, :npx] = p.A
-    M[npx:npx + nmx, npx:npx + nmx] = m.A
+    M[npx : npx + nmx, npx : npx + nmx] = m.A
     M[:npx] += p.B @ feedback
-    M[npx:npx + nmx] += m.B @ feedback
-    M[npx + nmx:] = feedback
+    M[npx : npx + nmx] += m.B @ feedback
+    M[npx + nmx :] = feedback
     return float(np.abs(np.linalg.eigvals(M)).max())
 
 
@@ -90,7 +92,9 @@ class StableTuning:
     stable: bool
 
 
-def stable_tuning(model: FoptdMatrix, plants: list[FoptdMatrix], tuning: MpcTuning, limit: float = STABILITY_LIMIT) -> StableTuning:
+def stable_tuning(
+    model: FoptdMatrix, plants: list[FoptdMatrix], tuning: MpcTuning, limit: float = STABILITY_LIMIT
+) -> StableTuning:
     """The configured tuning with the shortest prediction horizon that keeps every loop stable.
 
     Tries ``Np, Np + 10, Np + 20, ...`` up to about four times the slowest

@@ -1,4 +1,4 @@
-"""``wood_berry_plant``: the true plant G; steps on u, publishes y and drives /clock.
+"""``wood_berry_plant`` (node ``plant``): the true plant G; steps on u, publishes y and drives /clock.
 
 Lockstep (``simulation.real_time_rate_hz: 0``, the default): the plant
 publishes /clock = k Ts and then y(k), and steps only when u(k) arrives, so a
@@ -11,17 +11,21 @@ mismatch of ``run.scenario`` applied.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
 
+from ..contract.alignment import check_signal, sample_index
+from ..contract.layout import read_signal
+from ..contract.topics import topic
 from ..core.plant import FoptdPlant
-from ..ros.alignment import check_signal, sample_index
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.contract import topic
-from ..ros.convert import clock_message, read_signal, signal_message
+from ..ros.convert import clock_message, signal_message
 
-NODE_NAME = "wood_berry_plant"
+EXECUTABLE = "wood_berry_plant"
+"""The executable's name: what users type, kept from the reference case though it runs any system."""
+NODE_NAME = "plant"
 
 
 class PlantNode(ConfiguredNode):
@@ -35,8 +39,8 @@ class PlantNode(ConfiguredNode):
         True after ``run.samples`` samples.
     """
 
-    def __init__(self, **kwargs) -> None:
-        super().__init__(kwargs.pop("node_name", NODE_NAME), sim_time=True, **kwargs)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(kwargs.pop("node_name", NODE_NAME), executable=EXECUTABLE, sim_time=True, **kwargs)
         cfg = self.config
         self.model = cfg.plant()
         self.plant = FoptdPlant(self.model, cfg.noise_std, cfg.run.seed)
@@ -54,26 +58,39 @@ class PlantNode(ConfiguredNode):
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._start_timer = self.create_timer(0.01, self._try_start, clock=wall)
         self._tick_timer = None
-        mode = "lockstep" if self.settings.lockstep else f"real time at {self.settings.real_time_rate_hz:g} samples/s"
-        self.get_logger().info(f"{self.model.name or 'plant'}: scenario {cfg.run.scenario}, {self.samples} samples, {mode}")
+        mode = (
+            "lockstep"
+            if self.config.simulation.lockstep
+            else f"real time at {self.config.simulation.real_time_rate_hz:g} samples/s"
+        )
+        self.get_logger().info(
+            f"{self.model.name or 'plant'}: scenario {cfg.run.scenario}, {self.samples} samples, {mode}"
+        )
 
     def _try_start(self) -> None:
         waited = time.monotonic() - self._started_at
-        ready = self._y_pub.get_subscription_count() >= self.settings.wait_for_subscribers and self.count_publishers(topic("manipulated_input").name) >= 1
-        if not ready and waited < self.settings.startup_timeout_s:
+        ready = (
+            self._y_pub.get_subscription_count() >= self.config.simulation.wait_for_subscribers
+            and self.count_publishers(topic("manipulated_input").name) >= 1
+        )
+        if not ready and waited < self.config.simulation.startup_timeout_s:
             return
         if not ready:
             self.get_logger().warning(
-                f"starting after {waited:.1f} s without the expected peers: {self._y_pub.get_subscription_count()} subscribers of y "
-                f"(want {self.settings.wait_for_subscribers}), {self.count_publishers(topic('manipulated_input').name)} publishers of u"
+                f"starting after {waited:.1f} s without the expected peers: {self._y_pub.get_subscription_count()} "
+                "subscribers of y "
+                f"(want {self.config.simulation.wait_for_subscribers}), "
+                f"{self.count_publishers(topic('manipulated_input').name)} publishers of u"
             )
         self._start_timer.cancel()
         self.destroy_timer(self._start_timer)
-        if self.settings.lockstep:
+        if self.config.simulation.lockstep:
             self._publish_sample(0)
         else:
             wall = Clock(clock_type=ClockType.STEADY_TIME)
-            self._tick_timer = self.create_timer(1.0 / self.settings.real_time_rate_hz, self._on_tick, clock=wall)
+            self._tick_timer = self.create_timer(
+                1.0 / self.config.simulation.real_time_rate_hz, self._on_tick, clock=wall
+            )
 
     def _publish_sample(self, k: int) -> None:
         """Publish /clock = k Ts, then the measurement y(k)."""
@@ -103,7 +120,7 @@ class PlantNode(ConfiguredNode):
         k, _ = sample_index(stamp, self.sample_time)
         if self.finished or k < self.sample:
             return
-        if not self.settings.lockstep:
+        if not self.config.simulation.lockstep:
             self._u_received[k] = values
             return
         if k != self.sample:
@@ -117,7 +134,9 @@ class PlantNode(ConfiguredNode):
             return
         u = self._u_received.pop(self.sample, None)
         if u is None:
-            self.get_logger().warning(f"{self._u_label}: u({self.sample}) late; holding the previous input", throttle_duration_sec=5.0)
+            self.get_logger().warning(
+                f"{self._u_label}: u({self.sample}) late; holding the previous input", throttle_duration_sec=5.0
+            )
             u = self._u_held
         self._u_received = {k: v for k, v in self._u_received.items() if k > self.sample}
         self._advance(u)
@@ -125,4 +144,4 @@ class PlantNode(ConfiguredNode):
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``wood_berry_plant``."""
-    return run_node(PlantNode, NODE_NAME, args)
+    return run_node(PlantNode, EXECUTABLE, args)

@@ -13,9 +13,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from ..core.config import PmrConfig
-from ..core.diagnosis import diagnose_with
-from ..core.pmr import Diagnosis
+from ..config import PmrConfig
+from ..core.diagnosis import diagnose
+from ..core.results import Diagnosis
 from .alignment import AddResult, SampleAligner
 
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
@@ -41,7 +41,15 @@ class Offer:
     update_due: bool
 
 
-def offer_signal(aligner: SampleAligner, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float], update_period_samples: int) -> Offer:
+def offer_signal(
+    aligner: SampleAligner,
+    signal: str,
+    *,
+    stamp_s: float,
+    names: Sequence[str],
+    values: Sequence[float],
+    update_period_samples: int,
+) -> Offer:
     """Add one message to ``aligner`` and say whether diagnostics are due.
 
     An update is due when a sample ``k`` with ``(k + 1) % period == 0`` became
@@ -59,7 +67,9 @@ def offer_signal(aligner: SampleAligner, signal: str, stamp_s: float, names: Seq
     return Offer(result, newly, due)
 
 
-def window_info(aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None) -> dict:
+def window_info(
+    aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None
+) -> dict:
     """``window_samples``, ``first_sample``, ``last_sample`` of the current window [samples]."""
     if aligner.stretch_last is None:
         return {"window_samples": 0}
@@ -77,8 +87,9 @@ class WindowOutcome:
     ----------
     kind : str
         ``verdict``, ``insufficient_data`` or ``stale``.
-    diagnosis : Diagnosis or None
-        With ``status == "ok"`` for a verdict.
+    diagnosis : Diagnosis
+        With ``status == "ok"`` for a verdict; without numbers (every element
+        inconclusive for ``reason``) otherwise.
     reason : str
         Why there is no verdict ("" for a verdict).
     window : dict
@@ -88,34 +99,48 @@ class WindowOutcome:
     """
 
     kind: str
-    diagnosis: Diagnosis | None
+    diagnosis: Diagnosis
     reason: str
     window: dict
     stamp_s: float
 
 
-def evaluate_window(aligner: SampleAligner, config: PmrConfig, window_samples: int, min_samples: int) -> WindowOutcome:
-    """Diagnose the newest ``window_samples`` of the unbroken stretch, as the diagnostician does.
+def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
+    """Diagnose the newest ``diagnostician.window_samples`` of the unbroken stretch, as the diagnostician does.
 
     Parameters
     ----------
     aligner : SampleAligner
     config : PmrConfig
-        The model Ghat and the PMR settings.
-    window_samples, min_samples : int
-        Longest window, and fewest unbroken samples for a verdict [samples].
+        The model Ghat, the PMR settings and the diagnostician's window
+        (``window_samples``, and ``min_samples``: the fewest unbroken samples
+        for a verdict).
     """
+    window_samples, min_samples = config.diagnostician.window_samples, config.diagnostician.min_samples
     stamp = (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
+    window = window_info(aligner, window_samples)
+
+    def without_verdict(kind: str, reason: str) -> WindowOutcome:
+        models = config.model.element_models()
+        samples = int(window.get("window_samples", 0))
+        return WindowOutcome(
+            kind,
+            Diagnosis.insufficient(method=config.pmr.method, models=models, reason=reason, samples=samples),
+            reason,
+            window,
+            stamp,
+        )
+
     stale = aligner.lagging()
     if stale:
-        return WindowOutcome(STALE, None, stale, window_info(aligner, window_samples), stamp)
+        return without_verdict(STALE, stale)
     if aligner.stretch_length < min_samples:
         reason = f"{aligner.stretch_length} unbroken samples, need {min_samples}"
         if aligner.gaps:
             reason += f" (the window restarted after a gap {aligner.gaps} time(s))"
-        return WindowOutcome(INSUFFICIENT, None, reason, window_info(aligner, window_samples), stamp)
+        return without_verdict(INSUFFICIENT, reason)
     r, u, y, first = aligner.window(window_samples)
-    diagnosis = diagnose_with(r, u, y, config.model, config.pmr, config.parametric)
+    diagnosis = diagnose(r, u, y, model=config.model, pmr=config.pmr, parametric=config.parametric)
     window = window_info(aligner, window_samples, r.shape[0], first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)

@@ -52,7 +52,9 @@ def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
     return index, position - index
 
 
-def check_signal(label: str, names: Sequence[str], values: Sequence[float], expected_names: Sequence[str]) -> str | None:
+def check_signal(
+    label: str, names: Sequence[str], values: Sequence[float], expected_names: Sequence[str]
+) -> str | None:
     """Why a signal message is unusable, or None if it is fine.
 
     ``names`` may be empty (then values are taken in the configured order);
@@ -60,9 +62,15 @@ def check_signal(label: str, names: Sequence[str], values: Sequence[float], expe
     """
     width = len(expected_names)
     if len(values) != width:
-        return f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} ({', '.join(expected_names)}); message dropped"
+        return (
+            f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} "
+            f"({', '.join(expected_names)}); message dropped"
+        )
     if len(names) and tuple(names) != tuple(expected_names):
-        return f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message dropped"
+        return (
+            f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message "
+            "dropped"
+        )
     array = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(array)):
         bad = [f"{n}={v}" for n, v in zip(expected_names, array.tolist(), strict=True) if not np.isfinite(v)]
@@ -105,7 +113,14 @@ class SampleAligner:
         A signal this many samples behind the newest one counts as stopped.
     """
 
-    def __init__(self, sample_time_s: float, channel_names: dict[str, Sequence[str]], labels: dict[str, str], capacity: int, max_lag_samples: int) -> None:
+    def __init__(
+        self,
+        sample_time_s: float,
+        channel_names: dict[str, Sequence[str]],
+        labels: dict[str, str],
+        capacity: int,
+        max_lag_samples: int,
+    ) -> None:
         self.sample_time_s = float(sample_time_s)
         self.channel_names = {s: tuple(channel_names[s]) for s in SIGNALS}
         self.labels = dict(labels)
@@ -130,7 +145,7 @@ class SampleAligner:
     def window(self, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
         """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``."""
         take = min(samples, len(self._rows["r"]))
-        out = [np.array(list(self._rows[s])[len(self._rows[s]) - take:]) for s in SIGNALS]
+        out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
         return out[0], out[1], out[2], self.stretch_last - take + 1
 
     def resize(self, capacity: int) -> None:
@@ -166,19 +181,29 @@ class SampleAligner:
         k, offset = sample_index(stamp_s, self.sample_time_s)
         if abs(offset) > GRID_TOLERANCE:
             self.rejected[signal] += 1
-            return AddResult(False, [f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = {self.sample_time_s:g} s); message dropped"])
+            return AddResult(
+                False,
+                [
+                    f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = "
+                    f"{self.sample_time_s:g} s); message dropped"
+                ],
+            )
         last = self.newest[signal]
         if last is not None and k <= last:
             self.rejected[signal] += 1
             kind = "duplicated" if k == last else "out-of-order"
-            return AddResult(False, [f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped"])
+            return AddResult(
+                False, [f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped"]
+            )
         result = AddResult(True)
         if last is not None and k > last + 1:
             result.warnings.append(f"{label}: samples {last + 1}..{k - 1} missing (gap of {k - last - 1})")
         self.newest[signal] = k
         if self.stretch_last is not None and k <= self.stretch_last:
             # Another signal already completed a later sample: this one cannot join the stretch.
-            result.warnings.append(f"{label}: sample {k} arrived after sample {self.stretch_last} was complete; dropped")
+            result.warnings.append(
+                f"{label}: sample {k} arrived after sample {self.stretch_last} was complete; dropped"
+            )
             return result
         entry = self._pending.setdefault(k, {})
         entry[signal] = np.asarray(values, dtype=float)

@@ -14,6 +14,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import rclpy
@@ -21,13 +22,14 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from ..core.closed_loop import RunRecord
-from ..core.config import PmrConfig, flatten_parameters, load_config
-from ..core.pmr import Diagnosis
-from .contract import topic
-from .convert import diagnosis_from_array, read_estimates, read_signal
-from .parameters import parameter_overrides
-from .signals import stop_requests
+from .config import PmrConfig, flatten_parameters, load_config
+from .contract.layout import diagnosis_from_array, read_estimates, read_signal
+from .contract.topics import SIGNAL_TOPICS, topic
+from .core.closed_loop import RunRecord
+from .core.results import Diagnosis
+from .ros.parameters import parameter_overrides
+from .ros.signals import stop_requests
+from .ros.topics import message_class, qos_profile
 
 DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
@@ -67,6 +69,7 @@ class NodeSetRun:
 
     @property
     def samples_per_second(self) -> float:
+        """Closed-loop samples per second of wall time [samples/s]."""
         return self.config.run.samples / self.wall_time_s if self.wall_time_s > 0 else float("inf")
 
 
@@ -84,15 +87,15 @@ class _Listener(Node):
         self.counts: dict[str, int] = {}
         for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
             t = topic(key)
-            self.create_subscription(t.message_class(), t.name, callback, t.qos.profile())
+            self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
         if record:
             n = config.run.samples
             widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
-            for signal, key in (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output")):
+            for signal, key in SIGNAL_TOPICS.items():
                 self.arrays[signal] = np.full((n, widths[signal]), np.nan)
                 self.counts[signal] = 0
                 t = topic(key)
-                self.create_subscription(t.message_class(), t.name, self._recorder(signal), t.qos.profile())
+                self.create_subscription(message_class(t), t.name, self._recorder(signal), qos_profile(t.qos))
 
     def _recorder(self, signal: str):
         def on_message(msg) -> None:
@@ -127,10 +130,10 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) 
 
     ``extra`` holds dotted parameter values laid over the configuration.
     """
-    from ..nodes.mpc_controller import MpcControllerNode
-    from ..nodes.pmr_diagnostician import PmrDiagnosticianNode
-    from ..nodes.prbs_setpoint import PrbsSetpointNode
-    from ..nodes.wood_berry_plant import PlantNode
+    from .nodes.mpc_controller import MpcControllerNode
+    from .nodes.plant import PlantNode
+    from .nodes.pmr_diagnostician import PmrDiagnosticianNode
+    from .nodes.prbs_setpoint import PrbsSetpointNode
 
     flat = flatten_parameters(config.parameters)
     flat.update(extra or {})
@@ -146,24 +149,12 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) 
     return nodes
 
 
-def run_node_set(
-    config: PmrConfig | None = None,
-    *,
-    domain_id: int | None = None,
-    record: bool = False,
-    diagnose_once: bool = True,
-    stall_timeout_s: float = 30.0,
-    extra_parameters: dict | None = None,
-    executor_kind: str = "events",
-    private: bool = False,
-    extra_nodes: Callable[[Context, dict], list[Node]] | None = None,
-) -> NodeSetRun:
-    """Run the four nodes in this process for ``config.run.samples`` samples in lockstep.
+@dataclass(frozen=True)
+class NodeSetOptions:
+    """How :func:`run_node_set` runs the node set.
 
-    Parameters
+    Attributes
     ----------
-    config : PmrConfig, optional
-        Default: the shipped Wood-Berry configuration.
     domain_id : int, optional
         ROS domain of the private Context (default: ``ROS_DOMAIN_ID`` or 0).
     record : bool
@@ -184,6 +175,75 @@ def run_node_set(
         ``extra_nodes(context, parameters)`` builds nodes spun with the set
         (e.g. a bag recorder); ``parameters`` are the dotted values every node
         got.  The run also waits for each one's ``done`` (when it has one).
+    """
+
+    domain_id: int | None = None
+    record: bool = False
+    diagnose_once: bool = True
+    stall_timeout_s: float = 30.0
+    extra_parameters: dict[str, Any] | None = None
+    executor_kind: str = "events"
+    private: bool = False
+    extra_nodes: Callable[[Context, dict[str, Any]], list[Node]] | None = None
+
+    def parameters(self, config: PmrConfig) -> dict[str, Any]:
+        """The dotted parameter values laid over the configuration for every node."""
+        n = config.run.samples
+        extra: dict[str, Any] = {}
+        if self.diagnose_once:
+            keys = ("diagnostician.window_samples", "diagnostician.update_period_samples", "diagnostician.min_samples")
+            extra.update(dict.fromkeys(keys, n))
+        extra.update(self.extra_parameters or {})
+        return extra
+
+
+class _Watch:
+    """Progress of the plant: when the run started, and whether it stalled."""
+
+    def __init__(self, plant: Any, samples: int, stall_timeout_s: float) -> None:
+        self.plant, self.samples, self.timeout = plant, samples, stall_timeout_s
+        self.started: float | None = None
+        self.last_progress, self.last_sample = time.monotonic(), plant.sample
+
+    def check(self) -> None:
+        """Note progress; raise :class:`NodeSetError` when there was none for the timeout."""
+        now = time.monotonic()
+        if self.plant.sample != self.last_sample:
+            self.started = self.started if self.started is not None else now
+            self.last_progress, self.last_sample = now, self.plant.sample
+        elif now - self.last_progress > self.timeout:
+            if not self.plant.finished:
+                raise NodeSetError(
+                    f"the node set stalled at sample {self.plant.sample} of {self.samples} "
+                    f"(no progress for {self.timeout:g} s)"
+                )
+            raise NodeSetError(
+                f"no final verdicts on {topic('diagnostics').name} within {self.timeout:g} s after the last sample"
+            )
+
+    @property
+    def wall_time_s(self) -> float:
+        """From the first published sample to now [s]."""
+        return time.monotonic() - (self.started or time.monotonic())
+
+
+def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watch: _Watch, stop: list[int]) -> None:
+    while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
+        executor.spin_once(timeout_sec=0.05)
+        if stop:
+            raise KeyboardInterrupt
+        watch.check()
+
+
+def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None = None) -> NodeSetRun:
+    """Run the four nodes in this process for ``config.run.samples`` samples in lockstep.
+
+    Parameters
+    ----------
+    config : PmrConfig, optional
+        Default: the shipped Wood-Berry configuration.
+    options : NodeSetOptions, optional
+        Domain, recording, executor, extra nodes (defaults: see :class:`NodeSetOptions`).
 
     Raises
     ------
@@ -191,50 +251,33 @@ def run_node_set(
         When the loop stalls.
     """
     config = config or load_config()
-    n = config.run.samples
-    extra = {}
-    if diagnose_once:
-        extra.update({"diagnostician.window_samples": n, "diagnostician.update_period_samples": n, "diagnostician.min_samples": n})
-    extra.update(extra_parameters or {})
+    options = options or NodeSetOptions()
+    extra = options.parameters(config)
     context = Context()
-    _init_context(context, domain_id, private)
+    _init_context(context, options.domain_id, options.private)
     nodes: list[Node] = []
     executor = None
     with stop_requests() as stop:
         try:
             nodes = build_nodes(config, context, extra)
             diagnostician, plant = nodes[0], nodes[-1]
-            listener = _Listener(context, config, record)
+            listener = _Listener(context, config, options.record)
             nodes.append(listener)
-            if extra_nodes is not None:
-                flat = flatten_parameters(config.parameters)
-                flat.update(extra)
-                nodes.extend(extra_nodes(context, flat))
-            executor = make_executor(executor_kind, context)
+            if options.extra_nodes is not None:
+                nodes.extend(options.extra_nodes(context, {**flatten_parameters(config.parameters), **extra}))
+            executor = make_executor(options.executor_kind, context)
             for node in nodes:
                 executor.add_node(node)
-            started = None
-            last_progress, last_sample = time.monotonic(), plant.sample
-            while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
-                executor.spin_once(timeout_sec=0.05)
-                if stop:
-                    raise KeyboardInterrupt
-                now = time.monotonic()
-                if plant.sample != last_sample:
-                    if started is None:
-                        started = now
-                    last_progress, last_sample = now, plant.sample
-                elif now - last_progress > stall_timeout_s and not plant.finished:
-                    raise NodeSetError(f"the node set stalled at sample {plant.sample} of {n} (no progress for {stall_timeout_s:g} s)")
-                elif plant.finished and now - last_progress > stall_timeout_s:
-                    raise NodeSetError(f"no final verdicts on {topic('diagnostics').name} within {stall_timeout_s:g} s after the last sample")
-            wall = time.monotonic() - (started or time.monotonic())
+            watch = _Watch(plant, config.run.samples, options.stall_timeout_s)
+            _spin_until_done(executor, nodes, listener, watch, stop)
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
-            record_out = None
-            if record:
-                record_out = RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"])
+            record_out = (
+                RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"]) if options.record else None
+            )
             estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
-            return NodeSetRun(config, diagnosis, info, estimates, record_out, wall, list(diagnostician.warnings))
+            return NodeSetRun(
+                config, diagnosis, info, estimates, record_out, watch.wall_time_s, list(diagnostician.warnings)
+            )
         finally:
             if executor is not None:
                 executor.shutdown(timeout_sec=1.0)

@@ -1,0 +1,346 @@
+"""From a parameter tree to the core's typed settings, strictly.
+
+Every key must be declared in ``config/parameters.yaml`` (a typo is an error
+that names the nearest known key), every block must be a mapping, every value
+is checked against its declaration, and what a file leaves out takes the
+declared default -- except the ``system`` block, which has none: the
+shipped Wood-Berry column never stands in for a plant model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.classic import PmrSettings
+from ..core.foptd import FoptdMatrix, Mismatch
+from ..core.mpc import MpcTuning
+from ..core.parametric import ParametricSettings
+from ..core.prbs import PrbsSettings
+from .errors import ConfigError
+from .schema import Shape, blocks, closest_name, default_tree, parameter, parameters
+
+__all__ = [
+    "DiagnosticianSettings",
+    "PmrConfig",
+    "RunSettings",
+    "SimulationSettings",
+    "check_tree",
+    "parse_config",
+]
+
+SYSTEM_BLOCK = "system"
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How long and with what seed and scenario the closed loop runs (the ``run`` block)."""
+
+    samples: int
+    seed: int
+    scenario: str
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """How the plant node drives the node set (the ``simulation`` block).
+
+    Attributes
+    ----------
+    real_time_rate_hz : float
+        0: lockstep (the plant steps on u(k)); > 0: wall-clock samples per second.
+    wait_for_subscribers : int
+        Subscribers of y the plant waits for before sample 0.
+    startup_timeout_s : float
+        Longest wait for them [s].
+    """
+
+    real_time_rate_hz: float
+    wait_for_subscribers: int
+    startup_timeout_s: float
+
+    @property
+    def lockstep(self) -> bool:
+        """Whether the plant steps on u(k) instead of a wall-clock timer."""
+        return self.real_time_rate_hz == 0
+
+
+@dataclass(frozen=True)
+class DiagnosticianSettings:
+    """The diagnostician's rolling window (the ``diagnostician`` block).
+
+    Attributes
+    ----------
+    window_samples, update_period_samples, min_samples, max_lag_samples : int
+        Window, update period, shortest diagnosable stretch and the lag at
+        which a signal counts as stopped [samples].
+    stale_timeout_s : float
+        Silence of a signal after which the verdicts turn STALE [s, wall time].
+    """
+
+    window_samples: int
+    update_period_samples: int
+    min_samples: int
+    max_lag_samples: int
+    stale_timeout_s: float
+
+
+@dataclass(frozen=True)
+class PmrConfig:
+    """Everything a run needs: the model, the simulated plant and loop, the diagnosis, the nodes.
+
+    Attributes
+    ----------
+    parameters : dict
+        The effective nested parameter tree (file values over declared defaults).
+    source : str
+        Where it came from (a file, or a node's parameters).
+    """
+
+    model: FoptdMatrix
+    mismatch: Mismatch
+    noise_std: np.ndarray
+    prbs: PrbsSettings
+    mpc: MpcTuning
+    pmr: PmrSettings
+    parametric: ParametricSettings
+    run: RunSettings
+    simulation: SimulationSettings
+    diagnostician: DiagnosticianSettings
+    source: str
+    parameters: dict[str, Any]
+
+    def plant(self, scenario: str | None = None) -> FoptdMatrix:
+        """The true plant ``G`` under ``scenario`` (default: the configured one)."""
+        return self.model.with_mismatch(self.mismatch.for_scenario(scenario or self.run.scenario))
+
+
+def _did_you_mean(name: str, known: list[str]) -> str:
+    guess = closest_name(name, known)
+    return f"; did you mean {guess}?" if guess else ""
+
+
+def check_tree(tree: Any, source: str) -> dict[str, dict[str, Any]]:
+    """Check a parameter tree's shape and names against the declaration.
+
+    Raises
+    ------
+    ConfigError
+        The tree is not a mapping of blocks, a block is not a mapping, or a
+        block or parameter is not declared (with the nearest known name).
+    """
+    if not isinstance(tree, Mapping):
+        raise ConfigError(source, "ros__parameters", tree, "must be a mapping of parameter blocks")
+    known_blocks = blocks()
+    for block, values in tree.items():
+        if block not in known_blocks:
+            guess = _did_you_mean(str(block), [*known_blocks, *parameters()])
+            raise ConfigError(source, str(block), None, f"unknown block (known: {', '.join(known_blocks)}){guess}")
+        if not isinstance(values, Mapping):
+            names = ", ".join(p.name for p in known_blocks[block].parameters[:3])
+            raise ConfigError(
+                source,
+                str(block),
+                values,
+                f"must be a mapping of parameters ({names}, ...), not a {type(values).__name__}",
+            )
+        declared = [p.name for p in known_blocks[block].parameters]
+        for key in values:
+            name = f"{block}.{key}"
+            if name not in declared:
+                raise ConfigError(
+                    source,
+                    name,
+                    None,
+                    f"unknown parameter{_did_you_mean(name, declared) or _did_you_mean(name, list(parameters()))}",
+                )
+    return {str(block): dict(values) for block, values in tree.items()}
+
+
+def _effective(tree: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Declared defaults with the tree's values laid over them."""
+    out = default_tree()
+    for block, values in tree.items():
+        out.setdefault(block, {}).update(values)
+    return out
+
+
+class _Values:
+    """Checked access to the effective tree's values, naming each value's source."""
+
+    def __init__(self, tree: dict[str, dict[str, Any]], source: str, sources: Mapping[str, str]) -> None:
+        self.tree, self.source, self.sources = tree, source, sources
+        self.shape: Shape | None = None
+
+    def raw(self, name: str) -> Any:
+        block, key = name.split(".", 1)
+        if key not in self.tree.get(block, {}):
+            raise ConfigError(self.source, name, None, f"missing ({parameter(name).doc})")
+        return self.tree[block][key]
+
+    def source_of(self, name: str) -> str:
+        return self.sources.get(name, self.source)
+
+    def __getitem__(self, name: str) -> Any:
+        return parameter(name).check(self.raw(name), source=self.source_of(name), shape=self.shape)
+
+    def error(self, name: str, value: Any, reason: str) -> ConfigError:
+        return ConfigError(self.source_of(name), name, value, reason)
+
+
+def _model(v: _Values) -> FoptdMatrix:
+    given = v.tree.get(SYSTEM_BLOCK, {})
+    if not any(p.name.split(".", 1)[1] in given for p in blocks()[SYSTEM_BLOCK].parameters if p.required):
+        raise ConfigError(
+            v.source,
+            SYSTEM_BLOCK,
+            None,
+            "missing: a configuration needs the controller's model (system: sample_time, output_names, input_names, "
+            "gain, time_constant, delay)",
+        )
+    outputs, inputs = v["system.output_names"], v["system.input_names"]
+    if len(outputs) != len(inputs):
+        raise v.error(
+            "system.input_names",
+            list(inputs),
+            f"the matrix must be square: {len(outputs)} outputs but {len(inputs)} inputs",
+        )
+    v.shape = Shape(len(outputs), len(inputs))
+    ts = v["system.sample_time"]
+    gain = v["system.gain"]
+    if np.any(gain == 0):
+        j = int(np.flatnonzero(gain.ravel() == 0)[0])
+        raise v.error(f"system.gain[{j}]", 0.0, "must be non-zero: the plant-model ratio divides by the model gain")
+    delay = v["system.delay"]
+    whole = delay / ts
+    bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
+    if bad.size:
+        j = int(bad[0])
+        raise v.error(
+            f"system.delay[{j}]", float(delay.ravel()[j]), f"must be a whole number of samples (sample_time = {ts:g})"
+        )
+    return FoptdMatrix(gain, v["system.time_constant"], np.rint(whole) * ts, ts, outputs, inputs, v["system.name"])
+
+
+def _mismatch(v: _Values, model: FoptdMatrix) -> Mismatch:
+    delay = v["mismatch.delay_samples"]
+    if np.any(model.delay_samples + delay < 0):
+        raise v.error("mismatch.delay_samples", delay.ravel().tolist(), "would make a plant delay negative")
+    return Mismatch(v["mismatch.gain_pct"], v["mismatch.time_constant_pct"], np.rint(delay).astype(int))
+
+
+def _prbs(v: _Values) -> PrbsSettings:
+    return PrbsSettings(
+        register_length=v["prbs.register_length"],
+        clock_period=v["prbs.clock_period"],
+        amplitude=v["prbs.amplitude"],
+        nominal=v["prbs.nominal"],
+    )
+
+
+def _mpc(v: _Values, model: FoptdMatrix) -> MpcTuning:
+    np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
+    if nc_h > np_h:
+        raise v.error("mpc.control_horizon", nc_h, f"must not exceed mpc.prediction_horizon ({np_h})")
+    if np_h <= int(model.delay_samples.max()):
+        raise v.error(
+            "mpc.prediction_horizon", np_h, f"must exceed the largest delay ({int(model.delay_samples.max())} samples)"
+        )
+    u_min, u_max = v["mpc.u_min"], v["mpc.u_max"]
+    if np.any(u_min >= u_max):
+        raise v.error("mpc.u_min", u_min.tolist(), "must be below mpc.u_max")
+    return MpcTuning(
+        prediction_horizon=np_h,
+        control_horizon=nc_h,
+        output_weight=v["mpc.output_weight"],
+        move_weight=v["mpc.move_weight"],
+        u_min=u_min,
+        u_max=u_max,
+        du_max=v["mpc.du_max"],
+    )
+
+
+def _pmr(v: _Values) -> PmrSettings:
+    window = v["pmr.window"]
+    try:
+        from scipy.signal import get_window
+
+        get_window(window, 8)
+    except ValueError:
+        raise v.error("pmr.window", window, "not a scipy.signal window name (e.g. hann, hamming, blackman)") from None
+    keys = (
+        "method",
+        "window",
+        "segment_length",
+        "overlap",
+        "tau_band",
+        "gain_tolerance",
+        "tau_index_threshold",
+        "max_delay_samples",
+        "coherence_min",
+    )
+    return PmrSettings(**{key: v[f"pmr.{key}"] for key in keys})
+
+
+def _parametric(v: _Values) -> ParametricSettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("parametric.")]
+    settings = ParametricSettings(**{key: v[f"parametric.{key}"] for key in keys})
+    if 0 < settings.segment_length < 16:
+        raise v.error("parametric.segment_length", settings.segment_length, "must be 0 (automatic) or >= 16")
+    return settings
+
+
+def _diagnostician(v: _Values) -> DiagnosticianSettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("diagnostician.")]
+    settings = DiagnosticianSettings(**{key: v[f"diagnostician.{key}"] for key in keys})
+    if settings.min_samples > settings.window_samples:
+        raise v.error(
+            "diagnostician.min_samples",
+            settings.min_samples,
+            f"must not exceed diagnostician.window_samples ({settings.window_samples})",
+        )
+    return settings
+
+
+def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = None) -> PmrConfig:
+    """Validate a nested parameter tree into a :class:`PmrConfig`.
+
+    Parameters
+    ----------
+    tree : mapping
+        ``ros__parameters`` of a params file (or a node's parameters, nested).
+    source : str
+        Named in error messages (the file).
+    sources : mapping, optional
+        Dotted name to another source of that value (e.g. ``command line (--seed)``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the source, the field and the value.
+    """
+    source = str(source)
+    checked = check_tree(tree, source)
+    v = _Values(_effective(checked), source, sources or {})
+    model = _model(v)
+    return PmrConfig(
+        model=model,
+        mismatch=_mismatch(v, model),
+        noise_std=v["noise.std"],
+        prbs=_prbs(v),
+        mpc=_mpc(v, model),
+        pmr=_pmr(v),
+        parametric=_parametric(v),
+        run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
+        simulation=SimulationSettings(
+            real_time_rate_hz=v["simulation.real_time_rate_hz"],
+            wait_for_subscribers=v["simulation.wait_for_subscribers"],
+            startup_timeout_s=v["simulation.startup_timeout_s"],
+        ),
+        diagnostician=_diagnostician(v),
+        source=source,
+        parameters=v.tree,
+    )

@@ -1,0 +1,302 @@
+"""The parameter declaration of ``config/parameters.yaml``: defaults, types, ranges, meanings.
+
+Every other place that needs a default, a range or a description (the config
+reader, the ROS 2 parameter descriptors, ``pmr-ros params``) takes it from
+here, so each is written once.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from ..core.foptd import element_name
+from ..resources import share_dir
+from .errors import ConfigError
+from .files import load_yaml
+
+__all__ = [
+    "KINDS",
+    "SCHEMA_FILE",
+    "Block",
+    "Parameter",
+    "Shape",
+    "blocks",
+    "closest_name",
+    "default_tree",
+    "parameter",
+    "parameters",
+]
+
+SCHEMA_FILE = "parameters.yaml"
+"""The declaration file in the package's ``config/`` folder."""
+
+KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix")
+"""Parameter types of the declaration (see its header comment)."""
+
+_REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Sizes a per-channel or matrix parameter is checked against.
+
+    Attributes
+    ----------
+    n_outputs, n_inputs : int
+        Channels of the system.
+    """
+
+    n_outputs: int
+    n_inputs: int
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One declared parameter.
+
+    Attributes
+    ----------
+    name : str
+        Dotted name, ``block.key``.
+    kind : str
+        One of :data:`KINDS`.
+    default : object
+        The default; :attr:`required` when there is none.
+    minimum, maximum : float or None
+        Bounds, inclusive unless :attr:`min_exclusive` / :attr:`max_exclusive`.
+    choices : tuple of str
+        Allowed strings (empty: any).
+    per : str
+        ``outputs`` or ``inputs`` for ``channels``.
+    scalar : bool
+        A ``matrix`` may be one number for every element.
+    integer : bool
+        The numbers of a ``matrix`` must be whole.
+    unit, doc : str
+    nodes : tuple of str
+        The executables that declare it.
+    """
+
+    name: str
+    kind: str
+    default: Any = _REQUIRED
+    minimum: float | None = None
+    maximum: float | None = None
+    min_exclusive: bool = False
+    max_exclusive: bool = False
+    choices: tuple[str, ...] = ()
+    per: str = ""
+    scalar: bool = False
+    integer: bool = False
+    unit: str = ""
+    doc: str = ""
+    nodes: tuple[str, ...] = ()
+
+    @property
+    def required(self) -> bool:
+        """Whether a file must give it (no default)."""
+        return self.default is _REQUIRED
+
+    @property
+    def block(self) -> str:
+        """The block (``mpc`` of ``mpc.prediction_horizon``)."""
+        return self.name.split(".", 1)[0]
+
+    def describe(self) -> str:
+        """One line for a ROS descriptor or a listing: meaning, unit, range."""
+        text = self.doc
+        if self.unit:
+            text += f" [{self.unit}]"
+        bounds = self.range_text()
+        return f"{text}; {bounds}" if bounds else text
+
+    def range_text(self) -> str:
+        """The allowed values in words (``number > 0``, ``one of classic, parametric``)."""
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        parts = []
+        if self.minimum is not None:
+            parts.append(f"{'>' if self.min_exclusive else '>='} {self.minimum:g}")
+        if self.maximum is not None:
+            parts.append(f"{'<' if self.max_exclusive else '<='} {self.maximum:g}")
+        return " and ".join(parts)
+
+    # -- checking ------------------------------------------------------------
+    def check(self, value: Any, *, source: str, shape: Shape | None = None) -> Any:
+        """The value as the core wants it, or :class:`ConfigError` naming this parameter.
+
+        ``int``/``float`` give Python numbers, ``string`` a str, ``names`` a
+        tuple, ``channels`` an ndarray of shape (channels,), ``matrix`` an
+        ndarray (n_outputs, n_inputs).  ``shape`` is needed for the last two.
+        """
+        checker = getattr(self, f"_check_{self.kind}")
+        return checker(value, source, shape)
+
+    def _error(self, source: str, value: Any, reason: str, field: str | None = None) -> ConfigError:
+        return ConfigError(source, field or self.name, value, reason)
+
+    def _number(self, value: Any, source: str, field: str, *, integer: bool) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self._error(source, value, "must be a number", field)
+        if not math.isfinite(value):
+            raise self._error(source, value, "must be finite", field)
+        if integer and float(value) != int(value):
+            raise self._error(source, value, "must be a whole number", field)
+        low, high = self.minimum, self.maximum
+        if low is not None and (value < low or (self.min_exclusive and value == low)):
+            raise self._error(source, value, f"must be {self.range_text()}", field)
+        if high is not None and (value > high or (self.max_exclusive and value == high)):
+            raise self._error(source, value, f"must be {self.range_text()}", field)
+        return int(value) if integer else float(value)
+
+    def _check_int(self, value: Any, source: str, shape: Shape | None) -> int:
+        return int(self._number(value, source, self.name, integer=True))
+
+    def _check_float(self, value: Any, source: str, shape: Shape | None) -> float:
+        return self._number(value, source, self.name, integer=False)
+
+    def _check_bool(self, value: Any, source: str, shape: Shape | None) -> bool:
+        if not isinstance(value, bool):
+            raise self._error(source, value, "must be true or false")
+        return value
+
+    def _check_string(self, value: Any, source: str, shape: Shape | None) -> str:
+        if not isinstance(value, str):
+            raise self._error(source, value, "must be a string")
+        if self.choices and value not in self.choices:
+            raise self._error(source, value, f"must be {self.range_text()}")
+        return value
+
+    def _check_names(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
+        if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
+            raise self._error(source, value, "must be a non-empty list of names")
+        if len(set(value)) != len(value):
+            raise self._error(source, value, "names must be unique")
+        return tuple(value)
+
+    def _check_channels(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
+        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        if not isinstance(value, list):
+            return np.full(length, self._number(value, source, self.name, integer=False))
+        if len(value) != length:
+            raise self._error(source, value, f"needs {length} entries (one per {self.per[:-1]}), got {len(value)}")
+        items = [self._number(v, source, f"{self.name}[{j}]", integer=False) for j, v in enumerate(value)]
+        return np.array(items, dtype=float)
+
+    def _check_matrix(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
+        if shape is None:
+            raise ValueError(f"{self.name}: a matrix parameter needs the system's shape")
+        n_out, n_in = shape.n_outputs, shape.n_inputs
+        if self.scalar and isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = [value] * (n_out * n_in)
+        if not isinstance(value, list):
+            raise self._error(source, value, f"must be a list of {n_out}x{n_in} = {n_out * n_in} numbers, row by row")
+        if value and all(isinstance(row, list) for row in value):
+            lengths = [len(row) for row in value]
+            if len(value) != n_out or any(n != n_in for n in lengths):
+                raise self._error(source, value, f"must be {n_out} rows of {n_in} (got rows of {lengths})")
+            value = [x for row in value for x in row]
+        if len(value) != n_out * n_in:
+            raise self._error(
+                source, value, f"needs {n_out * n_in} entries ({n_out}x{n_in}, row by row), got {len(value)}"
+            )
+        items = [
+            self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape)})", integer=self.integer)
+            for j, v in enumerate(value)
+        ]
+        return np.array(items, dtype=float).reshape(n_out, n_in)
+
+
+def element_label(flat_index: int, shape: Shape) -> str:
+    """``G21`` for the row-major index of an element (``G2_10`` style beyond 9 channels)."""
+    i, k = divmod(flat_index, shape.n_inputs)
+    return element_name(i, k, max(shape.n_outputs, shape.n_inputs))
+
+
+@dataclass(frozen=True)
+class Block:
+    """A block of parameters (``mpc``), with the nodes that declare it."""
+
+    name: str
+    doc: str
+    nodes: tuple[str, ...]
+    parameters: tuple[Parameter, ...]
+
+
+def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...]) -> Parameter:
+    kind = entry.get("type")
+    if kind not in KINDS:
+        raise ValueError(f"{SCHEMA_FILE}: {block}.{key}: type {kind!r} is not one of {', '.join(KINDS)}")
+    return Parameter(
+        name=f"{block}.{key}",
+        kind=kind,
+        default=entry.get("default", _REQUIRED),
+        minimum=entry.get("min"),
+        maximum=entry.get("max"),
+        min_exclusive=bool(entry.get("min_exclusive", False)),
+        max_exclusive=bool(entry.get("max_exclusive", False)),
+        choices=tuple(entry.get("choices", ())),
+        per=str(entry.get("per", "")),
+        scalar=bool(entry.get("scalar", False)),
+        integer=bool(entry.get("integer", False)),
+        unit=str(entry.get("unit", "")),
+        doc=str(entry.get("doc", "")),
+        nodes=tuple(entry.get("nodes", nodes)),
+    )
+
+
+@cache
+def blocks() -> dict[str, Block]:
+    """Every block of the declaration, by name, in file order."""
+    path = share_dir("config", SCHEMA_FILE) / SCHEMA_FILE
+    doc = load_yaml(path)
+    out = {}
+    for name, entry in doc.items():
+        nodes = tuple(entry.get("nodes", ()))
+        params = tuple(_parameter(name, key, spec, nodes) for key, spec in entry["parameters"].items())
+        out[name] = Block(name, str(entry.get("doc", "")), nodes, params)
+    return out
+
+
+@cache
+def parameters() -> dict[str, Parameter]:
+    """Every declared parameter by dotted name."""
+    return {p.name: p for block in blocks().values() for p in block.parameters}
+
+
+def parameter(name: str) -> Parameter:
+    """The declaration of ``name``; KeyError if there is none."""
+    return parameters()[name]
+
+
+def closest_name(name: str, known: list[str] | None = None) -> str | None:
+    """The known parameter or block name nearest to a misspelt ``name``, if any is close.
+
+    Examples
+    --------
+    >>> closest_name("mpc.predicton_horizon")
+    'mpc.prediction_horizon'
+    """
+    candidates = known if known is not None else [*parameters(), *blocks()]
+    match = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
+    return match[0] if match else None
+
+
+def default_tree(*, blocks_wanted: tuple[str, ...] | None = None) -> dict[str, dict[str, Any]]:
+    """The nested tree of every default (required parameters left out)."""
+    tree: dict[str, dict[str, Any]] = {}
+    for name, block in blocks().items():
+        if blocks_wanted is not None and name not in blocks_wanted:
+            continue
+        values = {p.name.split(".", 1)[1]: p.default for p in block.parameters if not p.required}
+        if values:
+            tree[name] = values
+    return tree

@@ -1,0 +1,73 @@
+"""Settings of the parametric diagnosis (the ``parametric`` block)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..classic import PmrSettings
+from ..foptd import FoptdMatrix
+from ..spectra import WelchSettings
+
+__all__ = ["ParametricSettings"]
+
+
+@dataclass(frozen=True)
+class ParametricSettings:
+    """Settings of the parametric diagnosis and of its calibrated verdicts.
+
+    Defaults and ranges: ``config/parameters.yaml``.  The delay search range
+    is the classic one, ``pmr.max_delay_samples``.
+
+    Attributes
+    ----------
+    segment_length : int
+        Welch segment [samples]; 0 picks it from the slowest model element so
+        the bins resolve its corner: ``resolution x 2 pi tau_max / Ts``,
+        rounded up to a power of two, between the classic segment and a
+        quarter of the record.
+    resolution : float
+        See ``segment_length``.
+    confidence_level : float
+        Of the intervals (0.95).
+    gain_tolerance_pct, tau_tolerance_pct : float
+        Practical tolerance: a mismatch is flagged only when the interval
+        excludes zero and the estimate exceeds this [%].
+    max_interval_pct : float
+        An interval wider than +/- this [percentage points] cannot support a
+        verdict: the parameter is inconclusive.
+    delay_confidence_min : float
+        The delay verdict needs this confidence; below it, inconclusive.
+    coherence_min : float
+        A row whose mean squared coherence with the setpoints over the fitted
+        band is below this is inconclusive.
+    excitation_min : float
+        An element whose share of its row's setpoint-driven output is below
+        this is inconclusive (it is not seen in the data).
+    max_condition : float
+        A row whose regression's median condition number exceeds this is inconclusive.
+    row_time_constant_ratio_warn : float
+        The paper's filtering-effect limit: a row whose model time constants
+        differ by more gets a quality warning (not a verdict change).
+    """
+
+    segment_length: int
+    resolution: float
+    confidence_level: float
+    gain_tolerance_pct: float
+    tau_tolerance_pct: float
+    max_interval_pct: float
+    delay_confidence_min: float
+    coherence_min: float
+    excitation_min: float
+    max_condition: float
+    row_time_constant_ratio_warn: float
+
+    def welch(self, model: FoptdMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
+        """The Welch settings for a record of ``samples`` on ``model``."""
+        length = self.segment_length
+        if length <= 0:
+            wanted = self.resolution * 2.0 * math.pi * model.time_constant.max() / model.sample_time
+            ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))
+            length = max(classic.segment_length, min(1 << max(4, math.ceil(math.log2(wanted))), ceiling))
+        return WelchSettings(classic.window, length, classic.overlap)

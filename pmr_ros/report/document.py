@@ -1,0 +1,61 @@
+"""The JSON report of a diagnosis: the diagnosis's own serialisation plus where it came from."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from .. import __version__
+from ..config import PmrConfig
+from ..core.results import Diagnosis
+
+__all__ = ["build_report", "injected_mismatch", "write_json"]
+
+
+def injected_mismatch(config: PmrConfig, scenario: str) -> dict[str, dict[str, float | int]]:
+    """The mismatch a simulated run injected, per element (the truth to compare with)."""
+    mm = config.mismatch.for_scenario(scenario)
+    out: dict[str, dict[str, float | int]] = {}
+    for name, (i, k, _) in config.model.element_models().items():
+        out[name] = {
+            "gain_pct": float(mm.gain_pct[i, k]),
+            "time_constant_pct": float(mm.time_constant_pct[i, k]),
+            "delay_samples": int(mm.delay_samples[i, k]),
+        }
+    return out
+
+
+def build_report(
+    config: PmrConfig, diagnosis: Diagnosis, *, command: str, scenario: str | None, seed: int | None
+) -> dict[str, Any]:
+    """The JSON-ready report of a diagnosis.
+
+    The diagnosis's :meth:`~pmr_ros.core.results.Diagnosis.to_dict` (status,
+    reason, samples, method, ``elements``) with the tool, command, system,
+    settings and, for simulated runs, the ``injected`` truth.
+    """
+    report: dict[str, Any] = {
+        "tool": "pmr_ros",
+        "version": __version__,
+        "command": command,
+        "system": config.model.name,
+        "config": config.source,
+        "scenario": scenario,
+        "seed": seed,
+        "sample_time": config.model.sample_time,
+        "settings": {
+            "pmr": asdict(config.pmr),
+            "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None,
+        },
+    }
+    report.update(diagnosis.to_dict())
+    if scenario is not None:
+        report["injected"] = injected_mismatch(config, scenario)
+    return report
+
+
+def write_json(report: dict[str, Any], path: str | Path) -> None:
+    """Write ``report`` to ``path`` (UTF-8, indented)."""
+    Path(path).write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")

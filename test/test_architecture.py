@@ -1,0 +1,151 @@
+"""The package's layers: what may import what, no import cycles, no rclpy in the core.
+
+Every ``import`` and ``from ... import`` in pmr_ros (module level and inside
+functions alike) is read with ``ast``; the layer rules are those of
+docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "pmr_ros"
+
+LAYERS: dict[str, set[str]] = {
+    # layer -> the layers it may import (itself always)
+    "resources": set(),
+    "core": set(),
+    "config": {"core", "resources"},
+    "report": {"core", "config"},
+    "contract": {"core", "config", "resources"},
+    "data": {"core", "config"},
+    "sweep": {"core", "config", "report"},
+    "bag": {"core", "config", "contract"},
+    "ros": {"core", "config", "contract", "resources"},
+    "nodes": {"core", "config", "contract", "ros", "bag"},
+    "node_set": {"core", "config", "contract", "ros", "nodes"},
+    "commands": {
+        "core",
+        "config",
+        "contract",
+        "report",
+        "data",
+        "sweep",
+        "bag",
+        "ros",
+        "nodes",
+        "node_set",
+        "resources",
+    },
+    "cli": {"commands", "config", "ros"},
+    "__init__": set(),
+}
+"""Each top-level part of pmr_ros and the parts it may import."""
+
+ROS_LAYERS = {"ros", "nodes", "node_set", "commands", "cli"}
+"""The only layers that may import rclpy or ROS message packages."""
+
+ROS_PACKAGES = (
+    "rclpy",
+    "rcl_interfaces",
+    "builtin_interfaces",
+    "std_msgs",
+    "sensor_msgs",
+    "diagnostic_msgs",
+    "rosgraph_msgs",
+)
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Absolute names of every module ``path`` imports (relative imports resolved)."""
+    module = _module_name(path)
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                target = ".".join([*base, node.module] if node.module else base)
+            else:
+                target = node.module or ""
+            out.add(target)
+            # ``from . import store`` imports a module, not a name
+            out.update(
+                f"{target}.{alias.name}"
+                for alias in node.names
+                if (PACKAGE.parent / Path(*f"{target}.{alias.name}".split("."))).with_suffix(".py").exists()
+            )
+    return out
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    return "__init__" if len(parts) == 1 else parts[1]
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+GRAPH = {name: {m for m in _imports(path) if m in MODULES and m != name} for name, path in MODULES.items()}
+
+
+def test_every_part_of_the_package_has_a_layer():
+    assert {_layer(m) for m in MODULES} <= set(LAYERS)
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_imports_follow_the_layers(module):
+    layer = _layer(module)
+    # the package's own __init__ (its version) is open to every layer
+    wrong = sorted(m for m in GRAPH[module] if _layer(m) not in (layer, "__init__") and _layer(m) not in LAYERS[layer])
+    assert not wrong, f"{module} ({layer}) may not import {wrong}"
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_rclpy_only_in_the_ros_shell(module):
+    if _layer(module) in ROS_LAYERS:
+        return
+    ros = sorted(m for m in _imports(MODULES[module]) if m.split(".")[0] in ROS_PACKAGES)
+    assert not ros, f"{module} imports {ros}: the core, config, contract, bag and sweep stay free of ROS"
+
+
+def _cycle() -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(GRAPH[node]):
+            if state.get(nxt) == 1:
+                return [*stack[stack.index(nxt) :], nxt]
+            if nxt not in state and (found := visit(nxt)):
+                return found
+        stack.pop()
+        state[node] = 2
+        return None
+
+    for start in sorted(GRAPH):
+        if start not in state and (found := visit(start)):
+            return found
+    return None
+
+
+def test_no_import_cycle_anywhere():
+    assert _cycle() is None, " -> ".join(_cycle() or [])
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    GRAPH["pmr_ros.core.foptd"].add("pmr_ros.core.classic")  # classic imports foptd: a planted cycle
+    try:
+        assert _cycle() is not None
+    finally:
+        GRAPH["pmr_ros.core.foptd"].discard("pmr_ros.core.classic")
