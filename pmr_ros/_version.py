@@ -18,7 +18,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
-from . import resources
+from .resources import PACKAGE, ResourceError, share_dir, source_root
 
 __all__ = ["UNKNOWN_VERSION", "package_version", "read_package_xml"]
 
@@ -50,9 +50,9 @@ def read_package_xml(path: Path) -> str:
     except (OSError, ElementTree.ParseError) as exc:
         raise ValueError(f"{path}: cannot read the package manifest ({exc})") from exc
     name = (root.findtext("name") or "").strip()
-    if name != resources.PACKAGE:
+    if name != PACKAGE:
         # A package.xml of some other package next to site-packages must not lend its version.
-        raise ValueError(f"{path}: the manifest of {name or 'no package'!r}, not {resources.PACKAGE}")
+        raise ValueError(f"{path}: the manifest of {name or 'no package'!r}, not {PACKAGE}")
     version = (root.findtext("version") or "").strip()
     if not version:
         raise ValueError(f"{path}: no <version>")
@@ -69,7 +69,7 @@ def package_version() -> str:
         in the module docstring can be read (never raises: importing pmr_ros
         must not fail over its version).
     """
-    checkout = resources.SOURCE_ROOT / "package.xml"
+    checkout = source_root() / "package.xml"
     if checkout.is_file():
         try:
             return read_package_xml(checkout)
@@ -78,10 +78,10 @@ def package_version() -> str:
     from importlib import metadata  # here: about 20 ms to import, and a checkout does not need it
 
     try:
-        return metadata.version(resources.PACKAGE)
+        return metadata.version(PACKAGE)
     except metadata.PackageNotFoundError:
         pass
     try:
-        return read_package_xml(resources.share_dir("", "package.xml") / "package.xml")
-    except (resources.ResourceError, ValueError):
+        return read_package_xml(share_dir("", "package.xml") / "package.xml")
+    except (ResourceError, ValueError):
         return UNKNOWN_VERSION

@@ -19,7 +19,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["PACKAGE", "SOURCE_ROOT", "ResourceError", "ament_prefixes", "share_dir"]
+__all__ = ["PACKAGE", "SOURCE_ROOT", "ResourceError", "ament_prefixes", "share_dir", "source_root"]
 
 PACKAGE = "pmr_ros"
 """The ROS 2 package name (also the ament index resource)."""
@@ -27,6 +27,16 @@ PACKAGE = "pmr_ros"
 SOURCE_ROOT = Path(__file__).resolve().parents[1]
 """The folder holding the ``pmr_ros`` package: the checkout's root when imported from one
 (for an installed copy, ``site-packages``, where no data folder is)."""
+
+
+def source_root() -> Path:
+    """:data:`SOURCE_ROOT`, read when called (so tests can point it at a fake checkout).
+
+    Returns
+    -------
+    Path
+    """
+    return SOURCE_ROOT
 
 
 class ResourceError(FileNotFoundError):
@@ -56,7 +66,7 @@ def ament_prefixes() -> list[Path]:
 
 
 def _candidates(folder: str) -> list[Path]:
-    source = SOURCE_ROOT / folder
+    source = source_root() / folder
     prefixes = [*ament_prefixes(), Path(sys.prefix), Path(sys.base_prefix)]
     installed = [p / "share" / PACKAGE / folder for p in prefixes]
     return [source, *dict.fromkeys(installed)]

@@ -57,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
                 statuses = [s for s in report.status if s.name.startswith(f"{args.node}:")]
                 if statuses:
                     first = statuses[0]
-                    level = int.from_bytes(first.level, "little") if isinstance(first.level, bytes) else int(first.level)
+                    level = (
+                        int.from_bytes(first.level, "little") if isinstance(first.level, bytes) else int(first.level)
+                    )
                     print(f"{first.name} level {level}: {first.message}")
                     return 0
             reports.clear()

@@ -109,4 +109,7 @@ def console_script(name: str) -> str:
         if candidate.is_file() and os.access(candidate, os.X_OK):
             return str(candidate)
     tried = ", ".join(str(c) for c in candidates)
-    pytest.fail(f"console script {name} not installed (looked in {tried}): run ./test.sh, which installs pmr_ros with pip install -e ., or source a colcon workspace")
+    pytest.fail(
+        f"console script {name} not installed (looked in {tried}): run ./test.sh, which installs pmr_ros "
+        "with pip install -e ., or source a colcon workspace"
+    )

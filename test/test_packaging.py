@@ -40,7 +40,10 @@ def manifest_version(path: Path) -> str:
 def write_manifest(folder: Path, version: str, name: str = "pmr_ros") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "package.xml"
-    path.write_text(f'<?xml version="1.0"?>\n<package format="3">\n  <name>{name}</name>\n  <version>{version}</version>\n</package>\n')
+    path.write_text(
+        f'<?xml version="1.0"?>\n<package format="3">\n'
+        f"  <name>{name}</name>\n  <version>{version}</version>\n</package>\n"
+    )
     return path
 
 
@@ -67,7 +70,7 @@ def nothing_installed(tmp_path, monkeypatch) -> Path:
 
 @pytest.fixture(params=["ament_index_python", "environment only"])
 def ament_lookup(request, monkeypatch) -> str:
-    """Both ways resources.ament_prefixes reads the index: with ament_index_python and without it (a plain pip install)."""
+    """Both ways resources.ament_prefixes reads the index: with ament_index_python, and without (plain pip)."""
     if request.param == "environment only":
         # None in sys.modules makes `import ament_index_python.packages` raise ImportError.
         monkeypatch.setitem(sys.modules, "ament_index_python", None)
@@ -85,7 +88,9 @@ def test_version_is_the_one_in_package_xml():
 def test_setup_py_takes_the_version_from_package_xml(tmp_path):
     shutil.copy(ROOT / "setup.py", tmp_path)
     write_manifest(tmp_path, "9.8.7")
-    proc = subprocess.run([sys.executable, "setup.py", "--version"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "setup.py", "--version"], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == "9.8.7"
 
@@ -228,7 +233,7 @@ def third_party_imports(folder: Path) -> set[str]:
                 names.update(alias.name.split(".")[0] for alias in node.names)
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 names.add(node.module.split(".")[0])
-    local = {"pmr_ros", "ros_fixtures", "conftest"}
+    local = {"pmr_ros"} | {p.stem for p in (ROOT / "test").glob("*.py")}  # the tests' own helpers (ros_fixtures, ...)
     return {n for n in names if n not in sys.stdlib_module_names and n not in local}
 
 
@@ -245,11 +250,15 @@ def test_package_xml_declares_what_the_code_imports():
     used = third_party_imports(ROOT / "pmr_ros") | message_packages()
     tested = third_party_imports(ROOT / "test")
     unknown = (used | tested) - ROSDEP_KEYS.keys()
-    assert not unknown, f"imports without a decided rosdep key (add them to ROSDEP_KEYS and package.xml): {sorted(unknown)}"
+    assert not unknown, (
+        f"imports without a decided rosdep key (add them to ROSDEP_KEYS and package.xml): {sorted(unknown)}"
+    )
     missing_run = {ROSDEP_KEYS[n] for n in used if ROSDEP_KEYS[n]} - run
     assert not missing_run, f"package.xml lacks <exec_depend> of {sorted(missing_run)}"
     missing_test = {ROSDEP_KEYS[n] for n in tested - used if ROSDEP_KEYS[n]} - test - run
     assert not missing_test, f"package.xml lacks <test_depend> of {sorted(missing_test)}"
     comment = (ROOT / "package.xml").read_text()
     for name in (n for n in used | tested if ROSDEP_KEYS[n] is None):
-        assert re.search(rf"^\s+{name}\s", comment, re.MULTILINE), f"package.xml does not say why {name} has no rosdep key"
+        assert re.search(rf"^\s+{name}\s", comment, re.MULTILINE), (
+            f"package.xml does not say why {name} has no rosdep key"
+        )
