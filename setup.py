@@ -1,14 +1,25 @@
 """ament_python package setup for pmr_ros (also installs with plain pip)."""
 
+import xml.etree.ElementTree as ElementTree
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE = "pmr_ros"
 
+
+def package_xml_version() -> str:
+    """The version in package.xml, the one place it is written (ROS convention)."""
+    version = ElementTree.parse(Path(__file__).resolve().parent / "package.xml").getroot().findtext("version")
+    if not version or not version.strip():
+        raise SystemExit("pmr_ros setup.py: package.xml has no <version>")
+    return version.strip()
+
+
 setup(
     name=PACKAGE,
-    version="0.1.0",
+    version=package_xml_version(),
     packages=find_packages(exclude=["test", "test.*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
@@ -21,7 +32,6 @@ setup(
         "numpy>=1.24,<3",
         "scipy>=1.10,<2",
         "osqp>=1.0,<2",
-        "control>=0.10,<0.11",
         "rosbags>=0.10,<0.12",
         # Reading an MCAP bag whose recorder was killed (no summary, no metadata.yaml).
         "mcap>=1.1,<2",
@@ -29,8 +39,14 @@ setup(
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.
-        "ros": ["ros-jazzy-rclpy[fastrtps]>=7.1,<8", "ros-jazzy-common-interfaces>=5.3,<6"],
-        # mypy checks pmr_ros (test.sh); PyYAML's types come as a stub package.
+        # ament_index_python: pmr_ros.resources finds a colcon workspace's share/pmr_ros with it.
+        "ros": [
+            "ros-jazzy-rclpy[fastrtps]>=7.1,<8",
+            "ros-jazzy-common-interfaces>=5.3,<6",
+            "ros-jazzy-ament-index-python>=1.8,<2",
+        ],
+        # mypy checks pmr_ros (test.sh), PyYAML's types come as a stub package;
+        # python-control: test_model checks the FOPTD responses against it.
         "test": [
             "pytest>=8",
             "ruff>=0.6",
@@ -38,6 +54,7 @@ setup(
             "types-PyYAML>=6",
             "matplotlib>=3.7",
             "mcap-ros2-support>=0.5,<1",
+            "control>=0.10,<0.11",
         ],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],

@@ -1,3 +1,6 @@
 """pmr_ros: model-plant mismatch diagnosis for MPC with the plant-model ratio."""
 
-__version__ = "0.1.0"
+from ._version import package_version
+
+__version__ = package_version()
+"""The version in package.xml (see :mod:`pmr_ros._version`)."""

@@ -19,24 +19,46 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["PACKAGE", "ResourceError", "share_dir"]
+__all__ = ["PACKAGE", "SOURCE_ROOT", "ResourceError", "ament_prefixes", "share_dir", "source_root"]
 
 PACKAGE = "pmr_ros"
 """The ROS 2 package name (also the ament index resource)."""
+
+SOURCE_ROOT = Path(__file__).resolve().parents[1]
+"""The folder holding the ``pmr_ros`` package: the checkout's root when imported from one
+(for an installed copy, ``site-packages``, where no data folder is)."""
+
+
+def source_root() -> Path:
+    """:data:`SOURCE_ROOT`, read when called (so tests can point it at a fake checkout).
+
+    Returns
+    -------
+    Path
+    """
+    return SOURCE_ROOT
 
 
 class ResourceError(FileNotFoundError):
     """A data folder of the package cannot be found; the message lists where it looked."""
 
 
-def _ament_prefixes() -> list[Path]:
-    """Install prefixes of the ament index that register ``pmr_ros``."""
+def ament_prefixes() -> list[Path]:
+    """The install prefix of the ament index that registers ``pmr_ros``, as a list.
+
+    Returns
+    -------
+    list of Path
+        The first prefix of ``AMENT_PREFIX_PATH`` whose index lists ``pmr_ros``
+        (the one ``ros2 run`` uses: an overlay shadows its underlays), or an
+        empty list when no sourced workspace has it.
+    """
     try:
         from ament_index_python.packages import PackageNotFoundError, get_package_prefix
     except ImportError:
         prefixes = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
         marker = Path("share") / "ament_index" / "resource_index" / "packages" / PACKAGE
-        return [p for p in prefixes if (p / marker).is_file()]
+        return [p for p in prefixes if (p / marker).is_file()][:1]
     try:
         return [Path(get_package_prefix(PACKAGE))]
     except (PackageNotFoundError, ValueError, OSError):  # OSError: AMENT_PREFIX_PATH unset
@@ -44,8 +66,8 @@ def _ament_prefixes() -> list[Path]:
 
 
 def _candidates(folder: str) -> list[Path]:
-    source = Path(__file__).resolve().parents[1] / folder
-    prefixes = [*_ament_prefixes(), Path(sys.prefix), Path(sys.base_prefix)]
+    source = source_root() / folder
+    prefixes = [*ament_prefixes(), Path(sys.prefix), Path(sys.base_prefix)]
     installed = [p / "share" / PACKAGE / folder for p in prefixes]
     return [source, *dict.fromkeys(installed)]
 

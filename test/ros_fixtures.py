@@ -83,10 +83,33 @@ def spin_until(executor, predicate: Callable[[], bool], timeout_s: float = 10.0)
     return True
 
 
+def console_script_candidates(name: str) -> list[Path]:
+    """Where an executable of pmr_ros may be installed, in the order :func:`console_script` tries them.
+
+    1. ``<prefix>/lib/pmr_ros/<name>`` of the ament index (a sourced colcon
+       workspace; setup.cfg's ``script_dir``): what ``ros2 run pmr_ros <name>``
+       starts, so ``colcon test`` runs the built executables;
+    2. next to the interpreter (``pip install [-e] .`` into a venv: ./test.sh);
+    3. on ``PATH``.
+    """
+    from pmr_ros.resources import PACKAGE, ament_prefixes
+
+    candidates = [prefix / "lib" / PACKAGE / name for prefix in ament_prefixes()]
+    candidates.append(Path(sys.executable).parent / name)
+    on_path = shutil.which(name)
+    if on_path:
+        candidates.append(Path(on_path))
+    return candidates
+
+
 def console_script(name: str) -> str:
-    """Path of an installed console script; its absence fails the test (./test.sh installs them all)."""
-    candidate = Path(sys.executable).parent / name
-    found = str(candidate) if candidate.is_file() else shutil.which(name)
-    if not found:
-        pytest.fail(f"console script {name} not installed: run ./test.sh, which installs pmr_ros with pip install -e .")
-    return found
+    """Path of an installed executable of pmr_ros; its absence fails the test (./test.sh installs them all)."""
+    candidates = console_script_candidates(name)
+    for candidate in candidates:
+        if candidate.is_file() and os.access(candidate, os.X_OK):
+            return str(candidate)
+    tried = ", ".join(str(c) for c in candidates)
+    pytest.fail(
+        f"console script {name} not installed (looked in {tried}): run ./test.sh, which installs pmr_ros "
+        "with pip install -e ., or source a colcon workspace"
+    )

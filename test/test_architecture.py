@@ -17,6 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pmr_ros"
 LAYERS: dict[str, set[str]] = {
     # layer -> the layers it may import (itself always)
     "resources": set(),
+    "_version": {"resources"},
     "core": set(),
     "config": {"core", "resources"},
     "report": {"core", "config"},
@@ -41,7 +42,7 @@ LAYERS: dict[str, set[str]] = {
         "resources",
     },
     "cli": {"commands", "config", "ros"},
-    "__init__": set(),
+    "__init__": {"_version"},
 }
 """Each top-level part of pmr_ros and the parts it may import."""
 
