@@ -14,6 +14,7 @@ import argparse
 import sys
 
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -38,18 +39,23 @@ def register(sub) -> None:
     )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_method_argument(p)
+    add_model_arguments(p)
     p.set_defaults(handler=handle)
 
 
-def offline_report(result, bag) -> dict:
-    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields)."""
+def offline_report(result, bag, diagnosis=None) -> dict:
+    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields).
+
+    ``diagnosis`` replaces the final window's diagnosis (e.g. with its control impact added).
+    """
     from ..report import build_report
 
     config = result.config
     recorded = bag.run_config()
     scenario = recorded.scenario if recorded is not None and result.config_origin == "bag" else None
     seed = recorded.seed if recorded is not None and result.config_origin == "bag" else None
-    report = build_report(config, result.final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
+    final_diagnosis = diagnosis if diagnosis is not None else result.final_diagnosis
+    report = build_report(config, final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
     final = result.final
     report["path"] = "bag"
     report["bag"] = {
@@ -79,10 +85,11 @@ def handle(args: argparse.Namespace) -> int:
     from ..core.results import RELATIVE_TOLERANCE
     from ..report import format_table, write_json
 
+    check_model_output(args)
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method)
-        report = offline_report(result, bag)
+        report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
     except BagError as exc:
         raise CommandError(str(exc)) from None
     sys.stdout.write(format_table(report))

@@ -19,6 +19,7 @@ from . import (
     load_checked_config,
     run_overrides,
 )
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
 
 
@@ -49,6 +50,7 @@ def register(sub) -> None:
         help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
     )
     add_storage_arguments(p)
+    add_model_arguments(p)
     p.set_defaults(handler=handle)
 
 
@@ -66,6 +68,7 @@ def handle(args: argparse.Namespace) -> int:
     from ..report import build_report, format_table
 
     config = load_checked_config(args.config, run_overrides(args))
+    check_model_output(args)
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     if args.batch:
@@ -76,6 +79,7 @@ def handle(args: argparse.Namespace) -> int:
         diagnosis = diagnose(
             record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
         )
+        diagnosis = close_the_loop(args, config, diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
@@ -89,7 +93,7 @@ def handle(args: argparse.Namespace) -> int:
         finally:
             if recording is not None:
                 recording.close()
-        diagnosis = result.diagnosis
+        diagnosis = close_the_loop(args, config, result.diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "nodes"
         report["node_set"] = {

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
+from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
@@ -116,6 +117,7 @@ class PmrConfig:
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
+    impact: ImpactSettings
     source: str
     parameters: dict[str, Any]
     explicit_plant: TransferMatrix | None = None
@@ -380,6 +382,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
             startup_timeout_s=v["simulation.startup_timeout_s"],
         ),
         diagnostician=_diagnostician(v),
+        impact=ImpactSettings(samples=v["impact.samples"]),
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),
