@@ -23,7 +23,7 @@ from .errors import DataError
 
 __all__ = ["FORMATS", "Progress", "RawTable", "read_table", "table_format"]
 
-FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
+FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 """File suffix to the format read."""
 
 CHUNK_ROWS = 200_000

@@ -107,9 +107,10 @@ def format_classic_table(report: dict[str, Any]) -> str:
 
 def format_table(report: dict[str, Any]) -> str:
     """The verdict table of a report, one line per element, headed by what was diagnosed."""
+    origin = report.get("source") or f"scenario {report['scenario']}, seed {report['seed']}"
     head = (
-        f"{report['system'] or 'system'}: {report['command']} ({report['method']} PMR), "
-        f"scenario {report['scenario']}, seed {report['seed']}, {report['samples']} samples"
+        f"{report['system'] or 'system'}: {report['command']} ({report['method']} PMR), {origin}, "
+        f"{report['samples']} samples"
     )
     if report["status"] != "ok":
         return f"{head}\nINSUFFICIENT DATA: {report['reason']}\n"
