@@ -14,16 +14,19 @@ independent Welch segments, Welch 1967), so
 
     cov(theta_hat) = A^+ S_zz A^+^H Phi_v / M,
 
-with ``Phi_v`` the row's residual spectrum.  For one instrument and one input
-this is ``|theta|^2 (1 - gamma^2) / (gamma^2 M)``, gamma^2 the coherence: the
-random error of a frequency-response estimate in Bendat & Piersol, *Random
-Data*, 4th ed. (Wiley 2010), ch. 9 (normalized error
-``sqrt(1 - gamma^2) / (|gamma| sqrt(2 n_d))`` of the magnitude, half the
-complex variance).  The estimate's error is circular complex normal, so
+with ``Phi_v`` the row's residual spectrum (of ``y_i - sum_k theta_k yhat_ik``:
+what drives the inputs besides the instruments, e.g. noise fed back in a closed
+loop, cancels in it).  For one input driven by one instrument alone this is
+``|theta|^2 (1 - gamma^2) / (gamma^2 M)``, gamma^2 the coherence: the random
+error of a frequency-response estimate in Bendat & Piersol, *Random Data*,
+4th ed. (Wiley 2010), ch. 9 (normalized error ``sqrt(1 - gamma^2) / (|gamma|
+sqrt(2 n_d))`` of the magnitude, half the complex variance).  The estimate's error is circular complex normal, so
 ``|theta_hat - theta|^2 / sigma^2`` is exponential and the band of level p
 is the disc of radius ``sigma sqrt(-ln(1 - p))``: on the magnitude
 ``|theta_hat| +- radius``, on the phase ``+- arcsin(radius / |theta_hat|)``.
-The band holds at each frequency on its own, not over all at once.
+The band holds at each frequency on its own, not over all at once; on the
+Wood-Berry closed loop it covers 0.92 of the informative bins at 95 %
+(slightly fewer near the band's end, where the coherence falls).
 """
 
 from __future__ import annotations

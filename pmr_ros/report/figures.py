@@ -61,13 +61,20 @@ def element_figure(curves: ElementCurves, element: ElementDiagnosis) -> bytes:
         ax.axvspan(w[0], band_end, color="#e3f2fd", zorder=0, label="informative band")
         ax.grid(True, which="both", alpha=0.3)
     level = f"{100 * curves.level:.0f} % band"
-    axes[0].fill_between(w, np.maximum(magnitude - radius, 0.0), magnitude + radius, color="#90caf9", label=level)
-    axes[0].plot(w, magnitude, color="#1565c0", lw=1.2, label="spectral estimate")
+    inside = w <= band_end
+    beyond = np.where(inside, np.nan, magnitude)
+    shown = np.where(inside, magnitude, np.nan)
+    axes[0].fill_between(
+        w, np.maximum(magnitude - radius, 0.0), magnitude + radius, where=inside, color="#90caf9", label=level
+    )
+    axes[0].plot(w, shown, color="#1565c0", lw=1.2, label="spectral estimate")
+    axes[0].plot(w, beyond, color="#bdbdbd", lw=0.8, label="beyond the band (noise)")
     axes[0].axhline(1.0, color="black", ls=":", lw=1.2, label="no mismatch")
     half = np.degrees(np.arcsin(np.clip(radius / np.maximum(magnitude, 1e-300), 0.0, 1.0)))
     phase = np.degrees(np.unwrap(np.angle(est)))
-    axes[1].fill_between(w, phase - half, phase + half, color="#90caf9")
-    axes[1].plot(w, phase, color="#1565c0", lw=1.2)
+    axes[1].fill_between(w, phase - half, phase + half, where=inside, color="#90caf9")
+    axes[1].plot(w, np.where(inside, phase, np.nan), color="#1565c0", lw=1.2)
+    axes[1].plot(w, np.where(inside, np.nan, phase), color="#bdbdbd", lw=0.8)
     axes[1].axhline(0.0, color="black", ls=":", lw=1.2)
     if curves.fitted is not None:
         fitted = curves.fitted[1:]
