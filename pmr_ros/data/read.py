@@ -10,7 +10,6 @@ chunks, with a progress callback.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,11 +72,12 @@ def table_format(path: str | Path) -> str | None:
 
 def _pandas(path: str | Path) -> Any:
     try:
-        return importlib.import_module("pandas")
+        import pandas
     except ImportError:
         raise DataError(
             path, "", "reading CSV or Parquet needs pandas and pyarrow: pip install 'pmr_ros[data]'"
         ) from None
+    return pandas
 
 
 def read_table(
@@ -239,7 +239,7 @@ def _read_csv(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progre
 def _read_parquet(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progress | None) -> RawTable:
     _pandas(path)
     try:
-        pq = importlib.import_module("pyarrow.parquet")
+        import pyarrow.parquet as pq
     except ImportError:
         raise DataError(path, "", "reading Parquet needs pyarrow: pip install 'pmr_ros[data]'") from None
     with path.open("rb") as handle:

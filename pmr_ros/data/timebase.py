@@ -10,7 +10,6 @@ Grid points no row falls on are missing samples (a gap).
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -61,7 +60,8 @@ def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> 
     DataError
         A stamp that does not parse, or a missing stamp (with its row).
     """
-    pd = importlib.import_module("pandas")
+    import pandas as pd
+
     numeric = pd.api.types.is_numeric_dtype(raw.dtype) and not pd.api.types.is_bool_dtype(raw.dtype)
     if time_format == "seconds" or (time_format == "detected" and numeric):
         seconds = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
@@ -151,7 +151,7 @@ def _check_spacing(position: np.ndarray, spec: GridSpec) -> None:
         raise DataError(
             spec.path,
             f"column {spec.column!r} (data.time_column)",
-            f"stamps are {typical * spec.sample_time_s:g} s apart (median), but the sample time is "
+            f"stamps are {typical * spec.sample_time_s:.4g} s apart (median), but the sample time is "
             f"{spec.sample_time_s:g} s (system.sample_time x data.time_unit_s); export the data at the sample time, or "
             "set data.time_unit_s to the seconds in one time unit of the model (60 for minutes)",
         )

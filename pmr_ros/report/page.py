@@ -36,7 +36,7 @@ TEMPLATE = """<!DOCTYPE html>
 <p class="meta">
  {{ report.get("source", report.get("config")) }} &middot; method {{ report.method }} &middot;
  {{ report.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
- sample time {{ report.sample_time }} &middot; pmr_ros {{ report.version }}
+ sample time {{ report.sample_time }} (model time unit) &middot; pmr_ros {{ report.version }}
 </p>
 {% if report.status != "ok" %}
 <p class="badge" style="background: {{ colours.inconclusive }}">no verdict: {{ report.reason }}</p>
@@ -52,10 +52,10 @@ TEMPLATE = """<!DOCTYPE html>
  rows are the controlled variables (CVs), columns the manipulated variables (MVs).</figcaption></figure>
 
 <h2 id="elements">Element by element</h2>
-<p class="note">Each figure shows the plant-model ratio G/&#264; of one element against frequency: the spectral
+<p class="note">Each figure shows the plant-model ratio G/Ĝ of one element against frequency: the spectral
  estimate (blue) with its {{ "%.0f"|format(level) }} % confidence band (shaded blue; at each frequency on its own),
  the fitted FOPTD ratio (red, dashed) whose numbers give the verdict, and the &ldquo;no mismatch&rdquo; line
- (|G/&#264;| = 1, phase 0). Only the informative band (light blue background: where the coherence of the row with
+ (|G/Ĝ| = 1, phase 0). Only the informative band (light blue background: where the coherence of the row with
  the setpoints holds) carries information; beyond it the estimate is noise. A gain mismatch moves the curve at low
  frequency, a time-constant mismatch bends it, a delay mismatch turns the phase.</p>
 {% for notes, figure in elements %}
