@@ -23,7 +23,6 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from .config import PmrConfig, flatten_parameters, load_config
-from .config.schema import parameter
 from .contract.layout import diagnosis_from_array, read_estimates, read_signal
 from .contract.topics import SIGNAL_TOPICS, topic
 from .core.closed_loop import RunRecord
@@ -139,8 +138,7 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) 
     from .nodes.pmr_diagnostician import PmrDiagnosticianNode
     from .nodes.prbs_setpoint import PrbsSetpointNode
 
-    # a block no node declares (data: read by pmr-ros alone) is no node's parameter
-    flat = {name: value for name, value in flatten_parameters(config.parameters).items() if parameter(name).nodes}
+    flat = flatten_parameters(config.parameters)
     flat.update(extra or {})
     params = parameter_overrides(flat)
     nodes: list[Node] = []

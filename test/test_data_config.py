@@ -96,7 +96,7 @@ def test_data_settings_reads_every_declared_key():
     assert got.time_column == "value of data.time_column" and got.mode_on_values == "value of data.mode_on_values"
 
 
-def test_no_node_declares_the_data_block_and_the_node_set_passes_none_of_it(wood_berry):
+def test_no_node_declares_the_data_block(wood_berry):
     from pmr_ros.config.schema import parameters
 
     assert all(not p.nodes for name, p in parameters().items() if name.startswith("data."))
