@@ -248,3 +248,25 @@ def test_the_page_renders_with_its_figures_in_a_headless_browser(export, capsys,
     image = _screenshot(broken, tmp_path / "broken.png", tmp_path)
     # (the verdict badges and the red border of each element section stay: 16,000 red pixels)
     assert _pixels_near(image, VERDICT_RED) < 30000 and _pixels_near(image, BAND_BLUE) < 1000
+
+
+def test_default_column_names_seconds_and_the_classic_method_on_a_three_by_three(capsys, tmp_path):
+    import pandas as pd
+
+    from pmr_ros.config import config_dir
+
+    path = config_dir() / "three_by_three.yaml"
+    config = load_config(path)
+    record = simulate(config, samples=8192, seed=1)
+    frame = pd.DataFrame({"time": 1000.0 + np.arange(8192) * config.model.sample_time})
+    for signal, names in (("r", config.model.output_names), ("u", config.model.input_names),
+                          ("y", config.model.output_names)):  # fmt: skip
+        for j, name in enumerate(names):
+            frame[f"{signal}_{name}"] = getattr(record, signal)[:, j]
+    frame.to_csv(tmp_path / "export.csv", index=False)
+    code, out, err = _run(capsys, ["diagnose", str(tmp_path / "export.csv"), "--config", str(path), "--method",
+                                   "classic", "--report", str(tmp_path / "report")])  # fmt: skip
+    assert code == 0, err
+    assert "(classic PMR)" in out and "gain ratio" in out and "usable samples: 8192 samples" in out
+    figures = sorted(p.name for p in (tmp_path / "report" / "figures").iterdir())
+    assert len(figures) == 9 + 2 and "G33.png" in figures
