@@ -54,32 +54,11 @@ def element_figure(curves: ElementCurves, element: ElementDiagnosis) -> bytes:
     plt = _pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(7.0, 6.4), sharex=True, height_ratios=[3, 2, 1.4])
     w = curves.omega[1:]
-    est, radius = curves.estimate[1:], curves.radius[1:]
-    magnitude = np.abs(est)
     band_end = float(curves.omega[curves.band].max())
     for ax in axes:
         ax.axvspan(w[0], band_end, color="#e3f2fd", zorder=0, label="informative band")
         ax.grid(True, which="both", alpha=0.3)
-    level = f"{100 * curves.level:.0f} % band"
-    inside = w <= band_end
-    beyond = np.where(inside, np.nan, magnitude)
-    shown = np.where(inside, magnitude, np.nan)
-    axes[0].fill_between(
-        w, np.maximum(magnitude - radius, 0.0), magnitude + radius, where=inside, color="#90caf9", label=level
-    )
-    axes[0].plot(w, shown, color="#1565c0", lw=1.2, label="spectral estimate")
-    axes[0].plot(w, beyond, color="#bdbdbd", lw=0.8, label="beyond the band (noise)")
-    axes[0].axhline(1.0, color="black", ls=":", lw=1.2, label="no mismatch")
-    half = np.degrees(np.arcsin(np.clip(radius / np.maximum(magnitude, 1e-300), 0.0, 1.0)))
-    phase = np.degrees(np.unwrap(np.angle(est)))
-    axes[1].fill_between(w, phase - half, phase + half, where=inside, color="#90caf9")
-    axes[1].plot(w, np.where(inside, phase, np.nan), color="#1565c0", lw=1.2)
-    axes[1].plot(w, np.where(inside, np.nan, phase), color="#bdbdbd", lw=0.8)
-    axes[1].axhline(0.0, color="black", ls=":", lw=1.2)
-    if curves.fitted is not None:
-        fitted = curves.fitted[1:]
-        axes[0].plot(w, np.abs(fitted), color="#c62828", ls="--", lw=1.6, label="fitted FOPTD ratio")
-        axes[1].plot(w, np.degrees(np.unwrap(np.angle(fitted))), color="#c62828", ls="--", lw=1.6)
+    magnitude, phase = _draw_ratio(axes, curves, w <= band_end)
     axes[2].plot(w, curves.coherence[1:], color="#455a64", lw=1.2)
     _limits(axes, magnitude, phase, w, band_end)
     axes[0].set_ylabel("|G / Ĝ|")
@@ -90,6 +69,30 @@ def element_figure(curves: ElementCurves, element: ElementDiagnosis) -> bytes:
     fig.suptitle(f"{element.name}: {element.verdict}", color=COLOURS[element.verdict], fontsize=13, fontweight="bold")
     fig.tight_layout()
     return _png(fig)
+
+
+def _draw_ratio(axes: Any, curves: ElementCurves, inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Estimate (grey beyond the informative band), its band, "no mismatch" and the fitted curve; |est|, phase."""
+    w, est, radius = curves.omega[1:], curves.estimate[1:], curves.radius[1:]
+    magnitude = np.abs(est)
+    phase = np.degrees(np.unwrap(np.angle(est)))
+    half = np.degrees(np.arcsin(np.clip(radius / np.maximum(magnitude, 1e-300), 0.0, 1.0)))
+    level = f"{100 * curves.level:.0f} % band"
+    axes[0].fill_between(
+        w, np.maximum(magnitude - radius, 0.0), magnitude + radius, where=inside, color="#90caf9", label=level
+    )
+    axes[1].fill_between(w, phase - half, phase + half, where=inside, color="#90caf9")
+    for ax, values, label in ((axes[0], magnitude, "spectral estimate"), (axes[1], phase, None)):
+        ax.plot(w, np.where(inside, values, np.nan), color="#1565c0", lw=1.2, label=label)
+        ax.plot(w, np.where(inside, np.nan, values), color="#bdbdbd", lw=0.8,
+                label="beyond the band (noise)" if label else None)  # fmt: skip
+    axes[0].axhline(1.0, color="black", ls=":", lw=1.2, label="no mismatch")
+    axes[1].axhline(0.0, color="black", ls=":", lw=1.2)
+    if curves.fitted is not None:
+        fitted = curves.fitted[1:]
+        axes[0].plot(w, np.abs(fitted), color="#c62828", ls="--", lw=1.6, label="fitted FOPTD ratio")
+        axes[1].plot(w, np.degrees(np.unwrap(np.angle(fitted))), color="#c62828", ls="--", lw=1.6)
+    return magnitude, phase
 
 
 def _limits(axes: Any, magnitude: np.ndarray, phase: np.ndarray, w: np.ndarray, band_end: float) -> None:
