@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from . import EXIT_INSUFFICIENT, CommandError, load_checked_config
+from .model_output import check_model_output, close_the_loop
 
 __all__ = ["BAG", "TABLE", "diagnose_table", "progress_callback", "source_kind", "write_bag_report"]
 
@@ -131,6 +132,7 @@ def diagnose_table(args: argparse.Namespace) -> int:
     from ..report.html import ReportInput
 
     config = _table_config(args)
+    check_model_output(args)
     update, close = progress_callback(f"reading {Path(args.bag).name}")
     try:
         data = load_plant_data(args.bag, config, progress=update)
@@ -140,6 +142,8 @@ def diagnose_table(args: argparse.Namespace) -> int:
         close()
     stretches = data.stretches()
     diagnosis = diagnose_stretches(stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    if diagnosis.status == "ok":
+        diagnosis = close_the_loop(args, config, diagnosis)
     report = _data_report(config, diagnosis, data, str(args.bag))
     if diagnosis.status == "ok":
         sys.stdout.write(format_table(report))
