@@ -148,7 +148,8 @@ def _run(capsys, argv):
 def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, tmp_path):
     code, out, err = _run(capsys, ["diagnose", str(export / "historian.parquet"), "--config",
                                    str(export / "column.yaml"), "--json", str(tmp_path / "r.json"),
-                                   "--write-model", str(tmp_path / "corrected.yaml")])  # fmt: skip
+                                   "--write-model", str(tmp_path / "corrected.yaml"),
+                                   "--report", str(tmp_path / "page")])  # fmt: skip
     assert code == 0, err
     assert "historian.parquet" in out and "data cleaning:" in out and "controller off -> excluded: 600 samples" in out
     assert re.search(r"G21 .* mismatch", out) and "mismatch" not in err and "noise" not in err
@@ -158,6 +159,12 @@ def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, t
     corrected = load_config(tmp_path / "corrected.yaml")  # the corrected model keeps the tag mapping
     np.testing.assert_allclose(corrected.model.gain[1, 0], 6.6 * 0.85, rtol=0.02)
     assert corrected.data.input_columns == ("FC201.OP", "FC202.OP")
+    # the page ranks the mismatches by what they do to control, as the JSON does
+    html = (tmp_path / "page" / "index.html").read_text()
+    assert "Which mismatch matters for control" in html
+    first = min(report["elements"].values(), key=lambda e: e["impact"]["rank"])
+    assert re.search(rf'<td>1</td><td><a href="#{first["element"]}">', html)
+    assert f"ISE &times;{first['impact']['ise_ratio']:.2f}" in html
 
 
 def test_bad_exports_end_with_one_line_and_a_non_zero_exit(export, capsys, tmp_path):

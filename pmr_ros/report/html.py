@@ -77,7 +77,18 @@ def element_notes(element: ElementDiagnosis) -> dict[str, Any]:
         "reasons": list(element.all_reasons),
         "warnings": warnings,
         "mismatches": list(element.mismatches),
+        "impact": None if element.impact is None else element.impact,
     }
+
+
+def impact_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
+    """The mismatched elements by what they do to control (rank 1 first), for the page's impact table."""
+    rows = [
+        {"name": e.name, "ise": e.impact.ise_ratio, "moves": e.impact.input_movement_ratio, "rank": e.impact.rank}
+        for e in diagnosis
+        if e.impact is not None
+    ]
+    return sorted(rows, key=lambda row: row["rank"])
 
 
 def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, Any], Figure | None]]]:
@@ -129,6 +140,8 @@ def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: l
         data=page.data,
         level=100 * page.config.parametric.confidence_level,
         stretches=len(page.data.stretch_bounds()),
+        impact=impact_rows(page.diagnosis),
+        impact_all=page.diagnosis.impact,
     )
 
 

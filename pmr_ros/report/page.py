@@ -51,6 +51,20 @@ TEMPLATE = """<!DOCTYPE html>
 <figure><img src="{{ matrix.data_uri }}" alt="{{ matrix.caption }}"><figcaption>{{ matrix.caption }}:
  rows are the controlled variables (CVs), columns the manipulated variables (MVs).</figcaption></figure>
 
+{% if impact %}
+<h2 id="impact">Which mismatch matters for control</h2>
+<p class="note">The configured MPC simulated (noise-free, the configured setpoint excitation) on the plant as
+ estimated, against the same loop on the plant as modelled: the ratio of the integrated squared tracking error (ISE)
+ and of the squared input moves, both weighted as the MPC weighs them. 1 means the mismatch does not matter for
+ control; the estimates stand for the plant, their intervals are not propagated.</p>
+<table><tr><th>rank</th><th>element</th><th>ISE ratio, this mismatch alone</th><th>input moves ratio</th></tr>
+{% for row in impact %}<tr><td>{{ row.rank }}</td><td><a href="#{{ row.name }}">{{ row.name }}</a></td>
+ <td>{{ "%.2f"|format(row.ise) }}</td><td>{{ "%.2f"|format(row.moves) }}</td></tr>{% endfor %}
+{% if impact_all %}<tr><td></td><td>all together</td><td>{{ "%.2f"|format(impact_all.ise_ratio) }}</td>
+ <td>{{ "%.2f"|format(impact_all.input_movement_ratio) }}</td></tr>{% endif %}
+</table>
+{% endif %}
+
 <h2 id="elements">Element by element</h2>
 <p class="note">Each figure shows the plant-model ratio G/Ĝ of one element against frequency: the spectral
  estimate (blue) with its {{ "%.0f"|format(level) }} % confidence band (shaded blue; at each frequency on its own),
@@ -62,6 +76,8 @@ TEMPLATE = """<!DOCTYPE html>
 <section class="element" style="border-color: {{ notes.colour }}" id="{{ notes.name }}">
  <h3>{{ notes.name }} <span class="badge" style="background: {{ notes.colour }}">{{ notes.verdict }}</span></h3>
  <p>{{ notes.summary }}</p>
+ {% if notes.impact %}<p>Control impact of this mismatch alone: ISE &times;{{ "%.2f"|format(notes.impact.ise_ratio) }},
+ input moves &times;{{ "%.2f"|format(notes.impact.input_movement_ratio) }} (rank {{ notes.impact.rank }}).</p>{% endif %}
  {% if notes.reasons %}<p>Why the data cannot tell (add excitation here):</p>
  <ul class="reasons">{% for reason in notes.reasons %}<li>{{ reason }}</li>{% endfor %}</ul>{% endif %}
  {% if notes.warnings %}<ul class="warnings">{% for warning in notes.warnings %}<li>{{ warning }}</li>{% endfor %}</ul>
