@@ -77,7 +77,8 @@ TEMPLATE = """<!DOCTYPE html>
  <h3>{{ notes.name }} <span class="badge" style="background: {{ notes.colour }}">{{ notes.verdict }}</span></h3>
  <p>{{ notes.summary }}</p>
  {% if notes.impact %}<p>Control impact of this mismatch alone: ISE &times;{{ "%.2f"|format(notes.impact.ise_ratio) }},
- input moves &times;{{ "%.2f"|format(notes.impact.input_movement_ratio) }} (rank {{ notes.impact.rank }}).</p>{% endif %}
+ input moves &times;{{ "%.2f"|format(notes.impact.input_movement_ratio) }}
+ (rank {{ notes.impact.rank }}).</p>{% endif %}
  {% if notes.reasons %}<p>Why the data cannot tell (add excitation here):</p>
  <ul class="reasons">{% for reason in notes.reasons %}<li>{{ reason }}</li>{% endfor %}</ul>{% endif %}
  {% if notes.warnings %}<ul class="warnings">{% for warning in notes.warnings %}<li>{{ warning }}</li>{% endfor %}</ul>
