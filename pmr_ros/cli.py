@@ -20,7 +20,7 @@ from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .config import ConfigError
 from .ros.signals import RosInitError
 
-COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
+COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 
@@ -54,7 +54,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return args.handler(args)
     except (ConfigError, CommandError, RosInitError) as exc:
-        print(f"pmr-ros: error: {exc}", file=sys.stderr)
+        print(f"pmr-ros: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line, whatever the cause
         return getattr(exc, "code", EXIT_USAGE)
     except KeyboardInterrupt:
         print("pmr-ros: interrupted", file=sys.stderr)

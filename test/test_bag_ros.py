@@ -273,7 +273,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
         assert main(["diagnose", str(path)]) == 3
         out = capsys.readouterr().out
-        assert "was not closed by its recorder" in out and "2000 unbroken samples, need 8192" in out
+        assert "is incomplete (no metadata.yaml" in out and "2000 unbroken samples, need 8192" in out
         executor.shutdown(timeout_sec=1.0)
         player.destroy_node()
     finally:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
 from typing import Any
 
 
@@ -38,6 +40,36 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+def writable_file(path: str, option: str) -> None:
+    """Check, before any work, that ``path`` (given with ``option``) can be written; else :class:`CommandError`.
+
+    A file that does not exist yet is created and removed again; one that
+    exists is opened for appending, not changed.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise CommandError(f"{option} {path}: is a folder, not a file")
+    existed = target.exists()
+    try:
+        with target.open("a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        raise CommandError(f"{option} {path}: cannot write: {exc.strerror or exc}") from None
+    if not existed:
+        target.unlink(missing_ok=True)
+
+
+def nonnegative_float(text: str) -> float:
+    """Argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number >= 0")
+    return value
+
+
 def positive_float(text: str) -> float:
     """Argparse type: a finite number > 0."""
     try:
@@ -45,7 +77,7 @@ def positive_float(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{value:g} must be positive (> 0)")
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number > 0")
     return value
 
 

@@ -60,30 +60,43 @@ def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
     return index, position - index
 
 
-def check_signal(
+WRONG_WIDTH, WRONG_NAMES, NON_FINITE = "wrong number of values", "wrong channel names", "non-finite value"
+BAD_STAMP, OFF_GRID, DUPLICATED, OUT_OF_ORDER = "non-finite stamp", "stamp off the grid", "duplicated", "out-of-order"
+"""Kinds of rejected messages (:attr:`AddResult.rejected_as`)."""
+
+
+def signal_problem(
     label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
-) -> str | None:
-    """Why a signal message is unusable, or None if it is fine.
+) -> tuple[str, str] | None:
+    """Why a signal message is unusable, as ``(kind, text)``, or None if it is fine.
 
     ``names`` may be empty (then values are taken in the configured order);
     otherwise they must equal ``expected_names``.
     """
     width = len(expected_names)
     if len(values) != width:
-        return (
+        return WRONG_WIDTH, (
             f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} "
             f"({', '.join(expected_names)}); message dropped"
         )
     if len(names) and tuple(names) != tuple(expected_names):
-        return (
+        return WRONG_NAMES, (
             f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message "
             "dropped"
         )
     array = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(array)):
         bad = [f"{n}={v}" for n, v in zip(expected_names, array.tolist(), strict=True) if not np.isfinite(v)]
-        return f"{label}: non-finite value {', '.join(bad)}; message dropped"
+        return NON_FINITE, f"{label}: non-finite value {', '.join(bad)}; message dropped"
     return None
+
+
+def check_signal(
+    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
+) -> str | None:
+    """Why a signal message is unusable (the text of :func:`signal_problem`), or None if it is fine."""
+    problem = signal_problem(label, names, values, expected_names)
+    return None if problem is None else problem[1]
 
 
 @dataclass
@@ -97,11 +110,15 @@ class AddResult:
         Human-readable reasons (rejections, gaps, new stretches).
     completed : list of int
         Sample indices that became complete.
+    rejected_as : str
+        For a rejected message, the kind of problem (``non-finite value``,
+        ``duplicated``, ...: the module's constants); else "".
     """
 
     accepted: bool
     warnings: list[str] = field(default_factory=list)
     completed: list[int] = field(default_factory=list)
+    rejected_as: str = ""
 
 
 @dataclass(frozen=True)
@@ -260,32 +277,35 @@ class SampleAligner:
         return None
 
     # -- input -------------------------------------------------------------
-    def _problem(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray):
-        """Why a message is rejected (or None), and its sample index."""
+    def _problem(
+        self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray
+    ) -> tuple[int, tuple[str, str] | None]:
+        """The message's sample index and why it is rejected (``(kind, text)``), or None."""
         label = self.labels[signal]
-        problem = check_signal(label, names, values, self.channel_names[signal])
-        if problem is None and not np.isfinite(stamp_s):
-            problem = f"{label}: stamp {stamp_s!r} s is not finite; message dropped"
+        problem = signal_problem(label, names, values, self.channel_names[signal])
         if problem is not None:
-            return problem, 0
+            return 0, problem
+        if not np.isfinite(stamp_s):
+            return 0, (BAD_STAMP, f"{label}: stamp {stamp_s!r} s is not finite; message dropped")
         k, offset = sample_index(stamp_s, self.sample_time_s)
         if abs(offset) > GRID_TOLERANCE:
-            return (
+            return k, (
+                OFF_GRID,
                 f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = "
-                f"{self.sample_time_s:g} s); message dropped"
-            ), k
+                f"{self.sample_time_s:g} s); message dropped",
+            )
         last = self.newest[signal]
         if last is not None and k <= last:
-            kind = "duplicated" if k == last else "out-of-order"
-            return f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped", k
-        return None, k
+            kind = DUPLICATED if k == last else OUT_OF_ORDER
+            return k, (kind, f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped")
+        return k, None
 
     def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray) -> AddResult:
         """Offer one message of ``signal``; returns what happened, never raises on bad data."""
-        problem, k = self._problem(signal, stamp_s, names, values)
+        k, problem = self._problem(signal, stamp_s, names, values)
         if problem is not None:
             self.rejected[signal] += 1
-            return AddResult(False, [problem])
+            return AddResult(False, [problem[1]], rejected_as=problem[0])
         label, last = self.labels[signal], self.newest[signal]
         result = AddResult(True)
         if last is not None and k > last + 1:
