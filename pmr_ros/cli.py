@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
@@ -24,9 +25,17 @@ COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (and a pointer to ``--help``), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message (see prog --help)`` on stderr and exit with code 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``pmr-ros`` argument parser with every sub-command of :data:`COMMANDS`."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="pmr-ros",
         description="Model-plant mismatch diagnosis for MPC with the plant-model ratio (PMR).",
     )

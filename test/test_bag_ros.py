@@ -251,10 +251,11 @@ def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> 
     raise AssertionError(f"only {seen} of {count} messages on {topic_name} reached the disk in {timeout_s} s")
 
 
-def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys):
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys, storage):
     samples = 2000
     path = tmp_path / "killed"
-    proc, log = _start_recorder(tmp_path, path)
+    proc, log = _start_recorder(tmp_path, path, "--storage", storage)
     try:
         player, executor = _publish_to_recorder(ros_context, samples, publish_config=True)
         # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
@@ -264,7 +265,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         proc.wait(timeout=10)
         assert not (path / "metadata.yaml").exists()
         recorded = open_bag(path)
-        assert not recorded.complete
+        assert not recorded.complete and recorded.storage == storage
         for name in [*SIGNAL_TOPICS, topic("clock").name]:
             assert recorded.counts[name] == samples, (name, recorded.counts)
         assert recorded.counts[topic(RUN_CONFIG_KEY).name] == 1 and recorded.run_config() is not None
@@ -301,3 +302,48 @@ def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, s
     recorded = open_bag(path)
     assert recorded.complete and (path / "metadata.yaml").exists()  # closed, not merely flushed
     assert recorded.counts[topic("measured_output").name] >= 1000 and recorded.run_config() is not None
+
+
+def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros_context, tmp_path, capsys):
+    """``pmr-ros run --bag`` dies mid-run: the bag is judged on what it holds, and a replay publishes all of it."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    path = tmp_path / "run"
+    proc = subprocess.Popen(
+        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        _wait_until_flushed(path, topic("measured_output").name, 9000, timeout_s=120.0)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+    recorded = open_bag(path)
+    held = min(recorded.counts[name] for name in SIGNAL_TOPICS)
+    assert not recorded.complete and 9000 <= held < 16384
+    assert main(["diagnose", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"the bag holds {held} of the 16384 samples its run planned" in out and "mismatch" in out
+    # replay what it holds into a live diagnostician
+    diagnostician = _diagnostician(ros_context, recorded)
+    from pmr_ros.nodes.bag_player import BagPlayerNode
+
+    player = BagPlayerNode(recorded, context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    for node in (diagnostician, player):
+        executor.add_node(node)
+    try:
+        assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
+        count = player.play(
+            max_samples_per_s=None,
+            after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0),
+        )
+        assert count >= held and diagnostician.aligner.stretch_last == held - 1
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        for node in (diagnostician, player):
+            node.destroy_node()

@@ -59,6 +59,34 @@ def writable_file(path: str, option: str) -> None:
         target.unlink(missing_ok=True)
 
 
+def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer samples") -> None:
+    """Refuse, before allocating, work whose estimated memory exceeds what the machine has available now.
+
+    Parameters
+    ----------
+    parts : dict
+        What needs memory -> bytes (see :mod:`pmr_ros.core.memory`).
+    cause : str
+        The setting that asks for it (``run.samples = 2000000000 (command line)``).
+    advice : str
+        What to do instead.
+
+    Raises
+    ------
+    CommandError
+        One line with the figures.
+    """
+    from ..core.memory import available_bytes, format_bytes
+
+    needed, have = sum(parts.values()), available_bytes()
+    if have is None or needed <= have:
+        return
+    detail = ", ".join(f"{name} {format_bytes(n)}" for name, n in parts.items())
+    raise CommandError(
+        f"{cause}: needs about {format_bytes(needed)} of memory ({detail}); {format_bytes(have)} available: {advice}"
+    )
+
+
 def nonnegative_float(text: str) -> float:
     """Argparse type: a finite number >= 0."""
     try:

@@ -319,7 +319,7 @@ class SampleAligner:
             )
             return result
         entry = self._pending.setdefault(k, {})
-        entry[signal] = np.asarray(values, dtype=float)
+        entry[signal] = np.array(values, dtype=float)  # a copy: a view would keep the message's buffer alive
         if len(entry) == len(SIGNALS):
             self._complete(k, result)
         elif len(self._pending) > self.pending_limit:
