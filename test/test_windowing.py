@@ -133,3 +133,18 @@ def test_useful_stretches_follow_the_method_segment(wood_berry):
     assert shortest == settle + config.parametric.welch(config.model, 9000, config.pmr).segment_length == settle + 1024
     parametric = useful_stretches(pieces, model=config.model, pmr=config.pmr, parametric=config.parametric)
     assert [p.samples for p in parametric] == [9000]
+
+
+def test_a_window_too_large_for_memory_is_refused_naming_the_parameter(monkeypatch, wood_berry):
+    import pmr_ros.contract.windowing as windowing
+    from pmr_ros.config import ConfigError
+
+    huge = replace(wood_berry, diagnostician=replace(wood_berry.diagnostician, window_samples=2_000_000_000))
+    monkeypatch.setattr(windowing, "available_bytes", lambda: 24_000_000_000)
+    with pytest.raises(ConfigError) as err:
+        windowing.check_window_memory(huge, "parameters of node /pmr_diagnostician")
+    assert str(err.value) == (
+        "parameters of node /pmr_diagnostician: diagnostician.window_samples = 2000000000: a full window needs about "
+        "2.52 TB of memory (samples 1.5 TB, diagnosis 1.02 TB); 24 GB available"
+    )
+    windowing.check_window_memory(wood_berry, "x")  # 16384 samples: 21 MB

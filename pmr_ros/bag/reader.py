@@ -212,13 +212,32 @@ def open_bag(path: str | Path) -> Bag:
         return _open_complete(path)
     except BagError as exc:
         if len(mcaps) != 1:
-            raise
+            raise BagError(_metadata_problem(path) or str(exc)) from None
         # metadata.yaml was written, but the MCAP file was cut short or damaged after it: read what is whole.
         why = f"not readable whole: {exc.cause}" if isinstance(exc, _Unreadable) else str(exc)
         try:
             return _recover_mcap(path, mcaps[0], why)
         except BagError:
             raise exc from None
+
+
+def _metadata_problem(path: Path) -> str | None:
+    """What is wrong with a bag's metadata.yaml (one line), or None when it parses as a rosbag2 mapping."""
+    import yaml
+
+    metadata = path / "metadata.yaml"
+    try:
+        document = yaml.safe_load(metadata.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        return f"{metadata}: cannot be read ({_cause(exc)})"
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = " ".join(str(getattr(exc, "problem", None) or exc).split())
+        return f"{metadata}: not valid YAML: {problem}{where}"
+    if not isinstance(document, dict) or not isinstance(document.get("rosbag2_bagfile_information"), dict):
+        return f"{metadata}: not rosbag2 metadata (no 'rosbag2_bagfile_information' mapping)"
+    return None
 
 
 class _Unreadable(BagError):

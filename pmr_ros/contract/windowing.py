@@ -15,8 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import PmrConfig
+from ..config import ConfigError, PmrConfig
 from ..core.diagnosis import diagnose_stretches, shortest_useful_stretch
+from ..core.memory import available_bytes, diagnosis_bytes, format_bytes, window_bytes
 from ..core.prbs import dither_generator
 from ..core.results import Diagnosis
 from ..core.stretch import Stretch
@@ -113,6 +114,31 @@ class WindowOutcome:
     reason: str
     window: dict
     stamp_s: float
+
+
+def check_window_memory(config: PmrConfig, source: str) -> None:
+    """Refuse a window (``diagnostician.window_samples``) that cannot fit in the memory available now.
+
+    The window fills one sample at a time; its diagnosis needs the most
+    (:mod:`pmr_ros.core.memory`).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``diagnostician.window_samples`` and the figures.
+    """
+    model, samples = config.model, config.diagnostician.window_samples
+    held = window_bytes(model, samples)
+    diagnosis = diagnosis_bytes(model, samples, dither=config.excitation.active)
+    have = available_bytes()
+    if have is not None and held + diagnosis > have:
+        raise ConfigError(
+            source,
+            "diagnostician.window_samples",
+            samples,
+            f"a full window needs about {format_bytes(held + diagnosis)} of memory (samples {format_bytes(held)}, "
+            f"diagnosis {format_bytes(diagnosis)}); {format_bytes(have)} available",
+        )
 
 
 def window_dither(config: PmrConfig, first: int, samples: int) -> np.ndarray | None:
