@@ -152,9 +152,13 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     assert config.samples == samples and config.seed == 1 and config.scenario == "full"
     assert config.params["diagnostician"]["window_samples"] == samples  # the settings the nodes really ran with
     result = diagnose_bag(bag)
-    run = json.loads((tmp_path / "run.json").read_text())
-    assert result.final.diagnosis.to_dict()["elements"] == run["elements"]  # one machine, one bag: exact
     assert result.comparisons and result.all_equal
+    # pmr-ros diagnose of the bag reports what pmr-ros run reported, control impact included
+    assert main(["diagnose", str(path), "--json", str(tmp_path / "offline.json")]) == 0
+    capsys.readouterr()
+    run = json.loads((tmp_path / "run.json").read_text())
+    offline = json.loads((tmp_path / "offline.json").read_text())
+    assert offline["elements"] == run["elements"] and offline["impact"] == run["impact"]  # one machine, one bag: exact
     # Never overwritten without --force; --batch cannot record.
     assert main(argv) == 2
     err = capsys.readouterr().err

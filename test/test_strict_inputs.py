@@ -222,3 +222,12 @@ def test_every_block_refuses_a_misspelt_key_naming_the_nearest(tmp_path, block):
     with pytest.raises(ConfigError) as err:
         load_config(_with(tmp_path, {_misspelt(block): {key: 1}}))
     assert "unknown block" in str(err.value) and f"did you mean {block}?" in str(err.value)
+
+
+def test_diagnose_an_export_checks_json_first_and_refuses_a_bag_option(capsys, tmp_path):
+    export = tmp_path / "plant.csv"
+    export.write_text("time,r_x_D\n0,1\n")
+    err = _error(capsys, ["diagnose", str(export), "--json", str(tmp_path / "no" / "r.json")])
+    assert "--json" in err and "cannot write: No such file or directory" in err
+    err = _error(capsys, ["diagnose", str(export), "--min-samples", "100"])
+    assert f"--min-samples: an option for a bag; {export} is judged on all its clean data" in err

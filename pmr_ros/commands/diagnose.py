@@ -1,4 +1,7 @@
-"""``pmr-ros diagnose BAG``: offline PMR diagnosis straight from a bag, no ROS graph.
+"""``pmr-ros diagnose BAG|FILE.csv|FILE.parquet``: offline PMR diagnosis of a bag or a historian export.
+
+A historian export goes to :mod:`pmr_ros.commands.plant_data` (read, cleaned,
+one estimate from all its clean stretches); the rest of this module is a bag's.
 
 The bag's r, u and y go through the live diagnostician's alignment and window
 schedule (:mod:`pmr_ros.bag.offline`) with the recorded configuration (or
@@ -14,6 +17,7 @@ import argparse
 import sys
 
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, positive_int, writable_file
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -23,40 +27,62 @@ def register(sub) -> None:
     """Add ``pmr-ros diagnose`` to the sub-command parsers."""
     p = sub.add_parser(
         "diagnose",
-        help="diagnose a recorded rosbag2 bag offline (no ROS graph)",
+        help="diagnose a rosbag2 bag or a historian export (CSV, Parquet) offline (no ROS graph)",
         description=(
             "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and "
             "model), "
-            "with the bag's recorded configuration or --config, and compare with the verdicts recorded on /diagnostics."
+            "with the bag's recorded configuration or --config, and compare with the verdicts recorded on "
+            "/diagnostics. A historian export (.csv, .parquet) is read with the data block of --config (columns, "
+            "time stamps, bad values), cleaned, and diagnosed as one estimate from all its clean stretches."
         ),
     )
-    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
+    p.add_argument(
+        "bag",
+        metavar="PATH",
+        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config)",
+    )
     p.add_argument(
         "--config",
         metavar="FILE",
         help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)",
     )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    add_report_argument(p)
     add_method_argument(p)
+    add_model_arguments(p)
     p.add_argument(
         "--min-samples",
         type=positive_int,
         metavar="N",
-        help="fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for a "
-        "'pmr-ros run --bag' recording cut short, the declared default)",
+        help="a bag: fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for "
+        "a 'pmr-ros run --bag' recording cut short, the declared default)",
     )
     p.set_defaults(handler=handle)
 
 
-def offline_report(result, bag) -> dict:
-    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields)."""
+def add_report_argument(parser: argparse.ArgumentParser) -> None:
+    """--report DIR: the HTML report with its figures (bags and historian exports alike)."""
+    parser.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also write an HTML report (index.html, figures/*.png): verdict matrix, per-element PMR with confidence "
+        "band and fitted curve, data cleaning and time plot",
+    )
+
+
+def offline_report(result, bag, diagnosis=None) -> dict:
+    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields).
+
+    ``diagnosis`` replaces the final window's diagnosis (e.g. with its control impact added).
+    """
     from ..report import build_report
 
     config = result.config
     recorded = bag.run_config()
     scenario = recorded.scenario if recorded is not None and result.config_origin == "bag" else None
     seed = recorded.seed if recorded is not None and result.config_origin == "bag" else None
-    report = build_report(config, result.final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
+    final_diagnosis = diagnosis if diagnosis is not None else result.final_diagnosis
+    report = build_report(config, final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
     final = result.final
     report["path"] = "bag"
     report["bag"] = {
@@ -131,27 +157,50 @@ def print_comparison(report: dict, result) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
-    from ..bag.offline import diagnose_bag
-    from ..bag.reader import open_bag
-    from ..bag.schema import BagError
-    from ..report import format_table, write_json
+    from .plant_data import TABLE, diagnose_table, source_kind
 
     if args.json:
-        writable_file(args.json, "--json")
-    try:
-        bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples)
-        report = offline_report(result, bag)
-    except BagError as exc:
-        raise CommandError(str(exc)) from None
-    sys.stdout.write(format_table(report))
-    print_data_notes(result, bag)
-    print_comparison(report, result)
+        writable_file(args.json, "--json")  # before any work, for a bag and an export alike
+    if source_kind(args.bag) == TABLE:
+        if args.min_samples is not None:
+            raise CommandError(f"--min-samples: an option for a bag; {args.bag} is judged on all its clean data")
+        return diagnose_table(args)
+    return diagnose_bag_command(args)
+
+
+def _write_bag_outputs(args: argparse.Namespace, report: dict, result, bag) -> None:
+    """--json and --report of a bag's diagnosis."""
+    from ..report import write_json
+
     if args.json:
         try:
             write_json(report, args.json)
         except OSError as exc:
             raise CommandError(f"--json {args.json}: cannot write: {exc.strerror or exc}") from None
+    if args.report:
+        from .plant_data import write_bag_report
+
+        write_bag_report(args, result, bag, report)
+
+
+def diagnose_bag_command(args: argparse.Namespace) -> int:
+    """``pmr-ros diagnose BAG``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
+    from ..bag.offline import diagnose_bag
+    from ..bag.reader import open_bag
+    from ..bag.schema import BagError
+    from ..report import format_table
+
+    check_model_output(args)
+    try:
+        bag = open_bag(args.bag)
+        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples)
+        report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+    sys.stdout.write(format_table(report))
+    print_data_notes(result, bag)
+    print_comparison(report, result)
+    _write_bag_outputs(args, report, result, bag)
     if report["recorded_comparison"]["different"]:
         return EXIT_DIFFERENT
     return 0 if result.final_diagnosis.status == "ok" else EXIT_INSUFFICIENT

@@ -21,6 +21,7 @@ from . import (
     run_overrides,
     writable_file,
 )
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
 
 
@@ -51,6 +52,7 @@ def register(sub) -> None:
         help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
     )
     add_storage_arguments(p)
+    add_model_arguments(p)
     p.set_defaults(handler=handle)
 
 
@@ -90,6 +92,7 @@ def handle(args: argparse.Namespace) -> int:
     from ..report import build_report, format_table
 
     config = load_checked_config(args.config, run_overrides(args))
+    check_model_output(args)
     _check_before_running(args, config)
     if args.batch:
         from ..core.closed_loop import simulate
@@ -99,6 +102,7 @@ def handle(args: argparse.Namespace) -> int:
         diagnosis = diagnose(
             record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
         )
+        diagnosis = close_the_loop(args, config, diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
@@ -112,7 +116,7 @@ def handle(args: argparse.Namespace) -> int:
         finally:
             if recording is not None:
                 recording.close()
-        diagnosis = result.diagnosis
+        diagnosis = close_the_loop(args, config, result.diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "nodes"
         report["node_set"] = {

@@ -16,10 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
+from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
 from ..core.prbs import ExcitationSettings, PrbsSettings
+from .data import DataSettings, data_settings
 from .errors import ConfigError
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
@@ -99,6 +101,8 @@ class PmrConfig:
         The effective nested parameter tree (file values over declared defaults).
     source : str
         Where it came from (a file, or a node's parameters).
+    data : DataSettings
+        How a historian export is read and cleaned (``pmr-ros diagnose FILE.csv``).
     explicit_plant : TransferMatrix or None
         The ``plant`` block: the true plant of a simulation, when given.
     warnings : tuple of str
@@ -116,6 +120,8 @@ class PmrConfig:
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
+    impact: ImpactSettings
+    data: DataSettings
     source: str
     parameters: dict[str, Any]
     explicit_plant: TransferMatrix | None = None
@@ -390,6 +396,8 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
             startup_timeout_s=v["simulation.startup_timeout_s"],
         ),
         diagnostician=_diagnostician(v),
+        impact=ImpactSettings(samples=v["impact.samples"]),
+        data=data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")]),
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),

@@ -36,7 +36,7 @@ __all__ = [
 SCHEMA_FILE = "parameters.yaml"
 """The declaration file in the package's ``config/`` folder."""
 
-KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types")
+KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types", "columns", "values")
 """Parameter types of the declaration (see its header comment)."""
 
 _REQUIRED = object()
@@ -179,6 +179,33 @@ class Parameter:
         if len(set(value)) != len(value):
             raise self._error(source, value, "names must be unique")
         return tuple(value)
+
+    def _check_columns(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
+        """One column name per channel of ``per``, or an empty list (the default naming)."""
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
+        if value == []:
+            return ()
+        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+            raise self._error(source, value, f"must be a list of {length} column names (one per {self.per[:-1]})")
+        if len(value) != length:
+            raise self._error(source, value, f"needs {length} column names (one per {self.per[:-1]}), got {len(value)}")
+        if len(set(value)) != len(value):
+            raise self._error(source, value, "column names must be unique")
+        return tuple(value)
+
+    def _check_values(self, value: Any, source: str, shape: Shape | None) -> tuple[float | str, ...]:
+        """A list of numbers and strings (may be empty); numbers as floats."""
+        if not isinstance(value, list):
+            raise self._error(source, value, "must be a list of numbers and strings, e.g. [-9999, Bad, '']")
+        out: list[float | str] = []
+        for j, item in enumerate(value):
+            if isinstance(item, str):
+                out.append(item)
+            else:
+                out.append(self._number(item, source, f"{self.name}[{j}]", integer=False))
+        return tuple(out)
 
     def _check_channels(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:

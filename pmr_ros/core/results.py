@@ -229,6 +229,28 @@ class ParametricResult:
         return ", ".join(parts)
 
 
+@dataclass(frozen=True)
+class ImpactResult:
+    """What a mismatch does to control: the configured MPC on the plant as estimated vs as modelled.
+
+    Attributes
+    ----------
+    ise_ratio : float
+        Integrated squared tracking error (weighted by the MPC's output
+        weights) on the plant as estimated over that on the plant as modelled;
+        ``inf`` when the loop goes unstable.
+    input_movement_ratio : float
+        Sum of squared input moves (weighted by the move weights), the same ratio.
+    rank : int
+        1 for the element whose mismatch alone raises the tracking error most
+        (among the elements with a mismatch); 0 for "all together".
+    """
+
+    ise_ratio: float
+    input_movement_ratio: float
+    rank: int = 0
+
+
 Part = ClassicResult | ParametricResult
 _PARTS: dict[str, type] = {"classic": ClassicResult, "parametric": ParametricResult}
 
@@ -250,6 +272,8 @@ class ElementDiagnosis:
         Each method's result, None when it did not run or the data were insufficient.
     reasons : tuple of str
         Why there is no result at all (insufficient data), empty otherwise.
+    impact : ImpactResult or None
+        What this element's mismatch alone does to control (elements with a mismatch verdict, when computed).
     """
 
     name: str
@@ -260,6 +284,7 @@ class ElementDiagnosis:
     classic: ClassicResult | None = None
     parametric: ParametricResult | None = None
     reasons: tuple[str, ...] = ()
+    impact: ImpactResult | None = None
 
     @property
     def result(self) -> Part | None:
@@ -303,6 +328,7 @@ class ElementDiagnosis:
             "classic": None if self.classic is None else _part_dict(self.classic),
             "parametric": None if self.parametric is None else _part_dict(self.parametric),
             "reasons": list(self.reasons),
+            "impact": None if self.impact is None else _plain(self.impact),
             "summary": self.summary(),
         }
 
@@ -320,6 +346,7 @@ class ElementDiagnosis:
             model=_build(ElementModel, data["model"]),
             method=str(data["method"]),
             reasons=tuple(data.get("reasons") or ()),
+            impact=None if data.get("impact") is None else _build(ImpactResult, data["impact"]),
             **parts,
         )
 
@@ -375,6 +402,8 @@ class Diagnosis:
         Element name to :class:`ElementDiagnosis`, row-major.
     estimate : object, optional
         The spectral PMR estimate behind the numbers (for figures); not serialised.
+    impact : ImpactResult or None
+        What all the mismatches together do to control (when computed).
     """
 
     method: str
@@ -383,6 +412,7 @@ class Diagnosis:
     samples: int
     elements: Mapping[str, ElementDiagnosis]
     estimate: Any = field(default=None, repr=False, compare=False)
+    impact: ImpactResult | None = None
 
     def __iter__(self) -> Iterator[ElementDiagnosis]:
         """The elements, row-major."""
@@ -406,6 +436,7 @@ class Diagnosis:
             "reason": self.reason,
             "samples": self.samples,
             "method": self.method,
+            "impact": None if self.impact is None else _plain(self.impact),
             "elements": {name: e.to_dict() for name, e in self.elements.items()},
         }
 
@@ -413,9 +444,9 @@ class Diagnosis:
     def from_dict(cls, data: Mapping[str, Any]) -> Diagnosis:
         """Inverse of :meth:`to_dict`."""
         elements = {name: ElementDiagnosis.from_dict(e) for name, e in data["elements"].items()}
-        return cls(
-            str(data["method"]), str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0)), elements
-        )
+        impact = None if data.get("impact") is None else _build(ImpactResult, data["impact"])
+        status, reason, samples = str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0))
+        return cls(str(data["method"]), status, reason, samples, elements, impact=impact)
 
 
 DERIVED_KEYS = ("summary",)

@@ -37,7 +37,25 @@ def _parametric_line(name: str, element: dict[str, Any]) -> str:
             f"{p['delay_mismatch_samples']:+d} ({100 * p['delay_confidence']:.0f} %)"
             + MARKS[p.get("delay_verdict", "inconclusive")]
         )
-    return f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {element['verdict']:13s}"
+    return f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {element['verdict']:13s} {_impact(element.get('impact')):11s}"
+
+
+def _impact(impact: dict[str, Any] | None) -> str:
+    """``x1.23 (#1)``: the ISE ratio and rank of an element's mismatch, or nothing."""
+    if not impact:
+        return ""
+    return f"x{impact['ise_ratio']:.2f} (#{impact['rank']})" if impact["rank"] else f"x{impact['ise_ratio']:.2f}"
+
+
+def _impact_lines(report: dict[str, Any]) -> list[str]:
+    together = report.get("impact")
+    if not together:
+        return []
+    return [
+        f"control impact (configured MPC, noise-free, plant as estimated vs as modelled): all together ISE "
+        f"x{together['ise_ratio']:.2f}, input moves x{together['input_movement_ratio']:.2f}; "
+        "per element: ISE ratio with that mismatch alone (#1 matters most)"
+    ]
 
 
 def format_parametric_table(report: dict[str, Any]) -> str:
@@ -46,7 +64,7 @@ def format_parametric_table(report: dict[str, Any]) -> str:
     injected = report.get("injected")
     cols = (
         f"{'element':8s} {'dK % [' + f'{level:.0f} % interval]':26s} {'dtau % [interval]':26s} "
-        f"{'dD (confidence)':16s} {'verdict':13s}"
+        f"{'dD (confidence)':16s} {'verdict':13s} {'impact ISE':11s}"
     )
     lines = [cols + (" injected dK %, dtau %, dD" if injected else "")]
     notes = []
@@ -56,6 +74,7 @@ def format_parametric_table(report: dict[str, Any]) -> str:
         notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", [])]]
     lines.append("")
     lines.append("! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]")
+    lines += _impact_lines(report)
     lines += notes
     return "\n".join(lines) + "\n"
 
@@ -88,9 +107,10 @@ def format_classic_table(report: dict[str, Any]) -> str:
 
 def format_table(report: dict[str, Any]) -> str:
     """The verdict table of a report, one line per element, headed by what was diagnosed."""
+    origin = report.get("source") or f"scenario {report['scenario']}, seed {report['seed']}"
     head = (
-        f"{report['system'] or 'system'}: {report['command']} ({report['method']} PMR), "
-        f"scenario {report['scenario']}, seed {report['seed']}, {report['samples']} samples"
+        f"{report['system'] or 'system'}: {report['command']} ({report['method']} PMR), {origin}, "
+        f"{report['samples']} samples"
     )
     if report["status"] != "ok":
         return f"{head}\nINSUFFICIENT DATA: {report['reason']}\n"

@@ -26,9 +26,9 @@ from ..core.closed_loop import RunRecord
 from ..core.diagnosis import diagnose
 from ..core.model import TransferMatrix
 from ..core.results import Diagnosis, ElementDiagnosis
+from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
-from .progress import ProgressBar
 from .tuning import stable_tuning
 
 
