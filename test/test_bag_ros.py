@@ -101,19 +101,24 @@ def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_pat
     executor.add_node(diagnostician)
     log = open(tmp_path / "replay.log", "w+")  # noqa: SIM115 - closed in finally
     proc = subprocess.Popen(
-        [console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "2000"],
+        [console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "500"],
         stdout=log,
         stderr=subprocess.STDOUT,
         env=dict(os.environ),
     )
+    last = EXPECTED["samples"] - 1
+
+    def final() -> bool:  # the verdict on the whole run (a STALE status while the replay starts up is not it)
+        msg = diagnostician.last_published
+        return msg is not None and diagnosis_from_array(msg, diagnostician.get_name())[1].get("last_sample") == last
+
     try:
-        done = lambda: diagnostician.last_published is not None or proc.poll() is not None  # noqa: E731
-        assert spin_until(executor, done, 120.0)
-        spin_until(executor, lambda: diagnostician.last_published is not None, 10.0)
+        assert spin_until(executor, lambda: final() or proc.poll() is not None, 300.0)
+        assert spin_until(executor, final, 30.0), (tmp_path / "replay.log").read_text()
+        assert diagnostician.messages_received == 3 * EXPECTED["samples"], list(diagnostician.warnings)[:5]
+        numbers, _ = _final_numbers(diagnostician, last)
         assert proc.wait(timeout=60) == 0, (tmp_path / "replay.log").read_text()
-        numbers, _ = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
         assert compare_diagnoses(numbers, EXPECTED_NUMBERS) == []
-        assert diagnostician.messages_received == 3 * EXPECTED["samples"]
         text = (tmp_path / "replay.log").read_text()
         assert "8192 samples" in text and "Traceback" not in text
     finally:
@@ -255,10 +260,11 @@ def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> 
     raise AssertionError(f"only {seen} of {count} messages on {topic_name} reached the disk in {timeout_s} s")
 
 
-def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys):
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys, storage):
     samples = 2000
     path = tmp_path / "killed"
-    proc, log = _start_recorder(tmp_path, path)
+    proc, log = _start_recorder(tmp_path, path, "--storage", storage)
     try:
         player, executor = _publish_to_recorder(ros_context, samples, publish_config=True)
         # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
@@ -268,7 +274,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         proc.wait(timeout=10)
         assert not (path / "metadata.yaml").exists()
         recorded = open_bag(path)
-        assert not recorded.complete
+        assert not recorded.complete and recorded.storage == storage
         for name in [*SIGNAL_TOPICS, topic("clock").name]:
             assert recorded.counts[name] == samples, (name, recorded.counts)
         assert recorded.counts[topic(RUN_CONFIG_KEY).name] == 1 and recorded.run_config() is not None
@@ -277,7 +283,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
         # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
         assert main(["diagnose", str(path)]) == 3
         out = capsys.readouterr().out
-        assert "was not closed by its recorder" in out and "2000 unbroken samples, need 8192" in out
+        assert "is incomplete (no metadata.yaml" in out and "2000 unbroken samples, need 8192" in out
         executor.shutdown(timeout_sec=1.0)
         player.destroy_node()
     finally:
@@ -305,3 +311,48 @@ def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, s
     recorded = open_bag(path)
     assert recorded.complete and (path / "metadata.yaml").exists()  # closed, not merely flushed
     assert recorded.counts[topic("measured_output").name] >= 1000 and recorded.run_config() is not None
+
+
+def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros_context, tmp_path, capsys):
+    """``pmr-ros run --bag`` dies mid-run: the bag is judged on what it holds, and a replay publishes all of it."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    path = tmp_path / "run"
+    proc = subprocess.Popen(
+        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        _wait_until_flushed(path, topic("measured_output").name, 9000, timeout_s=120.0)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+    recorded = open_bag(path)
+    held = min(recorded.counts[name] for name in SIGNAL_TOPICS)
+    assert not recorded.complete and 9000 <= held < 16384
+    assert main(["diagnose", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"the bag holds {held} of the 16384 samples its run planned" in out and "mismatch" in out
+    # replay what it holds into a live diagnostician
+    diagnostician = _diagnostician(ros_context, recorded)
+    from pmr_ros.nodes.bag_player import BagPlayerNode
+
+    player = BagPlayerNode(recorded, context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    for node in (diagnostician, player):
+        executor.add_node(node)
+    try:
+        assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
+        count = player.play(
+            max_samples_per_s=None,
+            after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0),
+        )
+        assert count >= held and diagnostician.aligner.stretch_last == held - 1
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        for node in (diagnostician, player):
+            node.destroy_node()

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_method_argument
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, positive_int, writable_file
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 
 EXIT_DIFFERENT = 4
@@ -50,6 +50,13 @@ def register(sub) -> None:
     add_report_argument(p)
     add_method_argument(p)
     add_model_arguments(p)
+    p.add_argument(
+        "--min-samples",
+        type=positive_int,
+        metavar="N",
+        help="a bag: fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for "
+        "a 'pmr-ros run --bag' recording cut short, the declared default)",
+    )
     p.set_defaults(handler=handle)
 
 
@@ -94,14 +101,69 @@ def offline_report(result, bag, diagnosis=None) -> dict:
         "different": [c for c in result.comparisons if not c["equal"]],
     }
     report["warnings"] = result.warnings[:100]
+    report["dropped_messages"] = result.drops.to_dict()
+    report["gaps"] = result.gaps
+    report["notes"] = list(result.notes)
     return report
+
+
+def print_data_notes(result, bag) -> None:
+    """What the console says about the data beside the table: window, drops, gaps, a recording cut short."""
+    window = result.final.window if result.final is not None else {}
+    if window.get("window_samples"):
+        print(
+            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} "
+            f"samples), configuration from {result.config_origin}"
+        )
+    for line in result.drops.lines():
+        print(f"dropped: {line}" if not line.startswith("  ") else line)
+    if result.gaps:
+        print(f"gaps: the data broke {result.gaps} time(s); each unbroken stretch long enough is diagnosed")
+    for note in result.notes:
+        print(f"note: {note}")
+    if result.end_of_bag:
+        print(
+            "note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag"
+        )
+    if not bag.complete:
+        print(
+            f"note: {bag.path} is incomplete ({bag.recovery}): read as far as it is whole "
+            f"({bag.message_count} messages)"
+        )
+
+
+def print_comparison(report: dict, result) -> None:
+    """How the offline verdicts compare with those the live node recorded on /diagnostics."""
+    from ..core.results import RELATIVE_TOLERANCE
+
+    compared = report["recorded_comparison"]
+    if compared["windows"]:
+        print(
+            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} verdict windows agree offline "
+            f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
+        )
+    for entry in compared["different"][:3]:
+        detail = (
+            "; ".join(entry.get("differences", [])[:3])
+            or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+        )
+        print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
+    if result.not_diagnosed_live:
+        print(
+            f"recorded /diagnostics: {result.not_diagnosed_live} window(s) without a live verdict (stale or too few "
+            "samples) are not compared"
+        )
 
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from .plant_data import TABLE, diagnose_table, source_kind
 
+    if args.json:
+        writable_file(args.json, "--json")  # before any work, for a bag and an export alike
     if source_kind(args.bag) == TABLE:
+        if args.min_samples is not None:
+            raise CommandError(f"--min-samples: an option for a bag; {args.bag} is judged on all its clean data")
         return diagnose_table(args)
     return diagnose_bag_command(args)
 
@@ -126,44 +188,19 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     from ..bag.offline import diagnose_bag
     from ..bag.reader import open_bag
     from ..bag.schema import BagError
-    from ..core.results import RELATIVE_TOLERANCE
     from ..report import format_table
 
     check_model_output(args)
     try:
         bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config, args.method)
+        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples)
         report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
     except BagError as exc:
         raise CommandError(str(exc)) from None
     sys.stdout.write(format_table(report))
-    window = report["window"]
-    if window.get("window_samples"):
-        print(
-            f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} "
-            f"samples), configuration from {result.config_origin}"
-        )
-    if result.end_of_bag:
-        print(
-            "note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag"
-        )
-    if not bag.complete:
-        print(
-            f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)"
-        )
-    compared = report["recorded_comparison"]
-    if compared["windows"]:
-        print(
-            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows agree offline "
-            f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
-        )
-        for entry in compared["different"][:3]:
-            detail = (
-                "; ".join(entry.get("differences", [])[:3])
-                or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
-            )
-            print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
+    print_data_notes(result, bag)
+    print_comparison(report, result)
     _write_bag_outputs(args, report, result, bag)
-    if compared["different"]:
+    if report["recorded_comparison"]["different"]:
         return EXIT_DIFFERENT
     return 0 if result.final_diagnosis.status == "ok" else EXIT_INSUFFICIENT

@@ -14,7 +14,7 @@ import argparse
 import sys
 import time
 
-from . import CommandError, nonnegative_int, positive_float
+from . import CommandError, nonnegative_float, nonnegative_int, positive_float
 
 
 def register(sub) -> None:
@@ -39,7 +39,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--max-samples-per-second",
-        type=float,
+        type=nonnegative_float,
         default=None,
         metavar="N",
         help="lockstep pace limit (default: 1000; 0: unbounded, only if every subscriber keeps up)",
@@ -56,7 +56,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--linger",
-        type=float,
+        type=nonnegative_float,
         default=1.0,
         metavar="S",
         help="keep publishers alive S seconds after the last message (default: 1)",

@@ -16,8 +16,10 @@ from . import (
     CommandError,
     add_method_argument,
     add_system_arguments,
+    check_memory,
     load_checked_config,
     run_overrides,
+    writable_file,
 )
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
@@ -63,14 +65,35 @@ def _node_set_report(config):
     return run_node_set, NodeSetOptions, NodeSetError
 
 
+def run_memory(config, *, batch: bool) -> dict[str, int]:
+    """What a run of ``config.run.samples`` needs in memory [bytes]: the record or live window, and the diagnosis."""
+    from ..core.memory import diagnosis_bytes, simulation_bytes, window_bytes
+
+    model, samples = config.model, config.run.samples
+    held = simulation_bytes(model, samples) if batch else window_bytes(model, samples)
+    return {
+        "simulation" if batch else "diagnostician window": held,
+        "diagnosis": diagnosis_bytes(model, samples, dither=config.excitation.active),
+    }
+
+
+def _check_before_running(args: argparse.Namespace, config) -> None:
+    """Everything that can be refused before the run: option clashes, memory, the --json path."""
+    if args.bag and args.batch:
+        raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
+    source = "command line" if args.samples is not None else config.source
+    check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
+    if args.json:
+        writable_file(args.json, "--json")
+
+
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
     from ..report import build_report, format_table
 
     config = load_checked_config(args.config, run_overrides(args))
     check_model_output(args)
-    if args.bag and args.batch:
-        raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
+    _check_before_running(args, config)
     if args.batch:
         from ..core.closed_loop import simulate
         from ..core.diagnosis import diagnose

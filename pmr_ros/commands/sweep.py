@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
 from pathlib import Path
 
-from . import CommandError, load_checked_config, nonnegative_int, number, positive_int
+from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
 
 DEFAULT_OUT = "out/sweep"
+
+PLAN_BYTES_PER_RUN = 400
+"""Memory of one planned run before it runs (its key, its place in a point's task) [bytes]."""
 
 
 def register(sub) -> None:
@@ -94,6 +98,50 @@ def register(sub) -> None:
     p.set_defaults(handler=handle)
 
 
+def _seeds(args: argparse.Namespace, config) -> tuple[int, int]:
+    """First seed and count, within the declared range of ``run.seed``."""
+    from ..config.schema import parameter
+
+    first = config.run.seed if args.first_seed is None else args.first_seed
+    highest = int(parameter("run.seed").maximum or 0)
+    if first + args.seeds - 1 > highest:
+        raise CommandError(
+            f"--seeds {args.seeds} from seed {first}: the last seed {first + args.seeds - 1} exceeds run.seed's "
+            f"maximum {highest}"
+        )
+    return first, args.seeds
+
+
+def _nu_count(args: argparse.Namespace) -> int:
+    """How many nu values the grid options ask for (before the grid is built)."""
+    if args.nu is not None:
+        return len(args.nu.split(","))
+    start, stop, step = args.nu_start, args.nu_stop, args.nu_step
+    if not all(math.isfinite(v) and v > 0 for v in (start, stop, step)) or stop < start:
+        return 1  # nu_grid says what is wrong
+    return int(math.floor((stop - start) / step + 1e-9)) + 1
+
+
+def _check_size(args: argparse.Namespace, config) -> None:
+    """Refuse a sweep whose plan or runs in flight do not fit in memory, before building anything."""
+    from ..core.memory import diagnosis_bytes, simulation_bytes
+    from ..core.model import SCENARIOS
+
+    _, seeds = _seeds(args, config)
+    samples = config.run.samples if args.samples is None else args.samples
+    elements = max(1, len([e for e in args.elements.split(",") if e.strip()]))
+    per_point = len(SCENARIOS) * seeds
+    total = elements * _nu_count(args) * per_point
+    jobs = max(1, min(args.jobs, elements * _nu_count(args)))
+    model = config.model
+    in_flight = 2 * simulation_bytes(model, samples, runs=per_point) + diagnosis_bytes(model, samples)
+    check_memory(
+        {"plan": total * PLAN_BYTES_PER_RUN, f"{jobs} point(s) in flight": jobs * in_flight},
+        cause=f"{total} runs of {samples} samples, {per_point} per point",
+        advice="use fewer seeds, nu values or samples (or fewer --jobs)",
+    )
+
+
 def _plan(args: argparse.Namespace, config):
     from ..core.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
@@ -113,10 +161,10 @@ def _plan(args: argparse.Namespace, config):
             raise PlanError(f"--methods: {args.methods!r}: give one or more of {', '.join(METHODS)}, each once")
     except PlanError as exc:
         raise CommandError(str(exc)) from None
-    first = config.run.seed if args.first_seed is None else args.first_seed
+    first, count = _seeds(args, config)
     samples = config.run.samples if args.samples is None else args.samples
     return SweepPlan(
-        elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods
+        elements=elements, nu=nu, seeds=tuple(range(first, first + count)), samples=samples, methods=methods
     )
 
 
@@ -169,6 +217,8 @@ def handle(args: argparse.Namespace) -> int:
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE
+    if args.report and not args.no_report:
+        writable_file(args.report, "--report")
     if args.report_only:
         _report_only(results, report_path, config)
         return 0
@@ -201,6 +251,7 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     from ..sweep import store
     from ..sweep.execute import execute, plan_tasks
 
+    _check_size(args, config)
     plan = _plan(args, config)
     manifest = {
         "config": config.source,

@@ -226,30 +226,40 @@ def _model(v: _Values) -> TransferMatrix:
     return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
 
 
+def _check_elements(v: _Values, block: str, kinds: np.ndarray, gain: np.ndarray, tau: np.ndarray) -> None:
+    """Per element type: a non-zero gain, a positive FOPTD time constant; warn of an integrating one's ignored tau."""
+    shape = v.shape
+    label = (lambda j: element_label(j, shape)) if shape is not None else (lambda j: "")
+    flat_kinds, g, t = kinds.ravel(), gain.ravel(), tau.ravel()
+    zero_gain = np.flatnonzero((flat_kinds != "none") & (g == 0))
+    bad_tau = np.flatnonzero((flat_kinds == "foptd") & (t <= 0))
+    if zero_gain.size and (not bad_tau.size or zero_gain[0] <= bad_tau[0]):
+        j = int(zero_gain[0])
+        raise v.error(
+            f"{block}.gain[{j}] ({label(j)})", 0.0, "must be non-zero: use element_type none for an empty cell"
+        )
+    if bad_tau.size:
+        j = int(bad_tau[0])
+        raise v.error(f"{block}.time_constant[{j}] ({label(j)})", float(t[j]), "must be > 0")
+    for j in np.flatnonzero((flat_kinds == "integrating") & (t > 0)).tolist():
+        v.warnings.append(
+            f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({label(j)}) = "
+            f"{t[j]:g} is ignored: {label(j)} is integrating"
+        )
+
+
 def _matrix(v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[str, ...], name: str) -> TransferMatrix:
     """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type."""
     ts = v["system.sample_time"]
     kinds = v[f"{block}.element_type"]
-    labels = [element_label(j, v.shape) for j in range(kinds.size)] if v.shape else []
     gain, tau, delay = v[f"{block}.gain"], v[f"{block}.time_constant"], v[f"{block}.delay"]
-    for j, kind in enumerate(kinds.ravel()):
-        if kind != "none" and gain.ravel()[j] == 0:
-            raise v.error(
-                f"{block}.gain[{j}] ({labels[j]})", 0.0, "must be non-zero: use element_type none for an empty cell"
-            )
-        if kind == "foptd" and tau.ravel()[j] <= 0:
-            raise v.error(f"{block}.time_constant[{j}] ({labels[j]})", float(tau.ravel()[j]), "must be > 0")
-        if kind == "integrating" and tau.ravel()[j] > 0:
-            v.warnings.append(
-                f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({labels[j]}) = "
-                f"{tau.ravel()[j]:g} is ignored: {labels[j]} is integrating"
-            )
+    _check_elements(v, block, kinds, gain, tau)
     whole = np.where(kinds == "none", 0.0, delay / ts)
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
     if bad.size:
         j = int(bad[0])
         raise v.error(
-            f"{block}.delay[{j}] ({labels[j]})",
+            f"{block}.delay[{j}] ({element_label(j, v.shape) if v.shape else ''})",
             float(delay.ravel()[j]),
             f"must be a whole number of samples (sample_time = {ts:g})",
         )

@@ -23,7 +23,7 @@ from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.layout import read_signal
 from ..contract.topics import SIGNAL_TOPICS, topic
-from ..contract.windowing import STALE, VERDICT, evaluate_window, offer_signal, window_info
+from ..contract.windowing import STALE, VERDICT, check_window_memory, evaluate_window, offer_signal, window_info
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message
@@ -47,6 +47,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, live_parameters=True, **kwargs)
+        check_window_memory(self.config, f"parameters of node {self.get_fully_qualified_name()}")
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0
