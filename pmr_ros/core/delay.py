@@ -138,5 +138,5 @@ def search_limit_reason(delay: int, *, low: int, high: int, low_is_limit: bool =
         False when ``low`` is a physical bound (a plant delay cannot be negative), not a search limit.
     """
     if delay >= high or (low_is_limit and delay <= low):
-        return f"delay at the search limit {delay:+d} samples: widen pmr.max_delay_samples"
+        return f"delay at the search limit ({delay:+d} samples of {low:+d} .. {high:+d}): widen pmr.max_delay_samples"
     return None

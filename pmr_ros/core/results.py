@@ -268,7 +268,8 @@ class ParametricResult:
         assert self.unmodeled_gain is not None and self.unmodeled_gain_interval is not None
         lo, hi = self.unmodeled_gain_interval
         head = "unmodeled interaction" if self.unmodeled_verdict == "mismatch" else "no model"
-        delay = "" if self.unmodeled_delay_samples is None else f", delay {self.unmodeled_delay_samples} samples"
+        found = self.unmodeled_delay_samples is not None and self.unmodeled_verdict == "mismatch"
+        delay = f", delay {self.unmodeled_delay_samples} samples" if found else ""
         return f"{head}: gain {self.unmodeled_gain:+.3g} [{lo:+.3g}, {hi:+.3g}]{delay} {_MARKS[self.unmodeled_verdict]}"
 
 
