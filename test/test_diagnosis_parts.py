@@ -383,3 +383,13 @@ def test_results_of_every_kind_round_trip_and_read():
     classic = format_classic_table(report)
     assert classic.splitlines()[1].split() == ["G13", "-", "-", "-", "-", "-", "mismatch"]  # no classic result
     assert "G21           1.100" in classic and "G21: delay at the search limit" in classic
+
+
+def test_complex_products_from_real_ones_equal_numpy():
+    from pmr_ros.core.products import hermitian_product, product
+
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((7, 5, 3)) + 1j * rng.standard_normal((7, 5, 3))
+    b = rng.standard_normal((7, 5, 4)) + 1j * rng.standard_normal((7, 5, 4))
+    np.testing.assert_allclose(hermitian_product(a, b), np.conj(np.swapaxes(a, 1, 2)) @ b, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(product(np.swapaxes(a, 1, 2), b), np.swapaxes(a, 1, 2) @ b, rtol=1e-12, atol=1e-12)

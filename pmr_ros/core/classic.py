@@ -35,6 +35,7 @@ __all__ = [
     "classic_results",
     "diagnose_classic",
     "gain_bin",
+    "readable",
     "row_refusal",
 ]
 
@@ -222,7 +223,18 @@ def classic_estimate(stretches: Sequence[Stretch], *, model: TransferMatrix, set
         unidentifiable or ill-conditioned.
     """
     estimate = estimate_pmr(stretches, model=model, welch=settings.welch, test_empty=False)
-    refusals = [row_refusal(estimate, i, settings) for i in range(model.n_outputs)]
+    return readable(estimate, settings)
+
+
+def readable(estimate: PmrEstimate, settings: PmrSettings) -> PmrEstimate:
+    """``estimate`` if the classic method can read at least one of its rows.
+
+    Raises
+    ------
+    InsufficientData
+        Every row is unidentifiable or ill-conditioned (the first one's reason).
+    """
+    refusals = [row_refusal(estimate, i, settings) for i in range(estimate.ratio.shape[1])]
     if all(refusals):
         raise InsufficientData(str(refusals[0]))
     return estimate

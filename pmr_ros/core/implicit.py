@@ -29,11 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import TransferMatrix
+from .products import hermitian_product
 from .record import check_stretches
 from .spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 from .stretch import Stretch
 
 __all__ = [
+    "EstimateBuilder",
     "PmrEstimate",
     "RowEstimate",
     "RowLayout",
@@ -143,29 +145,42 @@ def instrument_factor(rr: np.ndarray) -> np.ndarray:
     return np.linalg.cholesky(rr + ridge)
 
 
+def _gram(design: np.ndarray) -> np.ndarray:
+    """``D^H D`` per bin, shape (F, n_c, n_c)."""
+    return hermitian_product(design, design)
+
+
 def _condition(zx: np.ndarray, rr: np.ndarray) -> np.ndarray:
     """Condition number per bin of the regression with instruments and regressors scaled to unit power.
 
     Not whitened: instruments that move together (nearly collinear setpoints)
-    are exactly what it must show, and whitening would hide them.
+    are exactly what it must show, and whitening would hide them.  From the
+    eigenvalues of the Gram matrix: accurate to well beyond any threshold in use (1e6).
     """
     scale = np.sqrt(np.maximum(np.einsum("fll->fl", rr).real, 1e-300))
     design = zx / scale[:, :, None]
     design = design / np.maximum(np.linalg.norm(design, axis=1), 1e-300)[:, None, :]
-    sv = np.linalg.svd(design, compute_uv=False)
+    eigenvalues = np.linalg.eigvalsh(_gram(design))
     with np.errstate(divide="ignore", invalid="ignore"):
-        condition = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+        condition = np.where(eigenvalues[:, 0] > 0, np.sqrt(eigenvalues[:, -1] / eigenvalues[:, 0]), np.inf)
     return np.nan_to_num(condition, nan=np.inf)
 
 
 def _least_squares(design: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """``argmin |target - design theta|`` per bin (minimum norm where rank-deficient), shape (F, n_c)."""
+    """``argmin |target - design theta|`` per bin, shape (F, n_c).
+
+    By the normal equations of the column-normalized design (the rows the
+    methods read are well conditioned); by the pseudo-inverse, minimum norm,
+    when a bin is singular.
+    """
     norms = np.maximum(np.linalg.norm(design, axis=1), 1e-300)  # (F, n_c)
-    U, sv, Vh = np.linalg.svd(design / norms[:, None, :], full_matrices=False)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inverse = np.where(sv > sv[:, :1] * 1e-14, 1.0 / sv, 0.0)
-    projected = inverse[:, :, None] * np.matmul(U.conj().transpose(0, 2, 1), target)
-    return np.matmul(Vh.conj().transpose(0, 2, 1), projected)[:, :, 0] / norms
+    scaled = design / norms[:, None, :]
+    rhs = hermitian_product(scaled, target)
+    try:
+        solution = np.linalg.solve(_gram(scaled), rhs)
+    except np.linalg.LinAlgError:
+        solution = np.matmul(np.linalg.pinv(scaled), target)
+    return solution[:, :, 0] / norms
 
 
 def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray) -> RowEstimate:
@@ -232,6 +247,51 @@ class PmrEstimate:
     differenced: np.ndarray
 
 
+class EstimateBuilder:
+    """Collects the row estimates of a record into a :class:`PmrEstimate`.
+
+    Parameters
+    ----------
+    spectra : RecordSpectra
+        The record whose rows are added.
+    """
+
+    def __init__(self, spectra: RecordSpectra) -> None:
+        model = spectra.model
+        F, n_out, n_in = spectra.omega.size, model.n_outputs, model.n_inputs
+        self.spectra = spectra
+        self.ratio = np.full((F, n_out, n_in), np.nan, dtype=complex)
+        self.condition = np.full((F, n_out), np.inf)
+        self.coherence = np.zeros((F, n_out))
+        self.power = np.zeros((F, n_out, n_in))
+        self.explained = np.zeros((F, n_out))
+        self.layouts: list[RowLayout] = []
+
+    def add(self, layout: RowLayout, row: RowEstimate) -> None:
+        """Row ``layout.row``'s estimate (rows are added in order)."""
+        i = layout.row
+        self.ratio[:, i, layout.columns] = row.ratio
+        self.condition[:, i] = row.condition
+        self.coherence[:, i] = row.coherence
+        self.power[:, i, layout.columns] = row.power
+        self.explained[:, i] = row.explained
+        self.layouts.append(layout)
+
+    def build(self) -> PmrEstimate:
+        """The estimate of every row added."""
+        return PmrEstimate(
+            omega=self.spectra.omega,
+            ratio=self.ratio,
+            coherence=self.coherence,
+            condition=self.condition,
+            segments=self.spectra.segments,
+            power=self.power,
+            explained=self.explained,
+            layouts=tuple(self.layouts),
+            differenced=self.spectra.differenced.copy(),
+        )
+
+
 def implicit_estimate(spectra: RecordSpectra, *, test_empty: bool) -> PmrEstimate:
     """Solve eq. (13) row by row and frequency by frequency.
 
@@ -247,36 +307,14 @@ def implicit_estimate(spectra: RecordSpectra, *, test_empty: bool) -> PmrEstimat
     PmrEstimate
     """
     model = spectra.model
-    F = spectra.omega.size
-    ratio = np.full((F, model.n_outputs, model.n_inputs), np.nan, dtype=complex)
-    condition = np.full((F, model.n_outputs), np.inf)
-    coherence = np.zeros((F, model.n_outputs))
-    power = np.zeros((F, model.n_outputs, model.n_inputs))
-    explained = np.zeros((F, model.n_outputs))
     factor = instrument_factor(spectra.rr)
-    layouts = []
+    builder = EstimateBuilder(spectra)
     for i in range(model.n_outputs):
         layout = row_layout(
             model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=test_empty
         )
-        row = implicit_row(spectra.row(i), spectra.rr, factor, layout.columns)
-        ratio[:, i, layout.columns] = row.ratio
-        condition[:, i] = row.condition
-        coherence[:, i] = row.coherence
-        power[:, i, layout.columns] = row.power
-        explained[:, i] = row.explained
-        layouts.append(layout)
-    return PmrEstimate(
-        omega=spectra.omega,
-        ratio=ratio,
-        coherence=coherence,
-        condition=condition,
-        segments=spectra.segments,
-        power=power,
-        explained=explained,
-        layouts=tuple(layouts),
-        differenced=spectra.differenced.copy(),
-    )
+        builder.add(layout, implicit_row(spectra.row(i), spectra.rr, factor, layout.columns))
+    return builder.build()
 
 
 def estimate_pmr(

@@ -54,6 +54,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
 from .model import TransferMatrix
+from .products import hermitian_product
 from .stretch import Stretch, active_dither, instruments
 
 
@@ -329,11 +330,11 @@ class RecordSpectra:
                 block = np.diff(block, axis=0, prepend=block[:1])
             blocks.append(block[warmup:])
         seg, _ = stretch_segments(blocks, self.settings)
-        Z = np.transpose(self._z.ffts, (1, 2, 0))  # (F, n_z, K)
+        Z = np.transpose(self._z.ffts, (1, 0, 2))  # (F, K, n_z)
         X = np.transpose(seg.ffts, (1, 0, 2))  # (F, K, 1 + n_in)
         K = seg.segments
-        zc = np.matmul(Z.conj(), X) / K
-        cc = np.matmul(np.transpose(X, (0, 2, 1)).conj(), X) / K
+        zc = hermitian_product(Z, X) / K
+        cc = hermitian_product(X, X) / K
         return RowSpectra(
             zy=zc[:, :, 0],
             zx=zc[:, :, 1:],

@@ -37,6 +37,9 @@ __all__ = ["PROFILE_HALF_WIDTH", "RowData", "RowFit", "column_models", "fit_row"
 PROFILE_HALF_WIDTH = 2
 """Delay candidates either side of the chosen one that enter its confidence [samples]."""
 
+PROFILE_PRUNE = 60.0
+"""A neighbour this many (reduced) chi-square units worse ends its side of the profile."""
+
 NEIGHBOUR_ITERATIONS = 3
 """Joint-fit steps at a neighbouring delay, from the column refitted alone: its chi-square to far below one."""
 
@@ -186,21 +189,33 @@ class _Trials:
 
 
 def _profile(
-    trials: _Trials, fit: tuple[RowParameters, float]
+    trials: _Trials, fit: tuple[RowParameters, float], *, scale: float
 ) -> tuple[tuple[RowParameters, float], tuple[dict[int, float], ...]]:
-    """Each column's delay profile, the others at their best; a better neighbour is taken (and fitted in full)."""
+    """Each column's delay profile, the others at their best; a better neighbour is taken (and fitted in full).
+
+    Outwards from the chosen delay, a side stops once a neighbour's chi-square
+    exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
+    reduced chi-square): its likelihood weight, below ``exp(-PROFILE_PRUNE/2)``,
+    changes no confidence, and the one beyond it would weigh less still.
+    """
     profiles = []
     for k, column in enumerate(trials.problem.columns):
         low, high = column.delay_bounds
         chosen = int(fit[0].delays[k])
-        profile = {}
-        for d in range(max(low, chosen - PROFILE_HALF_WIDTH), min(high, chosen + PROFILE_HALF_WIDTH) + 1):
-            profile[d] = fit[1] if d == chosen else trials.neighbour(fit, k, d)[1]
+        profile = {chosen: fit[1]}
+        for direction in (-1, 1):
+            for step in range(1, PROFILE_HALF_WIDTH + 1):
+                d = chosen + direction * step
+                if not low <= d <= high:
+                    break
+                profile[d] = trials.neighbour(fit, k, d)[1]
+                if profile[d] - fit[1] > PROFILE_PRUNE * scale:
+                    break
         best = min(profile, key=profile.__getitem__)
         if best != chosen:
             fit = trials.full(trials.neighbour(fit, k, best)[0])
             profile[best] = fit[1]
-        profiles.append(profile)
+        profiles.append(dict(sorted(profile.items())))
     return fit, tuple(profiles)
 
 
@@ -250,10 +265,11 @@ def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.nd
     second = data.system(problem.coefficients(fit[0], z_inv).theta)
     final = RowProblem(second, columns)
     trials = _Trials(final, grids)
-    fit, profiles = _profile(trials, trials.full(fit[0]))
-    params, cost = fit
     p = len(columns) + final.free_tau.size
     dof = max(1, second.components - p)
+    fit = trials.full(fit[0])
+    fit, profiles = _profile(trials, fit, scale=max(1.0, fit[1] / dof))
+    params, cost = fit
     inflation = data.bin_correlation * max(1.0, cost / dof)
     sd_lin, sd_s = _uncertainty(final, params, inflation)
     return RowFit(

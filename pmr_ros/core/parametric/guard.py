@@ -70,11 +70,17 @@ class RowQuality:
             figures["excitation"] = float(self.excitation[c])
         return figures
 
-    def element_reasons(self, c: int, settings: ParametricSettings, *, modeled: bool) -> tuple[str, ...]:
-        """The row's reasons plus column ``c``'s own (a modeled element barely excited)."""
+    def element_reasons(
+        self, c: int, settings: ParametricSettings, *, modeled: bool, input_name: str
+    ) -> tuple[str, ...]:
+        """The row's reasons plus column ``c``'s own (a modeled element barely excited: which input to move)."""
         share = float(self.excitation[c])
         if modeled and share < settings.excitation_min:
-            return (*self.reasons, f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output)")
+            return (
+                *self.reasons,
+                f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output < "
+                f"parametric.excitation_min {100 * settings.excitation_min:g} %): move {input_name} more (MV dither)",
+            )
         return self.reasons
 
 

@@ -14,12 +14,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..classic import PmrSettings, classic_estimate, classic_results
-from ..implicit import RowEstimate, RowLayout, implicit_row, instrument_factor, row_layout
+from ..classic import PmrSettings, classic_estimate, classic_results, readable
+from ..implicit import (
+    EstimateBuilder,
+    PmrEstimate,
+    RowEstimate,
+    RowLayout,
+    implicit_row,
+    instrument_factor,
+    row_layout,
+)
 from ..model import TransferMatrix
 from ..record import MIN_SEGMENTS, InsufficientData, check_stretches
 from ..results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
-from ..spectra import RecordSpectra, record_spectra
+from ..spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 from ..stretch import Stretch, total_samples
 from .fit import RowData, RowFit, column_models, fit_row
 from .guard import RowQuality, row_quality
@@ -57,6 +65,7 @@ class _FittedRow:
 
 def _fit(
     i: int,
+    row: RowSpectra,
     *,
     spectra: RecordSpectra,
     factor: np.ndarray,
@@ -64,9 +73,8 @@ def _fit(
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> _FittedRow:
-    """Row ``i``'s layout, implicit estimate, guard and, when the guard passes it, fit."""
+    """Row ``i``'s layout, implicit estimate (from its spectra ``row``), guard and, when the guard passes it, fit."""
     layout = row_layout(model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
-    row = spectra.row(i)
     estimate = implicit_row(row, spectra.rr, factor, layout.columns)
     quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
     if quality.reasons:
@@ -103,7 +111,7 @@ def _element(
     figures = quality.quality(c, omega=spectra.omega, welch=spectra.settings)
     if c < 0:
         return _without_numbers(kind, quality.reasons or (row.layout.untested,), quality.warnings, figures)
-    reasons = quality.element_reasons(c, settings, modeled=kind != "none")
+    reasons = quality.element_reasons(c, settings, modeled=kind != "none", input_name=spectra.model.input_names[k])
     if row.fit is None or reasons:
         return _without_numbers(kind, reasons, quality.warnings, figures)
     if kind == "none":
@@ -112,6 +120,42 @@ def _element(
             row.fit, c, share_per_gain=share, settings=settings, quality=figures, warnings=quality.warnings
         )
     return element_result(row.fit, c, settings=settings, quality=figures, warnings=quality.warnings)
+
+
+def _check_segments(welch: WelchSettings, stretches: Sequence[Stretch], model: TransferMatrix) -> None:
+    usable = [s.samples - model.settling_samples() for s in stretches]
+    segments = sum(welch.segments(n) for n in usable)
+    if segments < MIN_SEGMENTS:
+        raise InsufficientData(
+            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
+            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
+            "shorten it (0 picks one from the model)"
+        )
+
+
+def _results(
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
+) -> tuple[dict[str, ParametricResult], PmrEstimate | None]:
+    """The parametric results, and the classic estimate when both methods' segments agree (one transform per row)."""
+    welch = settings.welch(model, max(s.samples for s in stretches), classic)
+    _check_segments(welch, stretches, model)
+    spectra = record_spectra(stretches, model, welch)
+    factor = instrument_factor(spectra.rr)
+    shared = EstimateBuilder(spectra) if welch == classic.welch else None
+    names = model.element_names()
+    out: dict[str, ParametricResult] = {}
+    for i in range(model.n_outputs):
+        row_spectra = spectra.row(i)
+        if shared is not None:
+            layout = row_layout(
+                model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=False
+            )
+            shared.add(layout, implicit_row(row_spectra, spectra.rr, factor, layout.columns))
+        row = _fit(i, row_spectra, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
+        kinds = [str(kind) for kind in model.element_type[i]]
+        results = [_element(row, k, kind, spectra=spectra, settings=settings) for k, kind in enumerate(kinds)]
+        out.update(zip(names[i * model.n_inputs : (i + 1) * model.n_inputs], results, strict=True))
+    return out, None if shared is None else shared.build()
 
 
 def parametric_results(
@@ -124,34 +168,17 @@ def parametric_results(
     InsufficientData
         The parametric Welch segment leaves fewer than :data:`MIN_SEGMENTS` segments.
     """
-    longest = max(s.samples for s in stretches)
-    welch = settings.welch(model, longest, classic)
-    usable = [s.samples - model.settling_samples() for s in stretches]
-    segments = sum(welch.segments(n) for n in usable)
-    if segments < MIN_SEGMENTS:
-        raise InsufficientData(
-            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
-            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
-            "shorten it (0 picks one from the model)"
-        )
-    spectra = record_spectra(stretches, model, welch)
-    factor = instrument_factor(spectra.rr)
-    names = model.element_names()
-    out: dict[str, ParametricResult] = {}
-    for i in range(model.n_outputs):
-        row = _fit(i, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
-        kinds = [str(kind) for kind in model.element_type[i]]
-        results = [_element(row, k, kind, spectra=spectra, settings=settings) for k, kind in enumerate(kinds)]
-        out.update(zip(names[i * model.n_inputs : (i + 1) * model.n_inputs], results, strict=True))
-    return out
+    return _results(stretches, model=model, classic=classic, settings=settings)[0]
 
 
 def _classic_part(
-    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, estimate: PmrEstimate | None
 ) -> dict[str, ClassicResult | None]:
     """The classic numbers kept beside the parametric ones; None where the classic method cannot give them."""
     try:
-        estimate = classic_estimate(stretches, model=model, settings=classic)
+        if estimate is None:
+            estimate = classic_estimate(stretches, model=model, settings=classic)
+        estimate = readable(estimate, classic)
     except InsufficientData:
         # the classic method refuses an ill-conditioned record as a whole; the parametric guard judges it row by row
         return dict.fromkeys(model.element_names())
@@ -188,10 +215,10 @@ def diagnose_parametric(
     models = model.element_models()
     try:
         check_stretches(stretches, model=model, welch=classic.welch)
-        results = parametric_results(stretches, model=model, classic=classic, settings=settings)
+        results, estimate = _results(stretches, model=model, classic=classic, settings=settings)
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="parametric", models=models, reason=str(exc), samples=samples)
-    classic_part = _classic_part(stretches, model=model, classic=classic)
+    classic_part = _classic_part(stretches, model=model, classic=classic, estimate=estimate)
     elements = {
         name: ElementDiagnosis(name, i, k, element, "parametric", classic=classic_part[name], parametric=results[name])
         for name, (i, k, element) in models.items()

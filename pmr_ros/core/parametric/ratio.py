@@ -48,6 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..products import hermitian_product
 from ..spectra import RowSpectra
 
 __all__ = [
@@ -184,7 +185,10 @@ class RowSystem:
 
     def free_estimate(self) -> tuple[np.ndarray, np.ndarray]:
         """The per-bin least-squares coefficients and each one's variance, shapes (F', n)."""
-        inverse = np.linalg.pinv(self.M, hermitian=True)
+        try:
+            inverse = np.linalg.inv(self.M)
+        except np.linalg.LinAlgError:
+            inverse = np.linalg.pinv(self.M, hermitian=True)
         theta = np.einsum("fkm,fm->fk", inverse, self.v)
         variance = np.maximum(np.real(np.einsum("fkk->fk", inverse)), 1e-300)
         return theta, variance
@@ -223,10 +227,9 @@ def row_system(
     scale = np.where(omega[bins] == 0.0, scale / np.sqrt(2.0), scale)
     b = np.linalg.solve(L, spectra.zy[bins][:, :, None])[:, :, 0] * scale[:, None]
     A = np.linalg.solve(L, spectra.zx[bins][:, :, columns]) * scale[:, None, None]
-    AH = np.conj(np.transpose(A, (0, 2, 1)))
     return RowSystem(
-        M=np.matmul(AH, A),
-        v=np.matmul(AH, b[:, :, None])[:, :, 0],
+        M=hermitian_product(A, A),
+        v=hermitian_product(A, b[:, :, None])[:, :, 0],
         beta=np.sum(np.abs(b) ** 2, axis=1),
         z_inv=np.exp(-1j * omega[bins]),
         components=2 * b.size,

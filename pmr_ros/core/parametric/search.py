@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..products import product
 from .lsq import RowParameters
 from .ratio import GAIN_RATIO_BOUND, ColumnModel, RowSystem
 
@@ -126,7 +127,7 @@ def column_search(
         Search only this delay (one of ``grid.delays``).
     """
     candidates = np.arange(grid.delays.size) if delay is None else np.array([delay - int(grid.delays[0])])
-    numerator = np.real((np.conj(grid.shapes) * (weight * target)) @ grid.turns[:, candidates])  # (G, n_d)
+    numerator = np.real(product(np.conj(grid.shapes) * (weight * target), grid.turns[:, candidates]))  # (G, n_d)
     denominator = (np.abs(grid.shapes) ** 2) @ weight  # (G,)
     _, gain = _best_linear(numerator, denominator[:, None], grid.column)
     g, d = np.unravel_index(int(np.argmax(gain)), gain.shape)
