@@ -343,3 +343,29 @@ def test_a_row_without_enough_instruments_names_the_missing_excitation(tmp_path)
             g11 = diagnosis.elements["G11"].parametric
             assert g11.verdict == "mismatch" and abs(g11.gain_mismatch_pct - 10.0) <= 3.0
             assert any("assumes no unmodeled interaction" in w for w in g11.warnings)
+
+
+def test_an_industrial_diagnosis_round_trips_through_diagnostics_and_json(configs, diagnoses):
+    """Integrating elements, interactions and untested cells keep every field on /diagnostics, estimates and JSON."""
+    import json
+
+    import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up
+
+    from pmr_ros.contract.layout import diagnosis_from_array, read_estimates
+    from pmr_ros.core.results import Diagnosis, compare_diagnoses
+    from pmr_ros.ros import convert
+
+    diagnosis = diagnoses["3x5 plant", "full", 1, "parametric"]
+    statuses = convert.diagnosis_statuses(
+        diagnosis, node_name="pmr_diagnostician", hardware_id="x", window={"window_samples": diagnosis.samples}
+    )
+    back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0), "pmr_diagnostician")
+    assert back == diagnosis
+    assert compare_diagnoses(Diagnosis.from_dict(json.loads(json.dumps(diagnosis.to_dict()))), diagnosis) == []
+    estimates = read_estimates(convert.estimates_message(diagnosis, 0.0, "x"))
+    assert estimates["G13"]["parametric.unmodeled_gain"] == pytest.approx(
+        diagnosis.elements["G13"].parametric.unmodeled_gain
+    )
+    assert np.isnan(estimates["G21"]["parametric.tau_mismatch_pct"])  # an integrating element has no time constant
+    levels = {s.name.split(": ")[1]: s.level for s in statuses}
+    assert levels["G13"] == levels["G21"] == statuses[0].WARN  # one property off: the interaction; the gain

@@ -72,10 +72,11 @@ def format_parametric_table(report: dict[str, Any]) -> str:
         p = e.get("parametric") or {}
         notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", [])]]
     lines.append("")
-    lines.append(
-        "! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]; "
-        "no model: an empty cell, K and delay of the plant's interaction there (! one the model lacks)"
-    )
+    lines.append("! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]")
+    if any(e["model"]["kind"] == "none" for e in report["elements"].values()):
+        lines.append(
+            "no model: an empty cell; K [interval] and delay of the plant's interaction there (! one the model lacks)"
+        )
     lines += notes
     return "\n".join(lines) + "\n"
 
