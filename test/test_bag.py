@@ -202,9 +202,8 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
     assert final.window == expected["node_set"]["window"]
     # the reference report was written by pmr_ros 0.1 (flat classic fields) on another machine:
     # flags, delays and verdicts exact, numbers within compare_diagnoses' tolerance
-    offline = {
-        name: e["classic"] | {"verdict": e["verdict"]} for name, e in final.diagnosis.to_dict()["elements"].items()
-    }
+    offline_elements = final.diagnosis.to_dict()["elements"].items()
+    offline = {name: e["classic"] | {"verdict": e["verdict"]} for name, e in offline_elements}
     keys = (
         "gain_ratio",
         "tau_index",
@@ -215,6 +214,7 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
         "verdict",
     )
     reference = {name: {k: e[k] for k in keys} for name, e in expected["elements"].items()}
+    offline = {name: {k: e[k] for k in keys} for name, e in offline.items()}  # the fields the 0.1 report had
     assert compare_diagnoses(offline, reference) == []
     # ... and exactly what the live diagnostician published on /diagnostics for the same window.
     assert result.comparisons and result.all_equal

@@ -12,6 +12,7 @@ from pmr_ros.contract.alignment import SampleAligner
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.diagnosis import diagnose
 from pmr_ros.core.memory import (
+    DIAGNOSIS_BYTES_PER_CHANNEL,
     available_bytes,
     diagnosis_bytes,
     format_bytes,
@@ -66,7 +67,9 @@ def test_the_window_estimate_bounds_what_the_aligner_holds(wood_berry):
 
 def test_dither_adds_instruments_and_runs_add_up(wood_berry):
     model = wood_berry.model
-    assert diagnosis_bytes(model, 100, dither=True) - diagnosis_bytes(model, 100) == 64 * 2 * 100
+    assert (
+        diagnosis_bytes(model, 100, dither=True) - diagnosis_bytes(model, 100) == DIAGNOSIS_BYTES_PER_CHANNEL * 2 * 100
+    )
     assert simulation_bytes(model, 100, runs=5) == 5 * simulation_bytes(model, 100) == 5 * 16 * 8 * 100
 
 

@@ -57,7 +57,7 @@ def test_the_band_is_bendat_and_piersols_for_one_input():
     u -= np.convolve(u[:, 0], np.ones(50) / 50, mode="same")[:, None]  # r alone drives u, coloured
     y = 1.2 * model.element_outputs(u).reshape(n, 1) + rng.normal(size=(n, 1))
     spectra = record_spectra([Stretch(r, u, y)], model, WelchSettings("hann", 256, 0.5))
-    estimate = implicit_estimate(spectra)
+    estimate = implicit_estimate(spectra, test_empty=False)
     sigma = estimate_sigma(spectra, estimate, 0)[:, 0]
     gamma2 = estimate.coherence[:, 0]
     closed = np.abs(estimate.ratio[:, 0, 0]) ** 2 * (1 - gamma2) / (gamma2 * spectra.equivalent_segments)

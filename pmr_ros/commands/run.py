@@ -100,7 +100,13 @@ def handle(args: argparse.Namespace) -> int:
 
         record = simulate(config)
         diagnosis = diagnose(
-            record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
+            record.r,
+            record.u,
+            record.y,
+            model=config.model,
+            pmr=config.pmr,
+            parametric=config.parametric,
+            dither=record.dither,
         )
         diagnosis = close_the_loop(args, config, diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)

@@ -335,6 +335,7 @@ def _pmr(v: _Values) -> PmrSettings:
         "tau_index_threshold",
         "max_delay_samples",
         "coherence_min",
+        "delay_fit_min",
     )
     return PmrSettings(**{key: v[f"pmr.{key}"] for key in keys})
 

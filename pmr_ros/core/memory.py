@@ -3,8 +3,8 @@
 The figures per sample are upper bounds of what is measured
 (``benchmarks/bench_memory.py`` prints both; ``test/test_memory.py`` checks
 the bounds): a batch simulation keeps r, u, y and the MV dither of every
-sample, the diagnosis filters u through every model element and transforms
-Welch frames of every channel at once (both measured with ``tracemalloc``),
+sample, the diagnosis transforms Welch frames of the instruments once and of
+one output row (the output and its regressors) at a time (both measured with ``tracemalloc``),
 and a live window holds each complete sample as three small arrays
 (measured as resident memory, the allocator's overhead included).
 """
@@ -31,8 +31,9 @@ __all__ = [
 SIMULATION_BYTES_PER_VALUE = 16
 """Simulation: bytes per sample per recorded value (r, y, u, dither and the generators' temporaries); 10 measured."""
 
-DIAGNOSIS_BYTES_PER_CHANNEL = 64
-"""Diagnosis: bytes per sample per spectral channel (instruments, outputs, element outputs); 53 measured."""
+DIAGNOSIS_BYTES_PER_CHANNEL = 48
+"""Diagnosis: bytes per sample per spectral channel (the instruments, then one output row at a time: the
+output and its regressors); 38-42 measured on Wood-Berry and the 3x3."""
 
 WINDOW_BYTES_PER_SAMPLE = 700
 """A live window: bytes per complete sample held (three small arrays and their bookkeeping); about 500 measured."""
@@ -60,7 +61,8 @@ def diagnosis_bytes(model: TransferMatrix, samples: int, *, dither: bool = False
         Whether the MV dither joins the setpoints as instruments.
     """
     instruments = model.n_outputs + (model.n_inputs if dither else 0)
-    channels = instruments + model.n_outputs + model.n_outputs * model.n_inputs
+    # the instruments' transforms are kept; the rows' are made one at a time (core.spectra.RecordSpectra)
+    channels = instruments + 1 + model.n_inputs
     return DIAGNOSIS_BYTES_PER_CHANNEL * channels * int(samples)
 
 

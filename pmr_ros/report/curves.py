@@ -38,8 +38,8 @@ import numpy as np
 
 from ..config import PmrConfig
 from ..core.delay import informative_band
-from ..core.implicit import PmrEstimate, implicit_estimate
-from ..core.parametric.ratio import noise_spectrum, ratio_shape
+from ..core.implicit import PmrEstimate, implicit_estimate, instrument_factor
+from ..core.parametric.ratio import noise_spectrum, ratio_shape, row_system
 from ..core.record import InsufficientData, check_stretches
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..core.spectra import RecordSpectra, WelchSettings, record_spectra
@@ -101,13 +101,30 @@ def band_radius(sigma: np.ndarray, level: float) -> np.ndarray:
 def estimate_sigma(spectra: RecordSpectra, estimate: PmrEstimate, row: int) -> np.ndarray:
     """Standard deviation of the implicit estimate of every element of ``row``, shape (F, n_inputs).
 
-    ``cov = A^+ S_zz A^+^H Phi_v / M`` (module docstring), diagonal taken.
+    The per-bin least-squares estimate's variance from the row's whitened
+    equations (:func:`~pmr_ros.core.parametric.ratio.row_system`, the noise
+    spectrum of the estimate's own residual): ``E|error|^2 = 2 [M^-1]_kk``.
+    NaN where the row's layout has no column.
     """
-    design = spectra.ryhat[:, :, row, :]  # (F, n_z, n_in)
-    pinv = np.linalg.pinv(design)  # (F, n_in, n_z)
-    core = np.einsum("fkz,fzw,fkw->fk", pinv, spectra.rr, pinv.conj()).real
-    phi = noise_spectrum(spectra, row, estimate.ratio[:, row, :])
-    return np.sqrt(np.maximum(core, 0.0) * phi[:, None] / spectra.equivalent_segments)
+    F, n_in = spectra.omega.size, estimate.ratio.shape[2]
+    sigma = np.full((F, n_in), np.nan)
+    columns = estimate.layouts[row].columns
+    if columns.size == 0:
+        return sigma
+    row_spectra = spectra.row(row)
+    noise = noise_spectrum(row_spectra, columns, estimate.ratio[:, row, columns], spectra.omega)
+    system = row_system(
+        row_spectra,
+        instrument_factor(spectra.rr),
+        columns=columns,
+        noise=noise,
+        bins=np.arange(F),
+        omega=spectra.omega,
+        equivalent_segments=spectra.equivalent_segments,
+    )
+    _, variance = system.free_estimate()
+    sigma[:, columns] = np.sqrt(2.0 * variance)
+    return sigma
 
 
 def fitted_ratio(element: ElementDiagnosis, omega: np.ndarray, sample_time: float) -> np.ndarray | None:
@@ -156,7 +173,7 @@ def pmr_curves(stretches: Sequence[Stretch], diagnosis: Diagnosis, config: PmrCo
     except InsufficientData:
         return {}
     spectra = record_spectra(stretches, model, welch)
-    estimate = implicit_estimate(spectra)
+    estimate = implicit_estimate(spectra, test_empty=False)
     level = config.parametric.confidence_level
     out = {}
     for i in range(model.n_outputs):
