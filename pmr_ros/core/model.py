@@ -271,10 +271,9 @@ class TransferMatrix:
         """
         disc = self.discretize()
         n_out, n_in = self.n_outputs, self.n_inputs
-        elements = [(i, k) for i in range(n_out) for k in range(n_in) if self.present[i, k]]
-        lengths = np.array(
-            [max([disc.delay_samples[i, k] for i, kk in elements if kk == k] or [0]) for k in range(n_in)]
-        )
+        present = self.present
+        elements = [(int(i), int(k)) for i, k in zip(*np.nonzero(present), strict=False)]  # row-major
+        lengths = np.where(present, disc.delay_samples, 0).max(axis=0)
         reg_start = len(elements) + np.concatenate(([0], np.cumsum(lengths)[:-1]))
         nx = len(elements) + int(lengths.sum())
         A = np.zeros((nx, nx))
@@ -315,9 +314,10 @@ class TransferMatrix:
         u = np.asarray(u, dtype=float)
         disc = self.discretize()
         out = np.zeros((u.shape[0], self.n_outputs, self.n_inputs))
+        present = self.present
         for i in range(self.n_outputs):
             for k in range(self.n_inputs):
-                if not self.present[i, k]:
+                if not present[i, k]:
                     continue
                 b, a = disc.filter_coefficients(i, k)
                 zi = np.zeros(len(b) - 1) if self.integrating[i, k] else lfilter_zi(b, a) * u[0, k]
