@@ -290,6 +290,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     u_min, u_max = v["mpc.u_min"], v["mpc.u_max"]
     if np.any(u_min >= u_max):
         raise v.error("mpc.u_min", u_min.tolist(), "must be below mpc.u_max")
+    target = v["mpc.input_target"]
+    if np.any((target < u_min) | (target > u_max)):
+        raise v.error("mpc.input_target", target.tolist(), "must lie within mpc.u_min .. mpc.u_max")
     return MpcTuning(
         prediction_horizon=np_h,
         control_horizon=nc_h,
@@ -298,6 +301,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
         u_min=u_min,
         u_max=u_max,
         du_max=v["mpc.du_max"],
+        input_target=target,
+        input_target_weight=v["mpc.input_target_weight"],
+        ramp_filter_samples=v["mpc.ramp_filter_samples"],
     )
 
 
