@@ -217,6 +217,7 @@ ROSDEP_KEYS: dict[str, str | None] = {
     "matplotlib": "python3-matplotlib",
     "osqp": None,
     "mcap": None,
+    "distributed": None,
     # tests only
     "pytest": "python3-pytest",
     "control": "python-control-pip",

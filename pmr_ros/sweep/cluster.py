@@ -1,0 +1,76 @@
+"""Run a sweep's points on a Dask distributed cluster (``pmr-ros sweep --scheduler ADDRESS``).
+
+The configuration is sent to every worker once; each point is one task,
+:func:`~pmr_ros.sweep.execute.timed_point` -- the same function the local
+process pool runs -- so a cluster writes the same rows as the local pool
+(in the order the points finish, as the pool does).  The workers need
+pmr_ros installed (the same version) and are started by whoever runs the
+cluster (``dask scheduler``, ``dask worker ADDRESS``).  Needs the optional
+``distributed`` package (``pip install 'pmr_ros[cluster]'``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ..config import PmrConfig
+from .execute import PointTask, timed_point
+
+CONNECT_TIMEOUT_S = 30.0
+"""How long to wait for the scheduler to answer [s]."""
+
+
+class ClusterError(RuntimeError):
+    """The cluster cannot be used: distributed missing, or the scheduler unreachable."""
+
+
+def _client(address: str) -> Any:
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ClusterError(
+            "--scheduler needs the Dask distributed package: pip install 'pmr_ros[cluster]' (or distributed)"
+        ) from None
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ClusterError(f"--scheduler {address}: cannot connect to a Dask scheduler there: {exc}") from None
+
+
+def run_on_cluster(
+    config: PmrConfig,
+    tasks: list[PointTask],
+    address: str,
+    record: Callable[[PointTask, list[dict], float], None],
+) -> None:
+    """Run ``tasks`` on the Dask cluster at ``address``; ``record`` each finished point at once.
+
+    Parameters
+    ----------
+    config : PmrConfig
+        The sweep's configuration (scattered to every worker once).
+    tasks : list of PointTask
+        The points to run, in the order to submit them.
+    address : str
+        The scheduler, e.g. ``tcp://10.0.0.5:8786``.
+    record : callable
+        Called with ``(task, rows, cpu_s)`` as each point finishes.
+
+    Raises
+    ------
+    ClusterError
+        If distributed is not installed or the scheduler cannot be reached.
+    """
+    from distributed import as_completed
+
+    client = _client(address)
+    futures = []
+    try:
+        shared = client.scatter(config, broadcast=True)
+        futures = [client.submit(timed_point, shared, task, pure=False) for task in tasks]
+        for _, (task, rows, cpu_s) in as_completed(futures, with_results=True, loop=client.loop):
+            record(task, rows, cpu_s)
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+        client.close()
