@@ -50,7 +50,7 @@ def test_input_magnitude_and_rate_limits_hold(wood_berry):
     assert mpc.statistics.solves > 0 and mpc.statistics.failures == 0
 
 
-def test_unconstrained_shortcut_equals_the_osqp_solution(wood_berry):
+def test_unconstrained_shortcut_equals_the_qp_solution(wood_berry):
     rng = np.random.default_rng(1)
     fast = LinearMpc(wood_berry.model, wood_berry.mpc)
     qp = LinearMpc(wood_berry.model, wood_berry.mpc, always_solve_qp=True, record_solve_times=True)

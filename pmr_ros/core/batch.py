@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .closed_loop import LoopConfig, RunRecord
-from .model import SCENARIOS, TransferMatrix
+from .model import SCENARIOS, StateSpace, TransferMatrix
 from .mpc import LinearMpc, MpcStatistics, MpcTuning
 from .plant import noise_generator
 from .prbs import PrbsGenerator, dither_generator
@@ -76,25 +76,39 @@ def _mv(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
 
 @dataclass
 class _PlantGroup:
-    """Runs whose plants have the same state size, stacked for batched stepping."""
+    """Runs whose plants have the same state size, stacked for batched stepping.
+
+    Each state is advanced as in :meth:`StateSpace.advance` (its pole and its one
+    source, per run), elementwise, so the numbers equal the plant's own.
+    """
 
     runs: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
+    pole: np.ndarray
+    source: np.ndarray
+    weight: np.ndarray
     C: np.ndarray
     x: np.ndarray
 
+    def advance(self, u: np.ndarray) -> None:
+        """Hold each run's input ``u`` (rows: the group's runs) for one sample."""
+        feed = np.take_along_axis(np.concatenate((self.x, u), axis=1), self.source, axis=1)
+        self.x = self.pole * self.x + self.weight * feed
 
-def _plant_groups(spaces: list) -> list[_PlantGroup]:
+
+def _plant_groups(spaces: list[StateSpace]) -> list[_PlantGroup]:
     sizes = sorted({ss.A.shape[0] for ss in spaces})
     groups = []
     for nx in sizes:
         idx = np.array([j for j, ss in enumerate(spaces) if ss.A.shape[0] == nx])
+        pole, source, weight = (
+            np.stack(parts) for parts in zip(*(spaces[j].one_source_form for j in idx), strict=True)
+        )
         groups.append(
             _PlantGroup(
                 runs=idx,
-                A=np.stack([spaces[j].A for j in idx]),
-                B=np.stack([spaces[j].B for j in idx]),
+                pole=pole,
+                source=source,
+                weight=weight,
                 C=np.stack([spaces[j].C for j in idx]),
                 x=np.zeros((idx.size, nx)),
             )
@@ -135,7 +149,7 @@ class _BatchMpc:
             # The run's own controller and solver, so warm starts and counters match simulate().
             move[j] = self.controllers[j].solve_constrained(q, lower=lower, upper=upper)
         u, applied = first.apply_move(self.u_prev, move, dither)
-        self.x = _mv(mats.A, self.x) + _mv(mats.B, applied)
+        self.x = first.advance_model(self.x, applied)
         self.u_prev = u
         return applied
 
@@ -184,7 +198,7 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         y_rec[k] = y
         u = u_rec[k] = mpc.step(y, setpoints[k], None if dither is None else dither[k])
         for group in groups:
-            group.x = _mv(group.A, group.x) + _mv(group.B, u[group.runs])
+            group.advance(u[group.runs])
     for c in mpc.controllers:
         c.statistics.steps += samples
     records = [

@@ -1,4 +1,4 @@
-"""Linear constrained MPC on OSQP: offset-free on any shape, integrating outputs included.
+"""Linear constrained MPC: offset-free on any shape, integrating outputs included.
 
 The controller predicts with its model ``Ghat`` (the state-space realization
 of the transfer matrix, delays as shift registers), penalizes tracking error,
@@ -10,13 +10,14 @@ the control horizon (:mod:`pmr_ros.core.mpc_design`):
     min  (Yfree + Theta dU - Ys)' Q (...) + dU' R dU + (U - Utarget)' M (U - Utarget)
     s.t. u_min <= u_prev + L dU <= u_max,  |dU| <= du_max
 
-so its Hessian and constraint matrix never change: OSQP factors them once and
-each step only the linear term and the bounds are updated (warm-started).
+so its Hessian and constraint matrix never change: they are factored once, and
+each step only the linear term and the bounds change.
 The linear term and the unconstrained minimizer ``-H^-1 q`` are linear in
 ``z = [x; u_prev; r; d; p]``, so one precomputed matrix gives the moves in
 one product.  When they satisfy every constraint they are the QP's solution
-and are used directly; OSQP runs only when a limit would bind
-(``statistics`` counts how often).
+and are used directly; only when a limit would bind is the QP solved, exactly,
+by the dual active-set method of :mod:`pmr_ros.core.qp` (OSQP stands by should
+it break down) (``statistics`` counts how often).
 
 Disturbance model (:mod:`pmr_ros.core.disturbance`): every output carries an
 estimated step ``d`` (the DMC/IMC output bias ``y - yhat``), and an integrating
@@ -47,6 +48,7 @@ from .mpc_design import (
     steady_state_gain,
     target_map,
 )
+from .qp import DenseQp
 
 __all__ = ["LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
 
@@ -123,11 +125,16 @@ class MpcMatrices:
 
 @dataclass
 class MpcStatistics:
-    """Counters of the QP solves, for benchmarks and health reporting."""
+    """Counters of the QP solves, for benchmarks and health reporting.
+
+    ``solves``: steps whose unconstrained optimum broke a limit; ``fallbacks``: of those, solves the
+    active-set method gave to OSQP; ``failures``: solves neither managed (the input was held).
+    """
 
     steps: int = 0
     solves: int = 0
     failures: int = 0
+    fallbacks: int = 0
     solve_time_s: list[float] | None = None
 
 
@@ -146,9 +153,9 @@ class LinearMpc:
         The controller's model ``Ghat`` (deviation variables).
     tuning : MpcTuning
     record_solve_times : bool
-        Keep each OSQP solve's wall time in ``statistics.solve_time_s``.
+        Keep each QP solve's wall time in ``statistics.solve_time_s``.
     always_solve_qp : bool
-        Call OSQP every step, even when no constraint binds (for benchmarks
+        Solve the QP every step, even when no constraint binds (for benchmarks
         and for checking the unconstrained shortcut).
 
     Attributes
@@ -171,7 +178,7 @@ class LinearMpc:
         Np, Nc = tuning.prediction_horizon, tuning.control_horizon
         if Nc > Np:
             raise ValueError("control_horizon must not exceed prediction_horizon")
-        ss = model.state_space()
+        self._ss = ss = model.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C
         self.estimator = DisturbanceEstimator.for_model(model, filter_samples=tuning.ramp_filter_samples)
         qp = condensed_qp(
@@ -189,7 +196,9 @@ class LinearMpc:
         n_in = model.n_inputs
         self._du = _vector(tuning.du_max, n_in)
         self._u_min, self._u_max = _vector(tuning.u_min, n_in), _vector(tuning.u_max, n_in)
-        self._solver = self._setup_solver(qp.hessian, qp.cumulative)
+        self._hessian, self._constraints = qp.hessian, np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
+        self._qp = DenseQp(self._hessian, self._constraints)
+        self._fallback: osqp.OSQP | None = None  # set up on first need
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
         self.reset()
 
@@ -200,25 +209,22 @@ class LinearMpc:
             _vector(t.output_weight, n_out), _vector(t.move_weight, n_in), _vector(t.input_target, n_in), penalty
         )
 
-    def _setup_solver(self, H: np.ndarray, cumulative: np.ndarray) -> osqp.OSQP:
-        """OSQP with the fixed Hessian and constraint matrix, factored once."""
-        n_moves = H.shape[0]
-        Nc = self.tuning.control_horizon
-        A_con = sp.vstack([sp.csc_matrix(cumulative), sp.identity(n_moves, format="csc")], format="csc")
-        du_path = np.tile(self._du, Nc)
+    def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
+        """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
+        n_moves = self._hessian.shape[0]
         solver = osqp.OSQP()
         solver.setup(
-            sp.triu(sp.csc_matrix(H), format="csc"),
+            sp.triu(sp.csc_matrix(self._hessian), format="csc"),
             np.zeros(n_moves),
-            A_con,
-            np.concatenate([np.tile(self._u_min, Nc), -du_path]),
-            np.concatenate([np.tile(self._u_max, Nc), du_path]),
+            sp.csc_matrix(self._constraints),
+            lower,
+            upper,
             verbose=False,
             warm_starting=True,
-            eps_abs=1e-7,
-            eps_rel=1e-7,
-            max_iter=10000,
-            polishing=False,
+            eps_abs=1e-9,
+            eps_rel=1e-9,
+            max_iter=100000,
+            polishing=True,
         )
         return solver
 
@@ -285,9 +291,13 @@ class LinearMpc:
         else:
             move = moves[: self.model.n_inputs]
         u, applied = self.apply_move(self._u_prev, move, dither)
-        self._x = self._A @ self._x + self._B @ applied
+        self._x = self.advance_model(self._x, applied)
         self._u_prev = u
         return applied
+
+    def advance_model(self, x: np.ndarray, applied: np.ndarray) -> np.ndarray:
+        """The model's next state ``A x + B u`` after the applied input (rows of a batch alike)."""
+        return self._ss.advance(x, applied)
 
     def within_limits(self, moves: np.ndarray, u_prev: np.ndarray) -> np.ndarray:
         """Whether moves ``dU`` keep every move and magnitude limit (per row of a batch).
@@ -336,25 +346,36 @@ class LinearMpc:
         return u, applied
 
     def solve_constrained(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-        """The first move of the constrained QP for linear term ``q`` and move bounds (OSQP, warm-started).
+        """The first move of the constrained QP for linear term ``q`` and the bounds of ``[L dU; dU]``.
 
-        Counts the solve in :attr:`statistics`; on a failed solve the input is
-        held (a zero move), the safe fallback of industrial MPC.
+        Solved exactly by the dual active-set method (:class:`~pmr_ros.core.qp.DenseQp`); should it
+        break down, by OSQP; should that fail too, the input is held (a zero move), the safe fallback of
+        industrial MPC.  Counts the solve in :attr:`statistics`.
         """
-        self._solver.update(q=q, l=lower, u=upper)
         t0 = time.perf_counter()
-        result = self._solver.solve(raise_error=False)
+        solution = self._qp.solve(q, lower=lower, upper=upper)
+        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         elapsed = time.perf_counter() - t0
         stats = self.statistics
         stats.solves += 1
         if stats.solve_time_s is not None:
             stats.solve_time_s.append(elapsed)
         n_in = self.model.n_inputs
-        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
-            return result.x[:n_in]
-        # Holding the input is the safe fallback of industrial MPC on a failed solve.
+        if x is not None:
+            return x[:n_in]
         stats.failures += 1
         return np.zeros(n_in)
+
+    def _solve_fallback(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
+        """OSQP's solution, or None when it fails too."""
+        self.statistics.fallbacks += 1
+        if self._fallback is None:
+            self._fallback = self._setup_fallback(lower, upper)
+        self._fallback.update(q=q, l=lower, u=upper)
+        result = self._fallback.solve(raise_error=False)
+        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
+            return result.x
+        return None
 
 
 def _vector(values: np.ndarray, n: int) -> np.ndarray:

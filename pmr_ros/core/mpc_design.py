@@ -50,7 +50,7 @@ def prediction_matrices(
 
     ``yhat(k+1..k+Np) = Phi x(k) + Psi u(k-1) + Theta dU`` with ``dU`` the
     moves of the control horizon (the input held after it).  The powers of
-    ``A`` are applied to ``B`` and ``C`` (sparse ``A``), never formed.
+    ``A`` are applied to ``B`` and ``C`` (all sparse), never formed.
 
     Parameters
     ----------
@@ -68,7 +68,7 @@ def prediction_matrices(
     Theta : ndarray, shape (Np*n_out, Nc*n_in)
         Effect of the moves: block (j, m) is the step response ``S_(j-m)``.
     """
-    A = sp.csr_matrix(ss.A)
+    A, C = sp.csr_matrix(ss.A), sp.csr_matrix(ss.C)  # both sparse: a state per element, a register per delay
     Np, Nc = prediction_horizon, control_horizon
     n_out, n_in = ss.C.shape[0], ss.B.shape[1]
     step = np.empty((Np, n_out, n_in))  # step[j] = sum_{t<=j} C A^t B
@@ -76,7 +76,7 @@ def prediction_matrices(
     a_power_b, c_a_power = ss.B.copy(), ss.C.copy()  # A^j B, C A^j
     acc = np.zeros((n_out, n_in))
     for j in range(Np):
-        acc = acc + ss.C @ a_power_b
+        acc = acc + C @ a_power_b
         step[j] = acc
         a_power_b = A @ a_power_b
         c_a_power = np.asarray((A.T @ c_a_power.T).T)

@@ -32,11 +32,11 @@ class FoptdPlant:
 
     def __init__(self, model: TransferMatrix, noise_std, seed: int) -> None:
         self.model = model
-        ss = model.state_space()
-        self._A, self._B, self._C = ss.A, ss.B, ss.C
+        self._ss = ss = model.state_space()
+        self._C = ss.C
         self._noise_std = np.broadcast_to(np.asarray(noise_std, dtype=float), (model.n_outputs,)).copy()
         self._rng = noise_generator(seed)
-        self._x = np.zeros(self._A.shape[0])
+        self._x = np.zeros(ss.A.shape[0])
 
     def output(self) -> np.ndarray:
         """Noise-free output ``y(k)`` [output unit]."""
@@ -61,4 +61,4 @@ class FoptdPlant:
         u = np.asarray(u, dtype=float)
         if disturbance is not None:
             u = u + np.asarray(disturbance, dtype=float)
-        self._x = self._A @ self._x + self._B @ u
+        self._x = self._ss.advance(self._x, u)
