@@ -81,6 +81,11 @@ def _write(tmp_path: Path, change: dict, base: str = "wood_berry.yaml") -> Path:
         ({"mpc": {"input_target": [0.0, 2.5]}}, "mpc.input_target", "within mpc.u_min .. mpc.u_max"),
         ({"mpc": {"input_target_weight": [1.0, 0.0]}}, "mpc.input_target_weight[1]", "> 0"),
         ({"mpc": {"ramp_filter_samples": -1.0}}, "mpc.ramp_filter_samples", ">= 0"),
+        (
+            {"prbs": {"register_length": 3}, "excitation": {"mv_dither_amplitude": 0.1}},
+            "prbs.register_length",
+            "2 primitive polynomials, fewer than the 4 PRBS channels (2 setpoints + 2 dithered inputs)",
+        ),
         ({"mismatch": {"delay_samples": [0, 0, -9, 0]}}, "mismatch.delay_samples", "negative"),
         ({"pmr": {"window": "no_such_window"}}, "pmr.window", "window"),
     ],

@@ -19,7 +19,7 @@ from ..core.classic import PmrSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
-from ..core.prbs import ExcitationSettings, PrbsSettings
+from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from .errors import ConfigError
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
@@ -279,6 +279,21 @@ def _prbs(v: _Values) -> PrbsSettings:
     )
 
 
+def _check_prbs_channels(v: _Values, model: TransferMatrix, excitation: ExcitationSettings) -> None:
+    """Every PRBS channel (setpoints, then dithered inputs) needs its own primitive polynomial."""
+    degree = v["prbs.register_length"]
+    channels = model.n_outputs + (model.n_inputs if excitation.active else 0)
+    available = primitive_polynomial_count(degree)
+    if channels > available:
+        raise v.error(
+            "prbs.register_length",
+            degree,
+            f"has {available} primitive polynomials, fewer than the {channels} PRBS channels "
+            f"({model.n_outputs} setpoints{f' + {model.n_inputs} dithered inputs' if excitation.active else ''}); "
+            "choose a longer register",
+        )
+
+
 def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
     if nc_h > np_h:
@@ -370,12 +385,14 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     checked = check_tree(tree, source)
     v = _Values(_effective(checked), source, sources or {})
     model = _model(v)
+    excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
+    _check_prbs_channels(v, model, excitation)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
         prbs=_prbs(v),
-        excitation=ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"]),
+        excitation=excitation,
         mpc=_mpc(v, model),
         pmr=_pmr(v),
         parametric=_parametric(v),
