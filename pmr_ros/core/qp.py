@@ -19,6 +19,7 @@ constraint is added with one Householder reflection of the free columns of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,34 +49,44 @@ class QpSolution:
 
 
 class _ActiveSet:
-    """The active constraints, their multipliers and the factorisation ``J' N = [R; 0]``."""
+    """The active constraints, their multipliers and the factorisation ``J' N = [R; 0]`` (with ``R^-1``)."""
 
     def __init__(self, j0: np.ndarray) -> None:
-        self.J = j0.copy()
         n = j0.shape[0]
+        self.J = j0.copy()
         self.R = np.zeros((n, n))
+        self.R_inverse = np.zeros((n, n))
         self.signed: list[int] = []  # +(row+1) lower bound, -(row+1) upper bound
-        self.u = np.zeros(0)
+        self._u = np.zeros(n)
 
     @property
     def size(self) -> int:
         return len(self.signed)
 
+    @property
+    def u(self) -> np.ndarray:
+        """Multipliers of the active constraints (a view)."""
+        return self._u[: self.size]
+
     def add(self, signed_row: int, d: np.ndarray, multiplier: float) -> None:
         """Append a constraint whose ``J' n`` is ``d``: a Householder reflection zeroes ``d[q+1:]``."""
         q = self.size
         d2 = d[q:]
-        norm = float(np.linalg.norm(d2))
+        norm = math.sqrt(float(d2 @ d2))
         v = d2.copy()
-        v[0] += np.copysign(norm, d2[0])
+        v[0] += math.copysign(norm, d2[0])
         vv = float(v @ v)
         if vv > 0.0:
             free = self.J[:, q:]
             free -= np.outer(free @ v, v * (2.0 / vv))
+        delta = -math.copysign(norm, d2[0])
         self.R[:q, q] = d[:q]
-        self.R[q, q] = -np.copysign(norm, d2[0])
+        self.R[q, q] = delta
+        # [[R, r], [0, delta]]^-1 = [[R^-1, -R^-1 r / delta], [0, 1 / delta]]
+        self.R_inverse[:q, q] = -(self.R_inverse[:q, :q] @ d[:q]) / delta
+        self.R_inverse[q, q] = 1.0 / delta
+        self._u[q] = multiplier
         self.signed.append(signed_row)
-        self.u = np.append(self.u, multiplier)
 
     def drop(self, index: int) -> None:
         """Remove active constraint ``index``; Givens rotations restore R's upper triangle."""
@@ -85,7 +96,7 @@ class _ActiveSet:
         R[:q, q - 1] = 0.0
         for k in range(index, q - 1):
             a, b = R[k, k], R[k + 1, k]
-            h = float(np.hypot(a, b))
+            h = math.hypot(a, b)
             if h == 0.0:
                 continue
             c, s = a / h, b / h
@@ -96,8 +107,13 @@ class _ActiveSet:
             self.J[:, k] = c * cols[:, 0] + s * cols[:, 1]
             self.J[:, k + 1] = -s * cols[:, 0] + c * cols[:, 1]
         R[q - 1, :] = 0.0
+        self._u[index : q - 1] = self._u[index + 1 : q].copy()
         del self.signed[index]
-        self.u = np.delete(self.u, index)
+        self.R_inverse[:] = 0.0
+        if q > 1:
+            self.R_inverse[: q - 1, : q - 1] = scipy.linalg.solve_triangular(
+                R[: q - 1, : q - 1], np.eye(q - 1), check_finite=False
+            )
 
 
 class DenseQp:
@@ -125,12 +141,11 @@ class DenseQp:
         """The minimizer for linear term ``q`` and bounds ``lower``, ``upper`` (``-inf``/``inf`` where none)."""
         x = -self._h_inverse @ q
         active = _ActiveSet(self._j0)
-        scale = 1.0 + np.maximum(
-            np.abs(np.where(np.isfinite(lower), lower, 0.0)), np.abs(np.where(np.isfinite(upper), upper, 0.0))
-        )
+        finite_lower, finite_upper = np.where(np.isfinite(lower), lower, 0.0), np.where(np.isfinite(upper), upper, 0.0)
+        inverse_scale = 1.0 / (1.0 + np.maximum(np.abs(finite_lower), np.abs(finite_upper)))
         iterations = 0
         while True:
-            signed = self._most_violated(x, lower, upper, scale, active.signed)
+            signed = self._most_violated(x, lower, upper, inverse_scale, active.signed)
             if signed == 0:
                 return QpSolution(x, tuple(active.signed), iterations, True)
             x, iterations, ok = self._add(x, signed, bounds=(lower, upper), active=active, iterations=iterations)
@@ -138,15 +153,18 @@ class DenseQp:
                 return QpSolution(x, tuple(active.signed), iterations, False)
 
     def _most_violated(
-        self, x: np.ndarray, lower: np.ndarray, upper: np.ndarray, scale: np.ndarray, skip: list[int]
+        self, x: np.ndarray, lower: np.ndarray, upper: np.ndarray, inverse_scale: np.ndarray, skip: list[int]
     ) -> int:
         """The signed row of the most violated inequality (relative to its bound's size), 0 if none."""
         ax = self._A @ x
-        below = (lower - ax) / scale
-        above = (ax - upper) / scale
-        for s in skip:
-            (below if s > 0 else above)[abs(s) - 1] = -np.inf
-        i_low, i_up = int(np.argmax(below)), int(np.argmax(above))
+        below = (lower - ax) * inverse_scale
+        above = (ax - upper) * inverse_scale
+        if skip:
+            rows = np.abs(skip) - 1
+            at_lower = np.asarray(skip) > 0
+            below[rows[at_lower]] = -np.inf
+            above[rows[~at_lower]] = -np.inf
+        i_low, i_up = int(below.argmax()), int(above.argmax())
         worst = max(below[i_low], above[i_up])
         if not worst > self._tolerance:
             return 0
@@ -172,12 +190,13 @@ class DenseQp:
             q = active.size
             d = active.J.T @ normal
             z = active.J[:, q:] @ d[q:]
-            r = scipy.linalg.solve_triangular(active.R[:q, :q], d[:q]) if q else np.zeros(0)
+            r = active.R_inverse[:q, :q] @ d[:q]
             partial, leaving = np.inf, -1
-            for j in np.flatnonzero(r > 0):
-                ratio = active.u[j] / r[j]
-                if ratio < partial:
-                    partial, leaving = ratio, int(j)
+            blocking = (r > 0).nonzero()[0]
+            if blocking.size:
+                ratios = active.u[blocking] / r[blocking]
+                best = int(np.argmin(ratios))
+                partial, leaving = float(ratios[best]), int(blocking[best])
             curvature = float(z @ normal)
             full = -(normal @ x - bound) / curvature if curvature > 1e-14 * float(normal @ normal) else np.inf
             step = min(partial, full)
@@ -185,7 +204,7 @@ class DenseQp:
                 return x, iterations, False  # primal infeasible: cannot happen with dU = 0 feasible
             if np.isfinite(full):
                 x = x + step * z
-            active.u = active.u - step * r
+            active.u[:] -= step * r
             multiplier += step
             if step == full:
                 active.add(signed, d, multiplier)
