@@ -1,8 +1,8 @@
 """Run a sweep's points on a Dask distributed cluster (``pmr-ros sweep --scheduler ADDRESS``).
 
-The configuration is sent to every worker once; each point is one task,
-:func:`~pmr_ros.sweep.execute.timed_point` -- the same function the local
-process pool runs -- so a cluster writes the same rows as the local pool
+The configuration is sent to every worker once; each point is one task, the
+function the caller gives (``pmr_ros.sweep.execute`` gives ``timed_point``,
+what its local process pool runs), so a cluster writes the same rows as the local pool
 (in the order the points finish, as the pool does).  The workers need
 pmr_ros installed (the same version) and are started by whoever runs the
 cluster (``dask scheduler``, ``dask worker ADDRESS``).  Needs the optional
@@ -11,11 +11,10 @@ cluster (``dask scheduler``, ``dask worker ADDRESS``).  Needs the optional
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..config import PmrConfig
-from .execute import PointTask, timed_point
 
 CONNECT_TIMEOUT_S = 30.0
 """How long to wait for the scheduler to answer [s]."""
@@ -40,20 +39,24 @@ def _client(address: str) -> Any:
 
 def run_on_cluster(
     config: PmrConfig,
-    tasks: list[PointTask],
+    tasks: Sequence[Any],
     address: str,
-    record: Callable[[PointTask, list[dict], float], None],
+    *,
+    work: Callable[[PmrConfig, Any], tuple[Any, list[dict], float]],
+    record: Callable[[Any, list[dict], float], None],
 ) -> None:
-    """Run ``tasks`` on the Dask cluster at ``address``; ``record`` each finished point at once.
+    """Run ``work(config, task)`` for each task on the Dask cluster at ``address``; ``record`` each result at once.
 
     Parameters
     ----------
     config : PmrConfig
         The sweep's configuration (scattered to every worker once).
-    tasks : list of PointTask
-        The points to run, in the order to submit them.
+    tasks : sequence
+        The points to run (``PointTask``), in the order to submit them.
     address : str
         The scheduler, e.g. ``tcp://10.0.0.5:8786``.
+    work : callable
+        Run on a worker: ``(task, rows, cpu_s)`` of one point; importable by the workers.
     record : callable
         Called with ``(task, rows, cpu_s)`` as each point finishes.
 
@@ -68,7 +71,7 @@ def run_on_cluster(
     futures = []
     try:
         shared = client.scatter(config, broadcast=True)
-        futures = [client.submit(timed_point, shared, task, pure=False) for task in tasks]
+        futures = [client.submit(work, shared, task, pure=False) for task in tasks]
         for _, (task, rows, cpu_s) in as_completed(futures, with_results=True, loop=client.loop):
             record(task, rows, cpu_s)
     finally:

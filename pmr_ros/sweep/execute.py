@@ -271,7 +271,7 @@ def execute(
         if scheduler is not None:
             from .cluster import run_on_cluster
 
-            run_on_cluster(config, ordered, scheduler, record)
+            run_on_cluster(config, ordered, scheduler, work=timed_point, record=record)
         elif jobs == 1:
             _run_here(config, ordered, record)
         else:
