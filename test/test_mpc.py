@@ -230,3 +230,25 @@ def test_a_tall_system_with_a_level_holds_the_level_first():
     # the level's rate 0.2 u1 must vanish: u1 = 0; then y2 = 0 and u2 fits y1 alone: 0.5 u2 = 1
     np.testing.assert_allclose(u[-300:], np.broadcast_to([0.0, 2.0], (300, 2)), atol=1e-6)
     np.testing.assert_allclose(y[-300:], np.broadcast_to([1.0, 0.0, -0.5], (300, 3)), atol=1e-6)
+
+
+def test_limit_helpers_work_alike_on_one_run_and_a_batch(wood_berry):
+    mpc = LinearMpc(wood_berry.model, wood_berry.mpc)  # |u| <= 2, |du| <= 0.5, Nc = 8
+    Nc = wood_berry.mpc.control_horizon
+    small = np.full(2 * Nc, 0.1)  # eight moves of 0.1: the path reaches 0.8
+    too_fast = small.copy()
+    too_fast[0] = 0.6  # one move beyond du_max
+    too_far = np.full(2 * Nc, 0.3)  # the path reaches 2.4 > u_max
+    u_prev = np.array([0.0, 0.0])
+    batch = mpc.within_limits(np.stack([small, too_fast, too_far]), np.zeros((3, 2)))
+    assert batch.tolist() == [True, False, False]
+    assert [bool(mpc.within_limits(m, u_prev)) for m in (small, too_fast, too_far)] == batch.tolist()
+    assert bool(mpc.within_limits(small, np.array([1.5, 0.0]))) is False  # 1.5 + 0.8 > 2
+    lower, upper = mpc.move_bounds(np.array([1.5, -1.0]))
+    np.testing.assert_allclose(lower[:2], [-3.5, -1.0])
+    np.testing.assert_allclose(upper[:2], [0.5, 3.0])
+    np.testing.assert_allclose(lower[2 * Nc :], -0.5)
+    np.testing.assert_allclose(upper[2 * Nc :], 0.5)
+    u, applied = mpc.apply_move(np.array([1.8, 0.0]), np.array([0.9, -0.2]), np.array([0.1, 0.3]))
+    np.testing.assert_allclose(u, [2.0, -0.2])  # the move is cut to 0.5, then the input to 2
+    np.testing.assert_allclose(applied, [2.0, 0.1])  # the dither too stays within the limits
