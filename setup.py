@@ -55,7 +55,11 @@ setup(
             "matplotlib>=3.7",
             "mcap-ros2-support>=0.5,<1",
             "control>=0.10,<0.11",
+            # test_sweep starts a local Dask cluster (the cluster extra below)
+            "distributed>=2024.1",
         ],
+        # `pmr-ros sweep --scheduler ADDRESS`: the sweep's points on a Dask distributed cluster.
+        "cluster": ["distributed>=2024.1"],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],
         # `pmr-ros diagnose FILE.csv|.parquet` (historian exports) and `--report DIR` (HTML with figures);

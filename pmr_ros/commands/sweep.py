@@ -79,6 +79,12 @@ def register(sub) -> None:
         metavar="N",
         help="worker processes (default: the number of cores)",
     )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
+        "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
+    )
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
     p.add_argument(
         "--resume",
@@ -146,6 +152,11 @@ def _plan(args: argparse.Namespace, config):
     from ..core.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
+    if config.explicit_plant is not None:
+        raise CommandError(
+            f"{config.source}: the sweep runs the mismatch scenarios of the Table 2 study on the model, and a "
+            "plant block fixes the plant; remove the plant block (give a mismatch block instead) or use pmr-ros run"
+        )
     try:
         nu = parse_nu_list(args.nu) if args.nu is not None else nu_grid(args.nu_start, args.nu_stop, args.nu_step)
         elements = tuple(e.strip() for e in args.elements.split(",") if e.strip())
@@ -249,7 +260,7 @@ def _report_only(results: Path, report_path: Path, config) -> None:
 def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     """Run the runs of the plan not yet in ``results``; the manifest, written beside it."""
     from ..sweep import store
-    from ..sweep.execute import execute, plan_tasks
+    from ..sweep.execute import plan_tasks
 
     _check_size(args, config)
     plan = _plan(args, config)
@@ -269,22 +280,27 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
         scenarios=list(plan.scenarios),
         methods=list(plan.methods),
         jobs=args.jobs,
+        scheduler=args.scheduler,
         cpu_count=os.cpu_count(),
     )
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
+        where = (
+            f"the Dask cluster at {args.scheduler}"
+            if args.scheduler
+            else f"{min(args.jobs, max(len(tasks), 1))} process(es)"
+        )
         print(
             f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
             f"{len(plan.seeds)} seeds "
-            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on "
-            f"{min(args.jobs, max(len(tasks), 1))} process(es)",
+            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {where}",
             file=sys.stderr,
         )
     t0 = time.perf_counter()
     outcome = None
     try:
-        outcome = execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet)
+        outcome = _execute(args, config, tasks, results)
     finally:
         manifest["wall_time_s"] = round(manifest["wall_time_s"] + time.perf_counter() - t0, 2)
         if outcome is not None:
@@ -293,6 +309,17 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     if not args.quiet:
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
     return manifest
+
+
+def _execute(args: argparse.Namespace, config, tasks: list, results: Path):
+    """Run the tasks locally or on the cluster of ``--scheduler``; a cluster that cannot be used is a clean error."""
+    from ..sweep.cluster import ClusterError
+    from ..sweep.execute import execute
+
+    try:
+        return execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet, scheduler=args.scheduler)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
 
 
 def _done_runs(results: Path, n_elements: int) -> set[tuple]:

@@ -20,7 +20,7 @@ from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
-from ..core.prbs import ExcitationSettings, PrbsSettings
+from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from .data import DataSettings, data_settings
 from .errors import ConfigError
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
@@ -295,6 +295,21 @@ def _prbs(v: _Values) -> PrbsSettings:
     )
 
 
+def _check_prbs_channels(v: _Values, model: TransferMatrix, excitation: ExcitationSettings) -> None:
+    """Every PRBS channel (setpoints, then dithered inputs) needs its own primitive polynomial."""
+    degree = v["prbs.register_length"]
+    channels = model.n_outputs + (model.n_inputs if excitation.active else 0)
+    available = primitive_polynomial_count(degree)
+    if channels > available:
+        raise v.error(
+            "prbs.register_length",
+            degree,
+            f"has {available} primitive polynomials, fewer than the {channels} PRBS channels "
+            f"({model.n_outputs} setpoints{f' + {model.n_inputs} dithered inputs' if excitation.active else ''}); "
+            "choose a longer register",
+        )
+
+
 def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
     if nc_h > np_h:
@@ -306,6 +321,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     u_min, u_max = v["mpc.u_min"], v["mpc.u_max"]
     if np.any(u_min >= u_max):
         raise v.error("mpc.u_min", u_min.tolist(), "must be below mpc.u_max")
+    target = v["mpc.input_target"]
+    if np.any((target < u_min) | (target > u_max)):
+        raise v.error("mpc.input_target", target.tolist(), "must lie within mpc.u_min .. mpc.u_max")
     return MpcTuning(
         prediction_horizon=np_h,
         control_horizon=nc_h,
@@ -314,6 +332,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
         u_min=u_min,
         u_max=u_max,
         du_max=v["mpc.du_max"],
+        input_target=target,
+        input_target_weight=v["mpc.input_target_weight"],
+        ramp_filter_samples=v["mpc.ramp_filter_samples"],
     )
 
 
@@ -381,12 +402,14 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     checked = check_tree(tree, source)
     v = _Values(_effective(checked), source, sources or {})
     model = _model(v)
+    excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
+    _check_prbs_channels(v, model, excitation)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
         prbs=_prbs(v),
-        excitation=ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"]),
+        excitation=excitation,
         mpc=_mpc(v, model),
         pmr=_pmr(v),
         parametric=_parametric(v),
