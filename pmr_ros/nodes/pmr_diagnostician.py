@@ -8,6 +8,14 @@ every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
 per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
 reason and no numbers when the data do not support a verdict); the numbers
 also go to the estimates topic when there is a verdict.
+
+With a verdict it closes the loop (:mod:`pmr_ros.contract.proposal`): the
+control impact of the mismatches goes into the statuses (each element's
+``impact.*``, all together ``impact_all.*``), and when a mismatch verdict
+stands the corrected model is published, latched, on ``pmr/proposed_model``.
+It follows the controller's model: a new one on ``pmr/active_model`` becomes
+its own (the same validated parameter change as ``set_parameters``) and only
+samples from the switch on are diagnosed against it.
 """
 
 from __future__ import annotations
@@ -18,15 +26,21 @@ from collections.abc import Callable
 from typing import Any
 
 from rclpy.clock import Clock, ClockType
+from rclpy.parameter import Parameter
 
+from ..config import ConfigError, flatten_parameters
+from ..config.write import system_tree
 from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.layout import read_signal
+from ..contract.model_topics import read_active_model
+from ..contract.proposal import close_diagnosis, model_file_text
 from ..contract.topics import SIGNAL_TOPICS, topic
 from ..contract.windowing import STALE, VERDICT, check_window_memory, evaluate_window, offer_signal, window_info
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message
+from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message, text_message
+from ..ros.parameters import ros_value
 
 NODE_NAME = "pmr_diagnostician"
 
@@ -43,6 +57,10 @@ class PmrDiagnosticianNode(ConfiguredNode):
     last_published : DiagnosticArray or None
     messages_received : int
         Messages of r, u and y taken, good or bad.
+    model_since : int
+        The first sample the controller ran on the current model (0 until a switch).
+    last_proposal : str or None
+        The newest proposed model published.
     """
 
     def __init__(self, **kwargs: Any) -> None:
@@ -56,8 +74,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
+        self.model_since = 0
+        self.last_proposal: str | None = None
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
+        self._proposal_pub = self.contract_publisher("proposed_model")
+        self._model_sub = self.contract_subscription("active_model", self._on_active_model)
         self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=wall)
@@ -97,6 +119,26 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME)
         )
         self.get_logger().info(f"parameters changed: {', '.join(names)}")
+
+    def _on_active_model(self, msg: Any) -> None:
+        """The controller switched models: take the new one, diagnose only the samples from its first on."""
+        source = f"{topic('active_model').name} of the controller"
+        try:
+            active = read_active_model(msg.data, source)
+        except ConfigError as exc:
+            self._warn(f"ignored: {exc}")
+            return
+        if active.system == system_tree(self.config.model):
+            return
+        flat = flatten_parameters({"system": active.system})
+        result = self.set_parameters_atomically([Parameter(name, value=ros_value(v)) for name, v in flat.items()])
+        if not result.successful:
+            self._warn(f"the controller's model (revision {active.revision}) cannot be followed: {result.reason}")
+            return
+        self.model_since = active.first_sample
+        self.get_logger().info(
+            f"following the controller's model revision {active.revision} from sample {active.first_sample}"
+        )
 
     # -- input ---------------------------------------------------------------
     def _callback(self, signal: str) -> Callable[[Any], None]:
@@ -170,12 +212,17 @@ class PmrDiagnosticianNode(ConfiguredNode):
         The decision and the diagnosis are :func:`pmr_ros.contract.windowing.evaluate_window`,
         which the offline diagnosis of a bag shares.
         """
-        outcome = evaluate_window(self.aligner, self.config)
+        config = self.config
+        outcome = evaluate_window(self.aligner, config, since=self.model_since)
         if outcome.kind != VERDICT:
             self._publish(outcome.diagnosis, outcome.window, STALE_STATUS if outcome.kind == STALE else None)
             return
-        self._publish(outcome.diagnosis, outcome.window)
-        self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, self.config.model.name))
+        closed = close_diagnosis(outcome.diagnosis, config)
+        self._publish(closed.diagnosis, outcome.window)
+        self._estimates_pub.publish(estimates_message(closed.diagnosis, outcome.stamp_s, config.model.name))
+        if closed.proposes and closed.update is not None:
+            self.last_proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
+            self._proposal_pub.publish(text_message("proposed_model", self.last_proposal))
 
 
 def main(args: list[str] | None = None) -> int:
