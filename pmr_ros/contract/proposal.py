@@ -59,12 +59,14 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
     Returns
     -------
     Closed
+        A diagnosis that has its impact already (the live diagnostician's, read
+        from /diagnostics) keeps it.
     """
     try:
         update = corrected_model(config.model, diagnosis)
     except NotCorrectable as exc:
         return Closed(diagnosis, None, str(exc))
-    if config.impact.active and update.changes:
+    if config.impact.active and update.changes and diagnosis.impact is None:  # (read from /diagnostics: has it)
         diagnosis = control_impact(diagnosis, loop=config, update=update, samples=config.impact.samples)
     return Closed(diagnosis, update)
 
