@@ -21,6 +21,7 @@ from . import (
     run_overrides,
     writable_file,
 )
+from .adapt import adaptation_lines, adapted_report, check_adapt, run_adapted
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
 
@@ -53,6 +54,13 @@ def register(sub) -> None:
     )
     add_storage_arguments(p)
     add_model_arguments(p)
+    p.add_argument(
+        "--adapt",
+        action="store_true",
+        help="close the loop live (node set, parametric): run N = run.samples samples, apply the diagnostician's "
+        "proposed model to the running controller, run on, diagnose the new model on N samples after the switch; "
+        "an update that makes things worse is rolled back. 3 N samples in all",
+    )
     p.set_defaults(handler=handle)
 
 
@@ -79,12 +87,41 @@ def run_memory(config, *, batch: bool) -> dict[str, int]:
 
 def _check_before_running(args: argparse.Namespace, config) -> None:
     """Everything that can be refused before the run: option clashes, memory, the --json path."""
+    check_adapt(args)
+    if args.adapt and config.pmr.method != "parametric":
+        raise CommandError("--adapt needs pmr.method parametric (a corrected model); the configuration has classic")
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     source = "command line" if args.samples is not None else config.source
     check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
     if args.json:
         writable_file(args.json, "--json")
+
+
+def _run_nodes(args: argparse.Namespace, config, recording):
+    """The node set's run (and the adapter of ``--adapt``, else None); the recording is closed after it."""
+    run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
+    extra = recording.nodes if recording else None
+    try:
+        if args.adapt:
+
+            def options(**kwargs):
+                return NodeSetOptions(private=not args.visible, **kwargs)
+
+            return run_adapted(config, options, run_node_set, extra_nodes=extra)
+        return run_node_set(config, NodeSetOptions(private=not args.visible, extra_nodes=extra)), None
+    except NodeSetError as exc:
+        raise CommandError(str(exc), code=1) from None
+    finally:
+        if recording is not None:
+            recording.close()
+
+
+def _on_model(config, adapter):
+    """The configuration with the controller's model at the end of an adapted run (for --write-model)."""
+    from ..contract.model_topics import with_system
+
+    return with_system(config, adapter.models[-1][1], f"{config.source} (the controller's model at the end)")
 
 
 def handle(args: argparse.Namespace) -> int:
@@ -112,19 +149,18 @@ def handle(args: argparse.Namespace) -> int:
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
-        run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
         recording = start_recording(args, config) if args.bag else None
-        try:
-            options = NodeSetOptions(private=not args.visible, extra_nodes=recording.nodes if recording else None)
-            result = run_node_set(config, options)
-        except NodeSetError as exc:
-            raise CommandError(str(exc), code=1) from None
-        finally:
-            if recording is not None:
-                recording.close()
-        diagnosis = close_the_loop(args, config, result.diagnosis)
+        result, adapter = _run_nodes(args, config, recording)
+        adaptation = None
+        if adapter is not None:
+            final, adaptation = adapted_report(adapter)
+            diagnosis = close_the_loop(args, _on_model(config, adapter), final)
+        else:
+            diagnosis = close_the_loop(args, config, result.diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "nodes"
+        if adaptation is not None:
+            report["adaptation"] = adaptation
         report["node_set"] = {
             "levels": result.info["levels"],
             "messages": result.info["messages"],
@@ -141,6 +177,8 @@ def handle(args: argparse.Namespace) -> int:
                 "messages": recording.writer.counts,
             }
     sys.stdout.write(format_table(report))
+    for line in adaptation_lines(report):
+        print(line)
     if args.json:
         try:
             from ..report import write_json
