@@ -127,3 +127,15 @@ def test_the_controller_takes_a_new_model_atomically_and_refuses_a_bad_one(ros_c
         executor.shutdown(timeout_sec=1.0)
         listener.destroy_node()
         node.destroy_node()
+
+
+def test_the_node_sets_diagnostics_carry_the_impact_the_batch_computes(ros_domain, wood_berry):
+    """In-process: the diagnostician's statuses hold the impact of the same data's batch diagnosis."""
+    from pmr_ros.node_set import NodeSetOptions, run_node_set
+
+    config, closed = wood_berry
+    result = run_node_set(config, NodeSetOptions(private=True))
+    assert result.diagnosis.impact is not None
+    assert all((e.impact is not None) == (e.verdict == "mismatch") for e in result.diagnosis)
+    # the same r, u, y sample for sample: verdicts exact, numbers and impact figures within the stated tolerance
+    assert compare_diagnoses(result.diagnosis, closed.diagnosis) == []
