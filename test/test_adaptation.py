@@ -111,3 +111,30 @@ def test_the_adaptation_serialises_every_figure():
     assert out["tracking"]["ise_ratio"] == 0.75 and out["worse"] is False and not out["rolled_back"]
     assert Diagnosis.from_dict(out["before"]) == before
     assert config.adapt.ise_rise_tolerance_pct == 10.0
+
+
+def test_an_adapted_run_is_three_windows_diagnosed_every_quarter():
+    from pmr_ros.commands.adapt import adapt_config, adapt_parameters
+
+    config = load_config(overrides={"run": {"samples": 8192}})
+    assert (
+        adapt_config(config).run.samples == 3 * 8192
+        and adapt_config(config).model.element_models() == config.model.element_models()
+    )
+    assert adapt_parameters(8192) == {
+        "diagnostician.window_samples": 8192,
+        "diagnostician.min_samples": 8192,
+        "diagnostician.update_period_samples": 2048,
+    }
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [(["--batch"], "cannot be used with --batch"), (["--method", "classic"], "needs the parametric method")],
+)
+def test_adapt_refuses_what_cannot_update_a_controller_in_one_line(capsys, args, words):
+    from pmr_ros.cli import main
+
+    assert main(["run", "--adapt", "--samples", "1024", *args]) == 2
+    err = capsys.readouterr().err
+    assert words in err and err.count("\n") == 1 and "Traceback" not in err

@@ -27,6 +27,10 @@ __all__ = ["ADAPT_WINDOWS", "adapt_config", "adapt_parameters", "adaptation_line
 ADAPT_WINDOWS = 3
 """Windows of ``run.samples`` an adapted run lasts: before, the switch (with its settling), after."""
 
+ADAPT_STALL_TIMEOUT_S = 120.0
+"""An adapted run waits this long for progress: the verdict that brings the proposal also computes the
+control impact (11 closed-loop simulations of 4,096 samples for a 3x3: 14-31 s at a load of 7)."""
+
 
 def adapt_config(config: PmrConfig) -> PmrConfig:
     """The configuration of an adapted run: ``run.samples`` x :data:`ADAPT_WINDOWS` samples in all."""
@@ -75,7 +79,12 @@ def run_adapted(
         adapters.append(ModelAdapter(context, full, proposal_filter=proposal_filter))
         return [adapters[0], *(extra_nodes(context, parameters) if extra_nodes else [])]
 
-    options = options_factory(diagnose_once=False, extra_parameters=adapt_parameters(window), extra_nodes=nodes)
+    options = options_factory(
+        diagnose_once=False,
+        extra_parameters=adapt_parameters(window),
+        extra_nodes=nodes,
+        stall_timeout_s=ADAPT_STALL_TIMEOUT_S,
+    )
     result = run_node_set(full, options)
     return result, adapters[0]
 
