@@ -21,6 +21,7 @@ from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E4
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import ConfigError, config_dir, flatten_parameters, load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
+from pmr_ros.contract.proposal import close_diagnosis  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.diagnosis import diagnose  # noqa: E402
@@ -76,6 +77,7 @@ def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
     assert np.array_equal(node.y, batch.y)
     config = full_run.config
     expected = diagnose(batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    expected = close_diagnosis(expected, config).diagnosis  # the diagnostician adds the control impact
     # one process, one machine: the verdicts read back from /diagnostics are bit-identical to the batch's
     assert full_run.diagnosis.elements == expected.elements
 
@@ -187,6 +189,7 @@ SMALL = {
     "diagnostician.min_samples": 500,
     "diagnostician.max_lag_samples": 16,
     "diagnostician.stale_timeout_s": 0.3,
+    "impact.samples": 0,  # these tests are about the data; the impact's simulations would outlast the 0.3 s
 }
 
 
@@ -372,11 +375,13 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     assert np.array_equal(result.record.r, simulate(config).r)
 
 
-def test_diagnostician_subscribes_to_r_u_y_only(ros_context):
+def test_diagnostician_subscribes_to_r_u_y_and_the_active_model_only(ros_context):
     node = PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params())
     try:
+        # r, u, y, and the controller's active model when it publishes one (any controller that publishes r, u, y
+        # can be watched; pmr_ros's own tells when it switches models)
         assert {s.topic_name for s in node.subscriptions} == {
-            topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")
+            topic(k).name for k in ("setpoint", "manipulated_input", "measured_output", "active_model")
         }
     finally:
         node.destroy_node()
