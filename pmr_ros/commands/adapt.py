@@ -28,8 +28,8 @@ ADAPT_WINDOWS = 3
 """Windows of ``run.samples`` an adapted run lasts: before, the switch (with its settling), after."""
 
 ADAPT_STALL_TIMEOUT_S = 120.0
-"""An adapted run waits this long for progress: the verdict that brings the proposal also computes the
-control impact (11 closed-loop simulations of 4,096 samples for a 3x3: 14-31 s at a load of 7)."""
+"""A node-set run waits this long for progress: a verdict with a mismatch comes with its control impact
+(11 closed-loop simulations of 4,096 samples for a 3x3: 14-31 s at a load of 7)."""
 
 
 def adapt_config(config: PmrConfig) -> PmrConfig:

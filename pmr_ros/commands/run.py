@@ -21,9 +21,12 @@ from . import (
     run_overrides,
     writable_file,
 )
-from .adapt import adaptation_lines, adapted_report, check_adapt, run_adapted
+from .adapt import ADAPT_STALL_TIMEOUT_S, adaptation_lines, adapted_report, check_adapt, run_adapted
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
+
+STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
+"""How long the node set may go without progress: its final verdict comes with the control impact."""
 
 
 def register(sub) -> None:
@@ -109,7 +112,8 @@ def _run_nodes(args: argparse.Namespace, config, recording):
                 return NodeSetOptions(private=not args.visible, **kwargs)
 
             return run_adapted(config, options, run_node_set, extra_nodes=extra)
-        return run_node_set(config, NodeSetOptions(private=not args.visible, extra_nodes=extra)), None
+        options = NodeSetOptions(private=not args.visible, extra_nodes=extra, stall_timeout_s=STALL_TIMEOUT_S)
+        return run_node_set(config, options), None
     except NodeSetError as exc:
         raise CommandError(str(exc), code=1) from None
     finally:
