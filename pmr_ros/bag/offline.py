@@ -17,7 +17,7 @@ from typing import Any
 from ..config import PmrConfig, load_config, parse_config
 from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
-from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis, compare_diagnoses
 from .reader import Bag
@@ -133,8 +133,8 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
     return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
 
 
-def _recorded_verdicts(bag: Bag, config: PmrConfig) -> list[RecordedVerdict]:
-    name = topic("diagnostics").name
+def _recorded_verdicts(bag: Bag, config: PmrConfig, namespace: str = "/") -> list[RecordedVerdict]:
+    name = topic("diagnostics").resolved(namespace)
     if name not in bag.topics:
         return []
     out = []
@@ -146,18 +146,37 @@ def _recorded_verdicts(bag: Bag, config: PmrConfig) -> list[RecordedVerdict]:
     return out
 
 
-def required_topics() -> dict[str, str]:
-    """Topic name -> type the offline diagnosis needs (r, u, y)."""
-    return {topic(key).name: topic(key).type for key in SIGNAL_TOPICS.values()}
+def required_topics(namespace: str = "/") -> dict[str, str]:
+    """Topic name -> type the offline diagnosis needs (r, u, y of the node set in ``namespace``)."""
+    return {topic(key).resolved(namespace): topic(key).type for key in SIGNAL_TOPICS.values()}
 
 
-def _replay(bag: Bag, config: PmrConfig) -> tuple[list[WindowOutcome], list[str], dict[str, int], bool]:
+def bag_namespace(bag: Bag) -> str:
+    """The namespace of the node set a bag recorded (``/`` unless it was recorded under one).
+
+    Raises
+    ------
+    BagError
+        The bag holds the signals of several node sets (choose one with ``--namespace``).
+    """
+    found = namespaces_of("setpoint", bag.topics)
+    if len(found) > 1:
+        raise BagError(
+            f"{bag.path}: the bag holds the signals of {len(found)} node sets ({', '.join(found)}); "
+            "choose one with --namespace"
+        )
+    return found[0] if found else "/"
+
+
+def _replay(
+    bag: Bag, config: PmrConfig, namespace: str = "/"
+) -> tuple[list[WindowOutcome], list[str], dict[str, int], bool]:
     """Feed the bag's r, u, y through the live diagnostician's aligner and schedule."""
     model, window = config.model, config.diagnostician
-    labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
+    labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).resolved(namespace)}" for s in SIGNALS}
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
     aligner = SampleAligner(model.sample_time, names, labels, window.window_samples, window.max_lag_samples)
-    by_topic = {topic(SIGNAL_TOPICS[s]).name: s for s in SIGNALS}
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
     outcomes: list[WindowOutcome] = []
     warnings: list[str] = []
     counts = dict.fromkeys(SIGNALS, 0)
@@ -189,27 +208,32 @@ def _replay(bag: Bag, config: PmrConfig) -> tuple[list[WindowOutcome], list[str]
     return outcomes, warnings, counts, end_of_bag
 
 
-def diagnose_bag(bag: Bag, config_path: str | None = None, method: str | None = None) -> OfflineResult:
+def diagnose_bag(
+    bag: Bag, config_path: str | None = None, method: str | None = None, *, namespace: str | None = None
+) -> OfflineResult:
     """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
 
     ``method`` (``classic`` or ``parametric``) overrides the configuration's
     ``pmr.method``; recorded verdicts made with another method are not compared.
+    ``namespace`` picks the node set whose topics are read (default: the one
+    the bag recorded, see :func:`bag_namespace`).
 
     Raises
     ------
     BagError
         A needed topic is missing, empty or of the wrong type, or no configuration.
     """
-    bag.require(required_topics())
+    namespace = bag_namespace(bag) if namespace is None else namespace
+    bag.require(required_topics(namespace))
     config, origin = bag_configuration(bag, config_path)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
-    outcomes, warnings, counts, end_of_bag = _replay(bag, config)
+    outcomes, warnings, counts, end_of_bag = _replay(bag, config, namespace)
     result = OfflineResult(
         config,
         origin,
         outcomes,
-        _recorded_verdicts(bag, config),
+        _recorded_verdicts(bag, config, namespace),
         warnings=warnings,
         messages=counts,
         end_of_bag=end_of_bag,

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_method_argument
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -38,6 +38,7 @@ def register(sub) -> None:
     )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_method_argument(p)
+    add_namespace_argument(p, "diagnose the node set recorded under this namespace (default: the one the bag holds)")
     p.set_defaults(handler=handle)
 
 
@@ -81,7 +82,7 @@ def handle(args: argparse.Namespace) -> int:
 
     try:
         bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config, args.method)
+        result = diagnose_bag(bag, args.config, args.method, namespace=args.namespace)
         report = offline_report(result, bag)
     except BagError as exc:
         raise CommandError(str(exc)) from None

@@ -17,6 +17,7 @@ No rclpy here: this module is plain Python/numpy and is tested without ROS.
 
 from __future__ import annotations
 
+import copy
 from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -155,6 +156,45 @@ class SampleAligner:
         take = min(samples, len(self._rows["r"]))
         out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
         return out[0], out[1], out[2], self.stretch_last - take + 1
+
+    def snapshot(self) -> SampleAligner:
+        """A copy of the aligned samples that later messages do not change.
+
+        For diagnosing on another thread while messages keep coming (the live
+        diagnostician): the copy answers ``window``, ``lagging``,
+        ``stretch_*`` and ``gaps`` as this aligner does now.  The sample
+        arrays, never modified once stored, are shared; the containers are not.
+        """
+        twin = copy.copy(self)
+        twin.newest = dict(self.newest)
+        twin.rejected = dict(self.rejected)
+        twin._pending = {}
+        twin._rows = {s: deque(self._rows[s], maxlen=self.capacity) for s in SIGNALS}
+        return twin
+
+    def value(self, signal: str, k: int) -> np.ndarray | None:
+        """The values of ``signal`` taken for sample ``k``, if still held (waiting, or in the stretch).
+
+        For telling a repeated message from an inconsistent one (the same
+        stamp with other values: two publishers on one topic).
+        """
+        waiting = self._pending.get(k, {}).get(signal)
+        if waiting is not None:
+            return waiting
+        if self.stretch_last is None or not self.stretch_last - len(self._rows[signal]) < k <= self.stretch_last:
+            return None
+        return self._rows[signal][k - self.stretch_last - 1]
+
+    def restart(self) -> None:
+        """Begin a new stretch after a break the stamps do not show (samples that cannot be trusted).
+
+        The complete samples are forgotten, as after a gap; what comes next starts a new stretch.
+        """
+        if self.stretch_last is not None:
+            self.gaps += 1
+        for s in SIGNALS:
+            self._rows[s].clear()
+        self.stretch_first = self.stretch_last = None
 
     def resize(self, capacity: int) -> None:
         """Keep up to ``capacity`` samples from now on (newest first kept)."""
