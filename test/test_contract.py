@@ -21,8 +21,8 @@ def test_msg_defs_dir_is_the_source_tree():
 def test_contract_lists_every_topic_with_type_qos_and_fields():
     topics = load_contract()
     assert set(KEYS) <= set(topics)
-    assert topic("diagnostics").name == "/diagnostics"
-    assert topic("clock").name == "/clock"
+    assert topic("diagnostics").resolved() == "/diagnostics" and topic("diagnostics").resolved() == "diagnostics"
+    assert topic("clock").resolved() == "/clock" and topic("clock").resolved("/column_a") == "/column_a/clock"
     for key in KEYS:
         t = topics[key]
         cls = message_class(t)

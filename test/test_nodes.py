@@ -11,10 +11,8 @@ from functools import cache
 
 import numpy as np
 import pytest
-import rclpy  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from rcl_interfaces.msg import ParameterType  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E402
 
@@ -102,53 +100,45 @@ def _params(**dotted):
     return parameter_overrides(flat)
 
 
-def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros_context):
-    node = PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params())
-    try:
-        desc = node.describe_parameter("diagnostician.window_samples")
-        assert desc.description and desc.integer_range[0].from_value == 1 and not desc.read_only
-        assert "< 1" in node.describe_parameter("pmr.overlap").additional_constraints
-        assert not node.has_parameter("prbs.clock_period") and not node.has_parameter("mpc.control_horizon")
-        result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
-        assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
-        result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
-        assert (
-            not result.successful
-            and "pmr.method" in result.reason
-            and node.get_parameter("pmr.method").value == "parametric"
-        )
-        result = node.set_parameters([Parameter("diagnostician.window_samples", value=4096)])[0]
-        assert not result.successful and "must not exceed diagnostician.window_samples (4096)" in result.reason
-        ok = node.set_parameters([Parameter("diagnostician.window_samples", value=10000)])[0]
-        assert ok.successful and node.aligner.capacity == 10000 and node.config.diagnostician.window_samples == 10000
-        ok = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0, 4.0])])[0]
-        assert ok.successful and node.config.model.gain[1, 1] == 4.0
-    finally:
-        node.destroy_node()
+def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros):
+    node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=_params()))
+    desc = node.describe_parameter("diagnostician.window_samples")
+    assert desc.description and desc.integer_range[0].from_value == 1 and not desc.read_only
+    assert "< 1" in node.describe_parameter("pmr.overlap").additional_constraints
+    assert not node.has_parameter("prbs.clock_period") and not node.has_parameter("mpc.control_horizon")
+    result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
+    assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
+    result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
+    assert (
+        not result.successful
+        and "pmr.method" in result.reason
+        and node.get_parameter("pmr.method").value == "parametric"
+    )
+    result = node.set_parameters([Parameter("diagnostician.window_samples", value=4096)])[0]
+    assert not result.successful and "must not exceed diagnostician.window_samples (4096)" in result.reason
+    ok = node.set_parameters([Parameter("diagnostician.window_samples", value=10000)])[0]
+    assert ok.successful and node.aligner.capacity == 10000 and node.config.diagnostician.window_samples == 10000
+    ok = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0, 4.0])])[0]
+    assert ok.successful and node.config.model.gain[1, 1] == 4.0
 
 
-def test_simulation_nodes_are_read_only(ros_context):
-    node = PlantNode(context=ros_context, parameter_overrides=_params())
-    try:
-        assert node.get_parameter("use_sim_time").value is True
-        assert node.describe_parameter("noise.std").read_only
-        result = node.set_parameters([Parameter("noise.std", value=0.2)])[0]
-        assert not result.successful and "read-only" in result.reason
-        assert node.describe_parameter("system.gain").type == ParameterType.PARAMETER_DOUBLE_ARRAY
-    finally:
-        node.destroy_node()
+def test_simulation_nodes_are_read_only(ros):
+    node = ros.add(PlantNode(context=ros.context, parameter_overrides=_params()))
+    assert node.get_parameter("use_sim_time").value is True
+    assert node.describe_parameter("noise.std").read_only
+    result = node.set_parameters([Parameter("noise.std", value=0.2)])[0]
+    assert not result.successful and "read-only" in result.reason
+    assert node.describe_parameter("system.gain").type == ParameterType.PARAMETER_DOUBLE_ARRAY
 
 
-def test_use_sim_time_given_explicitly_is_honoured(ros_context):
+def test_use_sim_time_given_explicitly_is_honoured(ros):
     params = [*_params(), Parameter("use_sim_time", value=False)]
-    node = PlantNode(context=ros_context, parameter_overrides=params)
-    try:
-        assert node.get_parameter("use_sim_time").value is False
-    finally:
-        node.destroy_node()
+    node = ros.add(PlantNode(context=ros.context, parameter_overrides=params))
+    assert node.get_parameter("use_sim_time").value is False
 
 
 def test_invalid_parameters_at_start_are_a_config_error(ros_context):
+    # a node refused at start destroys itself (ConfiguredNode): nothing to own
     with pytest.raises(ConfigError, match=r"pmr.segment_length = 0") as err:
         PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params(pmr__segment_length=0))
     assert "pmr_diagnostician" in str(err.value)
@@ -198,11 +188,11 @@ def _record():
 class Harness:
     """A diagnostician fed r, u, y over the real topics by a test node; collects /diagnostics."""
 
-    def __init__(self, context) -> None:
+    def __init__(self, ros) -> None:
         flat = flatten_parameters(load_config().parameters)
         flat.update(SMALL)
-        self.diag = PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(flat))
-        self.feeder = rclpy.create_node("feeder", context=context)
+        self.diag = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
+        self.feeder = ros.create_node("feeder")
         self.config = self.diag.config
         self.pubs = {}
         for signal, key in (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output")):
@@ -211,9 +201,7 @@ class Harness:
         t = topic("diagnostics")
         self.received = []
         self.feeder.create_subscription(message_class(t), t.name, self.received.append, qos_profile(t.qos))
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.diag)
-        self.executor.add_node(self.feeder)
+        self.executor = ros.executor
         spin_until(self.executor, lambda: all(p.get_subscription_count() >= 1 for p in self.pubs.values()), 5.0)
 
     def send(self, signal: str, k: int, values=None, names=None) -> None:
@@ -242,22 +230,16 @@ class Harness:
             return self.diag.messages_received >= self._sent
 
         assert spin_until(self.executor, taken, 10.0), "diagnostician did not take the messages"
+        assert self.diag.wait_idle(30.0), "the diagnoses did not finish"
         spin_until(self.executor, lambda: False, 0.02)
 
     def statuses(self):
         return [diagnosis_from_array(m) for m in self.received]
 
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.diag.destroy_node()
-        self.feeder.destroy_node()
-
 
 @pytest.fixture
-def harness(ros_context):
-    h = Harness(ros_context)
-    yield h
-    h.close()
+def harness(ros):
+    return Harness(ros)
 
 
 def _levels(info):
@@ -372,14 +354,11 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     assert np.array_equal(result.record.r, simulate(config).r)
 
 
-def test_diagnostician_subscribes_to_r_u_y_only(ros_context):
-    node = PmrDiagnosticianNode(context=ros_context, parameter_overrides=_params())
-    try:
-        assert {s.topic_name for s in node.subscriptions} == {
-            topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")
-        }
-    finally:
-        node.destroy_node()
+def test_diagnostician_subscribes_to_r_u_y_only(ros):
+    node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=_params()))
+    assert {s.topic_name for s in node.subscriptions} == {
+        topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output")
+    }
 
 
 def test_node_set_runs_any_square_system_like_the_batch(ros_domain):
