@@ -379,3 +379,137 @@ def test_mv_dither_in_the_node_set_equals_the_batch(ros_domain):
         batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric, dither=batch.dither
     )
     assert result.diagnosis.elements == expected.elements  # the diagnostician used the same instruments
+
+
+def test_the_latest_statuses_are_published_again_every_publish_period(harness):
+    h = harness
+    assert h.diag.get_parameter("diagnostician.publish_period_s").value == 1.0  # the declared default
+    changes = [
+        Parameter("diagnostician.publish_period_s", value=0.1),
+        Parameter("diagnostician.stale_timeout_s", value=30.0),
+    ]
+    assert all(r.successful for r in h.diag.set_parameters(changes))
+    h.send_samples(range(0, 600))
+    before = len(h.received)
+    last = h.received[-1]
+    assert diagnosis_from_array(last)[1]["last_sample"] == 599
+    # no data for a while: the same statuses again and again (until the data turn stale)
+    assert spin_until(h.executor, lambda: len(h.received) >= before + 3, 5.0)
+    assert all(m.status == last.status and m.header.stamp == last.header.stamp for m in h.received[before:])
+
+
+def test_lost_samples_are_counted_with_their_topic_and_stamps(harness):
+    h = harness
+    h.send_samples(range(0, 400), skip=set(range(290, 300)) | {("u", 350)})
+    assert h.diag.lost_samples == {"r": 10, "u": 11, "y": 10}
+    text = "\n".join(h.diag.warnings)
+    assert "y on /pmr/measured_output: 10 sample(s) lost, stamps 290..299 s (10 lost on this topic)" in text
+    assert "u on /pmr/manipulated_input: 1 sample(s) lost, stamps 350..350 s (11 lost on this topic)" in text
+
+
+def test_a_diagnosis_runs_off_the_executor_thread_and_holds_the_progress_while_they_queue(harness):
+    import threading
+
+    h = harness
+    release = threading.Event()
+    for _ in range(3):  # the worker is busy: three jobs, two of them waiting
+        h.diag.worker.submit(lambda: release.wait(30))
+    try:
+        for k in range(300):
+            for s in ("r", "y", "u"):
+                h.send(s, k)
+        # every message is still taken at once, though the worker is busy
+        assert spin_until(h.executor, lambda: h.diag.messages_received == 900, 10.0) and h.diag.busy
+        reports = h.diag.progress.reports
+        spin_until(h.executor, lambda: False, 0.3)
+        assert h.diag.progress.reports == reports  # held: a lockstep producer stops max_samples_ahead on
+    finally:
+        release.set()
+    assert h.diag.wait_idle(30.0)
+    assert spin_until(h.executor, lambda: h.diag.progress.reports > reports, 5.0)
+
+
+def _node_set(ros, config, extra):
+    """The four nodes of ``config`` on the test's Context, owned by the test; the flat parameters they got."""
+    from pmr_ros.node_set import build_nodes
+
+    flat = {**flatten_parameters(config.parameters), **extra}
+    nodes = build_nodes(config, ros.context, extra)
+    for node in nodes:
+        ros.add(node)
+    return nodes, flat
+
+
+def _diagnostics_listener(ros):
+    t = topic("diagnostics")
+    received = []
+    ros.create_node("listener").create_subscription(
+        message_class(t), t.name, lambda m: received.append(diagnosis_from_array(m)), qos_profile(t.qos)
+    )
+    return received
+
+
+SHORT_RUN = {
+    "pmr.method": "classic",
+    "pmr.segment_length": 128,
+    "diagnostician.window_samples": 3000,
+    "diagnostician.update_period_samples": 500,
+    "diagnostician.min_samples": 800,
+    "diagnostician.stale_timeout_s": 0.5,
+}
+
+
+def test_a_restarted_plant_resumes_the_run_and_the_windows_restart_after_it(ros):
+    config = load_config(overrides={"run": {"samples": 3000}})
+    (diag, mpc, prbs, plant), flat = _node_set(ros, config, SHORT_RUN)
+    received = _diagnostics_listener(ros)
+    assert ros.spin_until(lambda: plant.sample >= 1200, 120.0), "the loop did not reach sample 1200"
+    # the plant crashes: its node and its topics' writers are gone
+    answered = plant.sample  # the controller answers the plant's last sample: its newest input
+    ros.executor.remove_node(plant)
+    ros.nodes.remove(plant)
+    plant.destroy_node()
+    again = ros.add(PlantNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
+    assert ros.spin_until(lambda: again.finished, 120.0), f"the restarted plant stalled at {again.sample}"
+    assert ros.spin_until(lambda: any(i.get("last_sample") == 2999 for _, i in received), 60.0)
+    assert again.resumed_at == [answered + 2]  # sample answered + 1 is left out: a break all consumers see
+    final, info = next((d, i) for d, i in reversed(received) if i.get("last_sample") == 2999)
+    assert final.status == "ok" and info["first_sample"] == answered + 2  # the window restarted at the break
+    assert diag.lost_samples == {"r": 1, "u": 1, "y": 1}
+    assert any(f"samples {answered + 1}..{answered + 1} missing" in w for w in diag.warnings)
+
+
+def test_a_stray_publisher_of_old_stamps_is_reported_and_does_not_stall_the_loop(ros):
+    config = load_config(overrides={"run": {"samples": 3000}})
+    (diag, mpc, prbs, plant), _ = _node_set(ros, config, SHORT_RUN)
+    received = _diagnostics_listener(ros)
+    stray = ros.create_node("stray")
+    keys = (("r", "setpoint"), ("u", "manipulated_input"), ("y", "measured_output"))
+    pubs = {
+        s: stray.create_publisher(message_class(topic(k)), topic(k).name, qos_profile(topic(k).qos)) for s, k in keys
+    }
+    state = {"k": 0, "stopped_at": None}
+    rng = np.random.default_rng(7)
+
+    def old_samples():
+        if plant.sample < 600 or state["stopped_at"] is not None:
+            return
+        if plant.sample >= 1200:
+            state["stopped_at"] = plant.sample
+            return
+        for s, pub in pubs.items():
+            names = config.model.input_names if s == "u" else config.model.output_names
+            pub.publish(signal_message(rng.normal(size=2), names, float(state["k"])))
+        state["k"] += 1
+
+    stray.create_timer(0.002, old_samples)
+    assert ros.spin_until(lambda: plant.finished, 180.0), f"the loop stalled at sample {plant.sample}"
+    assert ros.spin_until(lambda: any(i.get("last_sample") == 2999 for _, i in received), 60.0)
+    assert state["k"] > 10 and state["stopped_at"] is not None
+    conflicts = [d for d, i in received if i["status"] == "conflict"]
+    assert conflicts and set(conflicts[0].elements) == {"G11", "G12", "G21", "G22"}
+    assert "publishers on" in conflicts[0].reason and "/stray" in conflicts[0].reason
+    assert all(level == "ERROR" for _, i in received if i["status"] == "conflict" for level in i["levels"].values())
+    # once the stray is silent the verdicts come back, from a window after its last message
+    final, info = next((d, i) for d, i in reversed(received) if i.get("last_sample") == 2999)
+    assert final.status == "ok" and info["first_sample"] >= 600

@@ -67,6 +67,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
     lost_samples : dict
         Signal -> samples that never arrived (gaps in the stamps heard, rejected messages aside).
     progress : ProgressReporter
+        Its reports on ``pmr/progress`` (lockstep flow control).
+    worker : SerialWorker
+        Runs the diagnoses and publishes the statuses, off the executor's thread.
     """
 
     def __init__(self, **kwargs: Any) -> None:
@@ -83,12 +86,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
-        self._worker = SerialWorker("pmr_diagnosis", self._job_failed)
+        self.worker = SerialWorker("pmr_diagnosis", self._job_failed)
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
-        self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self._worker.pending > 1 + MAX_QUEUED_JOBS)
+        self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
         self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
-        self._timers: list[Any] = []
+        self._own_timers: list[Any] = []
         self._start_timers()
 
     # -- set-up --------------------------------------------------------------
@@ -104,12 +107,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
         )
 
     def _start_timers(self) -> None:
-        for timer in self._timers:
+        for timer in self._own_timers:
             timer.cancel()
             self.destroy_timer(timer)
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         settings = self.config.diagnostician
-        self._timers = [
+        self._own_timers = [
             self.create_timer(min(1.0, settings.stale_timeout_s / 4), self._check_silence, clock=wall),
             self.create_timer(settings.publish_period_s, self._republish, clock=wall),
         ]
@@ -249,7 +252,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         )
         newest = self.aligner.stretch_last if self.aligner.stretch_last is not None else 0
         stamp = newest * self.aligner.sample_time_s
-        self._worker.submit(lambda: self._publish(diagnosis, window, stamp, state))
+        self.worker.submit(lambda: self._publish(diagnosis, window, stamp, state))
 
     def _publish(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
         """Publish the statuses of ``diagnosis`` (on the worker's thread, in submission order)."""
@@ -271,7 +274,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
             if self.last_published is not None:
                 self._diag_pub.publish(self.last_published)
 
-        self._worker.submit(again)
+        self.worker.submit(again)
 
     def _job_failed(self, text: str) -> None:
         self.get_logger().error(f"diagnosis failed: {text}")
@@ -287,20 +290,20 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self._submit_without_verdict(conflict, CONFLICT)
             return
         snapshot, config = self.aligner.snapshot(), self.config
-        self._worker.submit(lambda: self._publish_outcome(evaluate_window(snapshot, config)))
+        self.worker.submit(lambda: self._publish_outcome(evaluate_window(snapshot, config)))
 
     def wait_idle(self, timeout_s: float = 30.0) -> bool:
         """Block until every diagnosis due so far is published (tests); whether it was."""
-        return self._worker.wait_idle(timeout_s)
+        return self.worker.wait_idle(timeout_s)
 
     @property
     def busy(self) -> bool:
         """Whether a diagnosis is running or queued."""
-        return self._worker.pending > 0
+        return self.worker.pending > 0
 
     def destroy_node(self) -> None:
         """Finish the running diagnosis (drop queued ones), stop the timers, destroy the node."""
-        self._worker.shutdown()
+        self.worker.shutdown()
         self.progress.destroy()
         super().destroy_node()
 
