@@ -33,11 +33,11 @@ EXPECTED = json.loads((ROOT / "bags" / "wood_berry_full.expected.json").read_tex
 SIGNAL_TOPICS = [topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output")]
 
 
-def _diagnostician(context, bag):
+def _diagnostician(context, bag, namespace: str = "/"):
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
 
     params = flatten_parameters(bag.run_config().params)
-    return PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(params))
+    return PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(params), namespace=namespace)
 
 
 def _final_numbers(node, last_sample: int):
@@ -67,10 +67,12 @@ def _player(ros, bag, **kwargs):
     return ros.add(BagPlayerNode(bag, context=ros.context, **kwargs))
 
 
-def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros):
+@pytest.mark.parametrize("namespace", ["/", "/column_b"])
+def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros, namespace):
     bag = open_bag(REFERENCE)
-    diagnostician = ros.add(_diagnostician(ros.context, bag))
-    player = _player(ros, bag)
+    diagnostician = ros.add(_diagnostician(ros.context, bag, namespace))
+    # the bag's /pmr/... topics go out under the player's namespace
+    player = _player(ros, bag, namespace=namespace)
     spin = lambda: ros.executor.spin_once(timeout_sec=0.02)  # noqa: E731
     assert player.wait_for_subscribers(SIGNAL_TOPICS, 30.0, spin)
     assert player.wait_for_consumers(30.0, spin) == []
@@ -243,3 +245,33 @@ def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, children, t
     recorded = open_bag(path)
     assert recorded.complete and (path / "metadata.yaml").exists()  # closed, not merely flushed
     assert recorded.counts[topic("measured_output").resolved()] >= 1000 and recorded.run_config() is not None
+
+
+def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_domain, tmp_path, capsys):
+    path = tmp_path / "column_a"
+    argv = [
+        "run",
+        "--samples",
+        "1500",
+        "--namespace",
+        "column_a",
+        "--bag",
+        str(path),
+        "--json",
+        str(tmp_path / "a.json"),
+    ]
+    assert main(argv) == 0
+    bag = open_bag(path)
+    assert bag.counts[topic("measured_output").resolved("/column_a")] == 1500
+    assert topic("measured_output").resolved() not in bag.topics
+    assert bag.run_config() is not None
+    for namespace in (None, "/column_a"):  # found in the bag, or given
+        result = diagnose_bag(bag, namespace=namespace)
+        assert result.comparisons and result.all_equal
+        assert result.final.diagnosis.to_dict()["elements"] == json.loads((tmp_path / "a.json").read_text())["elements"]
+    capsys.readouterr()
+    assert main(["diagnose", str(path), "--namespace", "column_b"]) == 2
+    assert "topic /column_b/pmr/setpoint" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as usage:  # argparse: one line, exit code 2
+        main(["diagnose", str(path), "--namespace", "9lives"])
+    assert usage.value.code == 2 and "'9lives' is not a valid name" in capsys.readouterr().err

@@ -170,6 +170,11 @@ def _run(ros, tmp_path: Path, name: str, *arguments: str) -> subprocess.Popen:
 
 def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_own_verdicts(ros, tmp_path):
     samples = 4000
+    bag = tmp_path / "column_a_bag"
+    recorder = ros.start(
+        [console_script("pmr-ros"), "record", str(bag), "--namespace", "column_a", "--no-parameters"],
+        tmp_path / "record.log",
+    )
     runs = {
         name: _run(ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples))
         for name, seed in (("column_a", 1), ("column_b", 2))
@@ -186,6 +191,12 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         ).to_dict()["elements"]
         assert compare_diagnoses(report["elements"], expected) == [], name
         assert report["node_set"]["diagnostician_warnings"] == []
+    # the recorder of column_a took that set alone, every sample of it
+    assert _stop(ros, recorder, signal.SIGINT) == 0
+    recorded = open_bag(bag)
+    assert not any(name.startswith("/column_b") or name.startswith("/pmr/") for name in recorded.topics)
+    for key in SIGNALS:
+        assert _contiguous(recorded, topic(key).resolved("/column_a")) == (0, samples - 1), key
 
 
 def test_two_node_sets_without_namespaces_are_detected_not_merged(ros, tmp_path):
