@@ -27,6 +27,7 @@ from .contract.layout import CONFLICT, diagnosis_from_array, read_estimates, rea
 from .contract.topics import SIGNAL_TOPICS, topic
 from .core.closed_loop import RunRecord
 from .core.results import Diagnosis
+from .ros.flow import ProgressReporter, stamp_ns
 from .ros.parameters import parameter_overrides
 from .ros.signals import stop_requests
 from .ros.topics import message_class, qos_profile
@@ -92,7 +93,10 @@ class _Listener(Node):
         for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
             t = topic(key)
             self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
+        self.progress: ProgressReporter | None = None
         if record:
+            # a consumer like the diagnostician: the plant never runs more than max_samples_ahead ahead of it
+            self.progress = ProgressReporter(self, SIGNAL_TOPICS)
             n = config.run.samples
             widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
             for signal, key in SIGNAL_TOPICS.items():
@@ -104,6 +108,8 @@ class _Listener(Node):
     def _recorder(self, signal: str):
         def on_message(msg) -> None:
             stamp, _, values = read_signal(msg)
+            if self.progress is not None:
+                self.progress.took(signal, stamp_ns(msg.header.stamp))
             k = int(round(stamp / self.sample_time))
             if 0 <= k < self.arrays[signal].shape[0]:
                 self.arrays[signal][k] = values

@@ -49,16 +49,21 @@ def test_a_gate_holds_the_producer_until_every_consumer_has_taken_the_sample_max
         name = "/column_a/consumer"
         assert ros.spin_until(lambda: name in gate.consumers(), 30.0), "the consumer is not in the graph"
         stamps = [k * 1_000_000_000 for k in range(10)]
-        for k in range(3):
-            assert gate.open()  # fewer than max_ahead samples out: nothing to wait for
-            gate.published(stamps[k])
+        assert gate.open()  # nothing out yet
+        gate.published(stamps[0])
+        # the first sample must be taken by everyone first, on every topic: y alone is not enough
         assert gate.behind() == {name: None} and not gate.open()
         reporter.took("y", stamps[0])
-        reporter.report()  # only y so far: the progress is y's
+        reporter.report()
+        assert reporter.progress_ns is None and reporter.reports == 0
+        reporter.took("r", stamps[0])
+        reporter.report()
         assert ros.spin_until(lambda: gate.open(), 10.0) and changes
+        for k in (1, 2):
+            gate.published(stamps[k])
+            assert gate.open()  # up to max_ahead (3) samples ahead of what was taken
         gate.published(stamps[3])
         assert not gate.open()  # sample 1 is needed now
-        reporter.took("r", stamps[0])
         reporter.took("y", stamps[5])
         assert reporter.progress_ns == stamps[0]  # the oldest of the newest per topic
         reporter.took("r", stamps[4])

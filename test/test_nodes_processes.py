@@ -77,6 +77,12 @@ class _Watcher:
             self.final = (diagnosis, info)
 
 
+def _wait_subscribed(ros, topic_name: str, count: int) -> None:
+    """Wait until ``count`` nodes subscribe to ``topic_name`` (recorders started before the set they record)."""
+    probe = ros.create_node(f"probe_{len(ros.nodes)}")
+    assert ros.spin_until(lambda: probe.count_subscribers(topic_name) >= count, 120.0), f"no subscriber of {topic_name}"
+
+
 def _logs(tmp_path: Path, names=NODES) -> dict[str, str]:
     return {n: (tmp_path / f"{n}.log").read_text()[-3000:] for n in names if (tmp_path / f"{n}.log").exists()}
 
@@ -111,6 +117,7 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
         )
         for how in (signal.SIGINT, signal.SIGTERM)
     }
+    _wait_subscribed(ros, topic("measured_output").resolved(), 2)
     watcher = _Watcher(ros, samples - 1)
     procs = _start_nodes(ros, tmp_path, run_file)
     stopped_at = {}
@@ -175,6 +182,7 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         [console_script("pmr-ros"), "record", str(bag), "--namespace", "column_a", "--no-parameters"],
         tmp_path / "record.log",
     )
+    _wait_subscribed(ros, topic("measured_output").resolved("/column_a"), 1)
     runs = {
         name: _run(ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples))
         for name, seed in (("column_a", 1), ("column_b", 2))

@@ -172,11 +172,7 @@ class BagPlayerNode(Node):
 
     def silent_subscribers(self) -> list[str]:
         """Nodes subscribed to r, u or y that do not report progress (they may fall behind and lose samples)."""
-        nodes = set()
-        for name in self._signals:
-            for info in self.get_subscriptions_info_by_topic(self.resolve_topic_name(name)):
-                nodes.add(f"{info.node_namespace.rstrip('/')}/{info.node_name}")
-        return sorted(nodes - set(self.gate.consumers()))
+        return self.gate.silent_subscribers(self._signals)
 
     def wait_for_consumers(self, timeout_s: float, spin: Callable[[], None]) -> list[str]:
         """Wait until every subscriber of r, u and y reports progress; those that still do not."""

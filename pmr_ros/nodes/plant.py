@@ -46,6 +46,10 @@ RESUME_SETTLE_S = 0.1
 """After its peers are there, how long the plant listens for the controller's newest input before
 sample 0 (a restarted plant resumes after it) [s of wall time]."""
 
+CONSUMER_DISCOVERY_S = 2.0
+"""How long the plant waits, once its peers are there, for each other subscriber of y to be known as a
+consumer of the flow control before it starts anyway [s of wall time]."""
+
 RESUME_QUIET_S = 0.05
 """Inputs for later samples are gathered until none came for this long, then the plant resumes
 after the newest (the history of a topic arrives as a burst) [s of wall time]."""
@@ -86,6 +90,7 @@ class PlantNode(ConfiguredNode):
         self.gate = ProgressGate(self, max_ahead=cfg.simulation.max_samples_ahead, on_change=self._release)
         self._u_sub = self.contract_subscription("manipulated_input", self._on_input)
         self._started_at = time.monotonic()
+        self._peers_at: float | None = None
         self._ready_at: float | None = None
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._start_timer = self.create_timer(0.01, self._try_start, clock=wall)
@@ -103,23 +108,53 @@ class PlantNode(ConfiguredNode):
 
     # -- start -----------------------------------------------------------------
     def _peers_ready(self) -> bool:
+        """The controller and ``simulation.wait_for_subscribers`` subscribers of y are there."""
         return (
             self._y_pub.get_subscription_count() >= self.config.simulation.wait_for_subscribers
             and self.count_publishers(self._u_topic) >= 1
         )
 
+    def _unknown_subscribers(self) -> list[str]:
+        """Subscribers of y that are neither the controller nor a consumer the flow control knows."""
+        controllers = {
+            f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+            for i in self.get_publishers_info_by_topic(self.resolve_topic_name(self._u_topic))
+        }
+        return self.gate.silent_subscribers([topic("measured_output").name], exclude=controllers)
+
+    def _check_ready(self, now: float) -> None:
+        """Note when the peers are there (or the start-up timeout passed), with a warning for what is missing.
+
+        Once the controller and enough subscribers are there, the plant also
+        waits up to :data:`CONSUMER_DISCOVERY_S` for each other subscriber of y
+        to be known as a consumer (DDS discovers a node's endpoints one by one),
+        so none is outrun before it reports; a subscriber that never reports (a
+        plotter) is named and not waited for.
+        """
+        sim = self.config.simulation
+        waited = now - self._started_at
+        if self._peers_at is None and self._peers_ready():
+            self._peers_at = now
+        unknown = self._unknown_subscribers() if self._peers_at is not None else []
+        if self._peers_at is not None and (not unknown or now - self._peers_at >= CONSUMER_DISCOVERY_S):
+            self._ready_at = now
+            if unknown:
+                self.get_logger().warning(
+                    f"subscribers of y that report no progress, not waited for (they may miss samples): "
+                    f"{', '.join(unknown)}"
+                )
+        elif waited >= sim.startup_timeout_s:
+            self._ready_at = now
+            self.get_logger().warning(
+                f"starting after {waited:.1f} s without the expected peers: {self._y_pub.get_subscription_count()} "
+                f"subscribers of y (want {sim.wait_for_subscribers}), {self.count_publishers(self._u_topic)} "
+                "publishers of u"
+            )
+
     def _try_start(self) -> None:
         now = time.monotonic()
-        waited = now - self._started_at
-        if self._ready_at is None and (self._peers_ready() or waited >= self.config.simulation.startup_timeout_s):
-            self._ready_at = now
-            if not self._peers_ready():
-                self.get_logger().warning(
-                    f"starting after {waited:.1f} s without the expected peers: "
-                    f"{self._y_pub.get_subscription_count()} subscribers of y (want "
-                    f"{self.config.simulation.wait_for_subscribers}), {self.count_publishers(self._u_topic)} "
-                    "publishers of u"
-                )
+        if self._ready_at is None:
+            self._check_ready(now)
         if self._ready_at is None or now - self._ready_at < RESUME_SETTLE_S or self._ahead is not None:
             return  # the controller's newest input may still be on its way: a restarted plant resumes after it
         self._start_timer.cancel()
@@ -204,6 +239,8 @@ class PlantNode(ConfiguredNode):
     def _resume_if_quiet(self) -> None:
         if self._ahead is None or time.monotonic() - self._ahead_at < RESUME_QUIET_S or self.finished:
             return
+        if self._ready_at is None:
+            return  # resume, like start, once the controller and the consumers are there
         k, u = self._ahead
         self._ahead = None
         if k < self.sample or (k == self.sample and self._next is not None):

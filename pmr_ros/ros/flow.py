@@ -85,9 +85,9 @@ def cdr_stamp_ns(data: bytes | memoryview) -> int:
 class ProgressReporter:
     """A lockstep consumer's reports on ``pmr/progress``.
 
-    The progress is the oldest of the newest stamps taken per topic, over the
-    topics that delivered anything: the newest sample the consumer holds of
-    every signal.
+    The progress is the oldest of the newest stamps taken per topic: the
+    newest sample the consumer holds of every signal.  Nothing is reported
+    until every topic has delivered a message.
 
     Parameters
     ----------
@@ -125,9 +125,14 @@ class ProgressReporter:
 
     @property
     def progress_ns(self) -> int | None:
-        """The newest stamp taken on every topic that delivered anything [ns], or None before the first."""
-        seen = [ns for ns in self._newest.values() if ns is not None]
-        return min(seen) if seen else None
+        """The newest stamp taken on every topic [ns]; None until each has delivered a message.
+
+        A topic whose first messages are still on their way (its subscription
+        matched later than the others') holds the report back, so a producer
+        cannot run ahead of it before it is there.
+        """
+        newest = list(self._newest.values())
+        return None if any(ns is None for ns in newest) else min(ns for ns in newest if ns is not None)
 
     def took(self, key: str, stamp: int) -> None:
         """Note that a message of ``key`` stamped ``stamp`` [ns] was taken (good or rejected)."""
@@ -167,7 +172,10 @@ class ProgressGate:
 
     The producer calls :meth:`published` with each sample's stamp and asks
     :meth:`open` before the next; ``on_change`` is called whenever a report
-    arrives or the graph is re-read, so a waiting producer can go on.
+    arrives or the graph is re-read, so a waiting producer can go on.  The
+    first sample (after :meth:`reset`) must be taken by every consumer before
+    the second goes out; from then on the producer runs up to ``max_ahead``
+    samples ahead.
 
     Parameters
     ----------
@@ -219,14 +227,35 @@ class ProgressGate:
         self._read_graph(now=time.monotonic())
         self._on_change()
 
+    def silent_subscribers(self, topics: Iterable[str], *, exclude: Iterable[str] = ()) -> list[str]:
+        """Nodes subscribed to any of ``topics`` that are not (yet) consumers in the graph.
+
+        Before a producer starts it waits until this is empty (but for the
+        ``exclude``d nodes, e.g. the controller, which the loop holds anyway):
+        a consumer whose progress writer is not discovered yet would not hold
+        the producer back.  A third-party subscriber never reports; the
+        producer names it and goes on after its start-up timeout.
+        """
+        nodes: set[str] = set()
+        for name in topics:
+            infos = self._node.get_subscriptions_info_by_topic(self._node.resolve_topic_name(name))
+            nodes.update(_qualified(i.node_namespace, i.node_name) for i in infos)
+        self._graph_read = -GRAPH_REFRESH_S  # read the consumers afresh too
+        return sorted(nodes - set(self.consumers()) - set(exclude))
+
     # -- the producer's side ---------------------------------------------------
     def published(self, stamp: int) -> None:
         """Note that the sample stamped ``stamp`` [ns] went out."""
         self._sent.append(stamp)
 
     def behind(self) -> dict[str, int | None]:
-        """The consumers that have not yet taken the sample ``max_ahead`` back (name -> reported stamp)."""
-        if len(self._sent) < self.max_ahead:
+        """The consumers that have not yet taken the sample needed for the next (name -> reported stamp).
+
+        The sample ``max_ahead`` back; until that many went out, the first one:
+        every consumer must have taken the first sample on every topic before
+        the producer runs ahead (a subscription that matched late is there then).
+        """
+        if not self._sent:
             return {}
         needed = self._sent[0]
         return {n: ack for n, ack in self.consumers().items() if ack is None or ack < needed}
