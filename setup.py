@@ -55,9 +55,16 @@ setup(
             "matplotlib>=3.7",
             "mcap-ros2-support>=0.5,<1",
             "control>=0.10,<0.11",
+            # test_sweep starts a local Dask cluster (the cluster extra below)
+            "distributed>=2024.1",
         ],
+        # `pmr-ros sweep --scheduler ADDRESS`: the sweep's points on a Dask distributed cluster.
+        "cluster": ["distributed>=2024.1"],
         # Figures of `pmr-ros sweep` (imported lazily; the core does not need it).
         "plot": ["matplotlib>=3.7"],
+        # `pmr-ros diagnose FILE.csv|.parquet` (historian exports) and `--report DIR` (HTML with figures);
+        # imported lazily, so the nodes and the bag path run without them.
+        "data": ["pandas>=2,<3", "pyarrow>=14", "matplotlib>=3.7", "jinja2>=3.1,<4"],
     },
     zip_safe=True,
     maintainer="pmr_ros developers",

@@ -1,7 +1,7 @@
 """Benchmark of the numerical core (prints figures; not a test).
 
 - closed-loop steps per second of plant + PRBS + MPC on Wood-Berry (target >= 3,000)
-- median OSQP solve time of the MPC, when a constraint binds and when forced every step
+- median QP solve time of the MPC (dual active set), when a constraint binds and when forced every step
 - diagnosis time for 8,192 samples of the 2x2 (target <= 50 ms)
 
 Run: .venv/bin/python benchmarks/bench_core.py
@@ -40,12 +40,12 @@ def main() -> None:
     solves = mpc.statistics.solve_time_s
     print(f"closed loop (Wood-Berry, default MPC): {rate:,.0f} steps/s  (target >= 3,000)")
     print(
-        f"  OSQP called on {len(solves)} of {samples} steps (a limit binds); median solve "
+        f"  QP solved on {len(solves)} of {samples} steps (a limit binds); median solve "
         f"{1e6 * statistics.median(solves):.0f} us"
     )
     rate_qp, mpc_qp = closed_loop_rate(config, samples, always_solve_qp=True)
     print(
-        f"closed loop with OSQP forced every step: {rate_qp:,.0f} steps/s; median solve "
+        f"closed loop with the QP solved every step: {rate_qp:,.0f} steps/s; median solve "
         f"{1e6 * statistics.median(mpc_qp.statistics.solve_time_s):.0f} us"
     )
 

@@ -14,19 +14,28 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .config import ConfigError
 from .ros.signals import RosInitError
 
-COMMANDS = ["run", "sweep", "record", "replay", "diagnose"]
+COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (and a pointer to ``--help``), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message (see prog --help)`` on stderr and exit with code 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pmr-ros`` argument parser with every sub-command of :data:`COMMANDS`."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="pmr-ros",
         description="Model-plant mismatch diagnosis for MPC with the plant-model ratio (PMR).",
     )
@@ -54,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return args.handler(args)
     except (ConfigError, CommandError, RosInitError) as exc:
-        print(f"pmr-ros: error: {exc}", file=sys.stderr)
+        print(f"pmr-ros: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line, whatever the cause
         return getattr(exc, "code", EXIT_USAGE)
     except KeyboardInterrupt:
         print("pmr-ros: interrupted", file=sys.stderr)

@@ -202,9 +202,8 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
     assert final.window == expected["node_set"]["window"]
     # the reference report was written by pmr_ros 0.1 (flat classic fields) on another machine:
     # flags, delays and verdicts exact, numbers within compare_diagnoses' tolerance
-    offline = {
-        name: e["classic"] | {"verdict": e["verdict"]} for name, e in final.diagnosis.to_dict()["elements"].items()
-    }
+    offline_elements = final.diagnosis.to_dict()["elements"].items()
+    offline = {name: e["classic"] | {"verdict": e["verdict"]} for name, e in offline_elements}
     keys = (
         "gain_ratio",
         "tau_index",
@@ -215,6 +214,7 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
         "verdict",
     )
     reference = {name: {k: e[k] for k in keys} for name, e in expected["elements"].items()}
+    offline = {name: {k: e[k] for k in keys} for name, e in offline.items()}  # the fields the 0.1 report had
     assert compare_diagnoses(offline, reference) == []
     # ... and exactly what the live diagnostician published on /diagnostics for the same window.
     assert result.comparisons and result.all_equal
@@ -401,16 +401,17 @@ def _bad_inputs(tmp_path: Path, wood_berry) -> dict[str, tuple[Path, str]]:
         tmp_path / "wrong",
         "topic /pmr/setpoint has type std_msgs/msg/String, expected sensor_msgs/msg/JointState",
     )
-    shutil.copytree(REFERENCE, tmp_path / "truncated")
-    mcap = tmp_path / "truncated" / "wood_berry_full.mcap"
-    mcap.write_bytes(mcap.read_bytes()[: mcap.stat().st_size // 2])
-    cases["truncated"] = (tmp_path / "truncated", "truncated or corrupted")
-    shutil.copytree(REFERENCE, tmp_path / "corrupted")
-    mcap = tmp_path / "corrupted" / "wood_berry_full.mcap"
-    data = bytearray(mcap.read_bytes())
-    data[-200:-100] = b"\xff" * 100  # the summary section
-    mcap.write_bytes(bytes(data))
-    cases["corrupted"] = (tmp_path / "corrupted", "truncated or corrupted")
+    # (a truncated MCAP or a damaged summary is recovered: test_bag_faults.py)
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "junk.mcap").write_bytes(b"not an mcap file at all" * 10)
+    cases["not MCAP"] = (tmp_path / "junk", "not a readable MCAP file")
+    shutil.copytree(REFERENCE, tmp_path / "bad_metadata")
+    (tmp_path / "bad_metadata" / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  version: [unclosed\n")
+    (tmp_path / "bad_metadata" / "wood_berry_full.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 64)
+    cases["bad metadata.yaml and storage"] = (tmp_path / "bad_metadata", "cannot read the bag")
+    (tmp_path / "sqlite_junk").mkdir()
+    (tmp_path / "sqlite_junk" / "x.db3").write_bytes(b"this is not a database" * 100)
+    cases["sqlite3 junk"] = (tmp_path / "sqlite_junk", "x.db3 is not a readable rosbag2 sqlite3 file")
     return cases
 
 
@@ -425,7 +426,7 @@ def test_bad_bags_give_one_clear_line_and_a_non_zero_exit(tmp_path, capsys, wood
 def test_diagnose_writes_json_and_needs_a_configuration(tmp_path, capsys, wood_berry):
     code = main(["diagnose", str(REFERENCE), "--json", str(tmp_path / "report.json")])
     out = capsys.readouterr().out
-    assert code == 0 and "1 of 1 windows agree" in out
+    assert code == 0 and "1 of 1 verdict windows agree" in out
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["bag"]["configuration"] == "bag" and report["recorded_comparison"]["different"] == []
     _write_small_bag(tmp_path / "no_config", 20).close()

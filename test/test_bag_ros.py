@@ -132,9 +132,13 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     assert config.samples == samples and config.seed == 1 and config.scenario == "full"
     assert config.params["diagnostician"]["window_samples"] == samples  # the settings the nodes really ran with
     result = diagnose_bag(bag)
-    run = json.loads((tmp_path / "run.json").read_text())
-    assert result.final.diagnosis.to_dict()["elements"] == run["elements"]  # one machine, one bag: exact
     assert result.comparisons and result.all_equal
+    # pmr-ros diagnose of the bag reports what pmr-ros run reported, control impact included
+    assert main(["diagnose", str(path), "--json", str(tmp_path / "offline.json")]) == 0
+    capsys.readouterr()
+    run = json.loads((tmp_path / "run.json").read_text())
+    offline = json.loads((tmp_path / "offline.json").read_text())
+    assert offline["elements"] == run["elements"] and offline["impact"] == run["impact"]  # one machine, one bag: exact
     # Never overwritten without --force; --batch cannot record.
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -204,10 +208,11 @@ def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> 
     raise AssertionError(f"only {seen} of {count} messages on {topic_name} reached the disk in {timeout_s} s")
 
 
-def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros, tmp_path, capsys):
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros, tmp_path, capsys, storage):
     samples = 2000
     path = tmp_path / "killed"
-    proc = _start_recorder(ros, tmp_path, path)
+    proc = _start_recorder(ros, tmp_path, path, "--storage", storage)
     _publish_to_recorder(ros, samples, publish_config=True)
     # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
     # from the file while it is being written -- then kill it without warning.
@@ -216,7 +221,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
     proc.wait(timeout=30)
     assert not (path / "metadata.yaml").exists()
     recorded = open_bag(path)
-    assert not recorded.complete
+    assert not recorded.complete and recorded.storage == storage
     for name in [*SIGNAL_TOPICS, topic("clock").resolved()]:
         assert recorded.counts[name] == samples, (name, recorded.counts)
     assert recorded.counts[topic(RUN_CONFIG_KEY).resolved()] == 1 and recorded.run_config() is not None
@@ -225,7 +230,7 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
     # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
     assert main(["diagnose", str(path)]) == 3
     out = capsys.readouterr().out
-    assert "was not closed by its recorder" in out and "2000 unbroken samples, need 8192" in out
+    assert "is incomplete (no metadata.yaml" in out and "2000 unbroken samples, need 8192" in out
 
 
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
@@ -275,3 +280,29 @@ def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_doma
     with pytest.raises(SystemExit) as usage:  # argparse: one line, exit code 2
         main(["diagnose", str(path), "--namespace", "9lives"])
     assert usage.value.code == 2 and "'9lives' is not a valid name" in capsys.readouterr().err
+
+
+def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros, tmp_path, capsys):
+    """``pmr-ros run --bag`` dies mid-run: the bag is judged on what it holds, and a replay publishes all of it."""
+    path = tmp_path / "run"
+    proc = ros.start(
+        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"], tmp_path / "run.log"
+    )
+    _wait_until_flushed(path, topic("measured_output").resolved(), 9000, timeout_s=120.0)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    recorded = open_bag(path)
+    held = min(recorded.counts[name] for name in SIGNAL_TOPICS)
+    assert not recorded.complete and 9000 <= held < 16384
+    assert main(["diagnose", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"the bag holds {held} of the 16384 samples its run planned" in out and "mismatch" in out
+    # replay what it holds into a live diagnostician
+    diagnostician = ros.add(_diagnostician(ros.context, recorded))
+    player = _player(ros, recorded)
+    spin = lambda: ros.executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    assert player.wait_for_subscribers(SIGNAL_TOPICS, 60.0, spin), "no diagnostician"
+    assert player.wait_for_consumers(60.0, spin) == [], "the diagnostician reports no progress"
+    count = player.play(spin=lambda timeout: ros.executor.spin_once(timeout_sec=timeout))
+    assert ros.spin_until(lambda: diagnostician.messages_received >= 3 * held, 60.0)
+    assert count >= held and diagnostician.aligner.stretch_last == held - 1

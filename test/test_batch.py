@@ -48,9 +48,9 @@ def test_mpc_matrices_are_read_only_copies(wood_berry):
     mpc = LinearMpc(wood_berry.model, wood_berry.mpc)
     m = mpc.matrices
     Np, Nc, n = wood_berry.mpc.prediction_horizon, wood_berry.mpc.control_horizon, 2
-    assert m.free_state.shape == (Np * n, m.A.shape[0])
-    assert m.weighted_dynamic.shape == (Nc * n, Np * n)
-    assert m.unconstrained_gain.shape == (Nc * n, Nc * n)
+    nz = m.A.shape[0] + 3 * n  # z = [x; u_prev; r; d] (no integrating output: no slope)
+    assert Np > Nc and m.gain.shape == (Nc * n, nz) and m.gradient.shape == (Nc * n, nz)
+    assert m.gain_offset.shape == (Nc * n,) and not np.any(m.gain_offset)  # square: no input targets
     with pytest.raises(ValueError):
         m.A[0, 0] = 1.0
 
@@ -79,3 +79,19 @@ def test_mv_dither_is_added_to_u_and_the_lockstep_batch_equals_simulate(wood_ber
     (lockstep,) = simulate_many(config, [("full", 3)], samples=2000)
     np.testing.assert_allclose(lockstep.u, dithered.u, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(lockstep.dither, dithered.dither)
+
+
+def test_lockstep_equals_simulate_on_a_non_square_system_with_a_level_and_dither():
+    from pathlib import Path
+
+    from pmr_ros.config import load_config
+
+    config = load_config(Path(__file__).parent / "configs" / "level_temperature.yaml")
+    assert config.model.integrating_outputs.any() and not config.model.present.all() and config.excitation.active
+    runs = [("none", 1), ("full", 2), ("gain", 5)]
+    result = run_lockstep(config, runs, samples=2500)
+    for (scenario, seed), record in zip(runs, result.records, strict=True):
+        ref = simulate(config, samples=2500, seed=seed, scenario=scenario)
+        for name in ("r", "u", "y", "dither"):
+            np.testing.assert_allclose(getattr(record, name), getattr(ref, name), rtol=0, atol=1e-9)
+    assert all(stats.solves > 0 for stats in result.statistics)  # the limits bind: the OSQP path is exercised too

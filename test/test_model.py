@@ -187,3 +187,23 @@ def test_element_names_beyond_nine_channels():
     )
     names = model.element_names()
     assert names[0] == "G1_1" and names[-1] == "G10_3" and len(set(names)) == 30
+
+
+def test_state_space_advance_equals_the_dense_step_and_is_the_same_on_a_batch():
+    kinds = [["integrating", "foptd", "none"], ["foptd", "none", "foptd"]]
+    model = TransferMatrix(
+        [[0.05, 2.0, 0.0], [1.0, 0.0, -1.5]],
+        [[0.0, 5.0, 0.0], [7.0, 0.0, 3.0]],
+        [[2, 0, 0], [3, 0, 1]],
+        1.0,
+        element_type=kinds,
+    )
+    ss = model.state_space()
+    rng = np.random.default_rng(0)
+    x, u = rng.normal(size=(5, ss.A.shape[0])), rng.normal(size=(5, 3))
+    batch = ss.advance(x, u)
+    for j in range(5):
+        np.testing.assert_allclose(batch[j], ss.A @ x[j] + ss.B @ u[j], rtol=1e-15, atol=1e-15)
+        np.testing.assert_array_equal(batch[j], ss.advance(x[j], u[j]))
+    pole, source, weight = ss.one_source_form
+    assert pole.shape == source.shape == weight.shape == (ss.A.shape[0],)

@@ -273,7 +273,7 @@ def test_nan_and_inf_in_y_are_dropped_and_the_stretch_excluded(harness):
     text = "\n".join(h.diag.warnings)
     assert "y on /pmr/measured_output: non-finite value x_D=nan" in text
     assert "x_B=inf" in text
-    assert "window restarts at sample 302" in text
+    assert "a new stretch starts at sample 302" in text
     _assert_bad_stretch_excluded(h, 302)
 
 
@@ -293,7 +293,7 @@ def test_a_gap_of_missing_samples_restarts_the_window(harness):
     h.send_samples(range(0, 1000), skip=set(range(290, 300)))
     text = "\n".join(h.diag.warnings)
     assert "samples 290..299 missing (gap of 10)" in text
-    assert "window restarts at sample 300" in text
+    assert "a new stretch starts at sample 300" in text
     # Enough unbroken samples after the gap by sample 799: a verdict from 300 on only.
     results = h.statuses()
     at_799 = [(d, i) for d, i in results if i.get("last_sample") == 799][0]

@@ -70,21 +70,25 @@ def test_bad_values_and_off_grid_stamps_are_rejected():
     assert al.stretch_length == 0
 
 
-def test_a_gap_restarts_the_window_after_it():
+def test_a_gap_starts_a_new_stretch_and_the_window_keeps_both():
     al = _aligner()
     for k in range(5):
         _feed(al, k)
     res = _feed(al, 8)
     assert any("samples 5..7 missing" in w for r in res for w in r.warnings)
-    assert any("window restarts at sample 8 after 5 samples" in w for w in res[-1].warnings)
+    assert any(
+        "samples 5..7 incomplete (missing r, u, y): a new stretch starts at sample 8 after 5 samples" in w
+        for w in res[-1].warnings
+    )
     assert al.stretch_first == 8 and al.stretch_length == 1 and al.gaps == 1
+    assert [(s.first, s.last) for s in al.stretches(100)] == [(0, 4), (8, 8)] and al.held == 6
     # A rejected y(9) also breaks the stretch: sample 9 never completes.
     al.add("y", 9.0, NAMES["y"], [np.inf, 0.0])
     al.add("r", 9.0, NAMES["r"], [0.0, 0.0])
     al.add("u", 9.0, NAMES["u"], [0.0, 0.0])
     res = _feed(al, 10)
     assert any("samples 9..9 incomplete (missing y)" in w for w in res[-1].warnings)
-    assert al.stretch_first == 10
+    assert al.stretch_first == 10 and al.gaps == 2
 
 
 def test_a_stopped_signal_is_reported_as_lagging():
@@ -113,8 +117,55 @@ def test_window_keeps_the_newest_capacity_samples_and_resizes():
     assert al.window(1)[3] == 9
 
 
-def test_pending_samples_stay_bounded():
-    al = _aligner(lag=5)
+def test_pending_samples_stay_bounded_by_memory_not_by_arrival_order():
+    al = _aligner(capacity=100, lag=5)
+    warnings = []
     for k in range(1000):
+        warnings += al.add("y", float(k), NAMES["y"], [0.0, 0.0]).warnings
+    assert al.pending_limit == 100 + 4 * 5 + 16 and len(al._pending) <= al.pending_limit
+    assert al.given_up == 1000 - len(al._pending)
+    assert "more than 136 partial samples held: samples 0..34 given up (missing r, u)" in warnings[0]
+
+
+def test_a_late_signal_completes_every_sample_still_pending():
+    """A late-discovered publisher's backlog arrives after the other signals moved on: nothing is lost."""
+    al = _aligner(capacity=1000, lag=5)
+    for k in range(600):  # r and y run ahead by 600 samples, far beyond max_lag_samples
+        al.add("r", float(k), NAMES["r"], [k, k])
+        al.add("y", float(k), NAMES["y"], [k, -k])
+    assert al.lagging().startswith("no u on /pmr/manipulated_input received")
+    completed = []
+    for k in range(600):  # the transient-local backlog of u
+        result = al.add("u", float(k), NAMES["u"], [k, 2 * k])
+        completed += result.completed
+        assert result.warnings == []
+    assert completed == list(range(600)) and al.gaps == 0 and al.given_up == 0
+    (stretch,) = al.stretches(1000)
+    assert stretch.first == 0 and stretch.samples == 600
+    np.testing.assert_array_equal(stretch.u[:, 1], 2 * np.arange(600))
+    np.testing.assert_array_equal(stretch.y[:, 1], -np.arange(600))
+
+
+def test_a_partial_sample_is_given_up_once_a_signal_it_lacks_moved_past_it():
+    al = _aligner(capacity=1000, lag=500)
+    for k in range(10):
+        al.add("r", float(k), NAMES["r"], [0.0, 0.0])
         al.add("y", float(k), NAMES["y"], [0.0, 0.0])
-    assert len(al._pending) < 40
+    al.add("u", 5.0, NAMES["u"], [0.0, 0.0])  # u starts at 5: samples 0..4 can never complete
+    assert sorted(al._pending) == list(range(6, 10))
+    for k in range(6, 10):
+        al.add("u", float(k), NAMES["u"], [0.0, 0.0])
+    assert [(s.first, s.last) for s in al.stretches(1000)] == [(5, 9)] and not al._pending
+
+
+def test_stretches_of_the_window_are_the_newest_capacity_samples():
+    al = _aligner(capacity=10)
+    for k in [*range(0, 6), *range(8, 12), *range(20, 24)]:
+        _feed(al, k)
+    pieces = al.stretches(100)
+    assert [(s.first, s.last) for s in pieces] == [(4, 5), (8, 11), (20, 23)]
+    assert sum(s.samples for s in pieces) == al.held == 10
+    np.testing.assert_array_equal(pieces[1].y[:, 0], np.arange(8, 12) + 0.1)
+    assert [(s.first, s.last) for s in al.stretches(5)] == [(11, 11), (20, 23)]
+    assert al.window(100)[3] == 20 and al.window(100)[0].shape == (4, 2)
+    assert _aligner().stretches(10) == []

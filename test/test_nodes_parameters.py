@@ -46,6 +46,9 @@ def test_ros_value_and_parameter_overrides():
     assert p.plain_value((1, 2)) == [1, 2]
     params = p.parameter_overrides({"system.gain": [1, 2.5], "run.seed": 4})
     assert [(x.name, x.value) for x in params] == [("system.gain", [1.0, 2.5]), ("run.seed", 4)]
+    # the data block is no node's (its mixed lists are no ROS parameter); a typo stays for the node to refuse
+    params = p.parameter_overrides({"data.bad_values": [-9999, "Bad"], "run.sed": 4})
+    assert [x.name for x in params] == ["run.sed"]
 
 
 @pytest.mark.parametrize(

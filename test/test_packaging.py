@@ -215,12 +215,17 @@ ROSDEP_KEYS: dict[str, str | None] = {
     "yaml": "python3-yaml",
     "rosbags": "python3-rosbags-pip",
     "matplotlib": "python3-matplotlib",
+    "pandas": "python3-pandas",
+    "jinja2": "python3-jinja2",
     "osqp": None,
     "mcap": None,
+    "pyarrow": None,
+    "distributed": None,
     # tests only
     "pytest": "python3-pytest",
     "control": "python-control-pip",
     "mcap_ros2": "mcap-ros2-support",
+    "PIL": "python3-pil",
 }
 
 

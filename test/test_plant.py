@@ -35,3 +35,16 @@ def test_output_is_noise_free_and_advance_moves_it(wood_berry):
     plant.advance([1.0, 0.0])
     plant.advance([1.0, 0.0])  # G11 has one sample of dead time plus the ZOH lag
     assert plant.output()[0] > 0.0 and plant.output()[1] == 0.0
+
+
+def test_an_input_disturbance_acts_as_an_unseen_move_and_ramps_an_integrating_output():
+    kinds = [["integrating", "foptd"]]
+    model = TransferMatrix([[0.05, 2.0]], [[0.0, 5.0]], [[2.0, 0.0]], 1.0, element_type=kinds)
+    loaded = FoptdPlant(model, noise_std=0.0, seed=0)
+    moved = FoptdPlant(model, noise_std=0.0, seed=0)
+    for _ in range(40):
+        loaded.advance([0.0, 0.0], disturbance=[0.4, 0.0])
+        moved.advance([0.4, 0.0])
+    np.testing.assert_array_equal(loaded.output(), moved.output())
+    # a level under a constant load: y(k) = K Ts d (k - 1 - delay) once the delay has passed
+    np.testing.assert_allclose(loaded.output(), [0.05 * 0.4 * (40 - 2)], rtol=1e-12)

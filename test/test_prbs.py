@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 from scipy.signal import coherence
 
-from pmr_ros.core.prbs import PrbsGenerator, PrbsSettings, is_primitive, m_sequence, primitive_polynomials
+from pmr_ros.core.prbs import (
+    PrbsGenerator,
+    PrbsSettings,
+    is_primitive,
+    m_sequence,
+    primitive_polynomial_count,
+    primitive_polynomials,
+)
 
 
 @pytest.mark.parametrize("degree", range(3, 17))
@@ -78,3 +85,12 @@ def test_shifted_copies_would_be_coherent():
     bits = 2.0 * m_sequence(primitive_polynomials(14, 1)[0], 14) - 1.0
     _, coh = coherence(bits[:8192], np.roll(bits, 100)[:8192], nperseg=512)
     assert coh.mean() > 0.6
+
+
+def test_primitive_polynomial_count_is_what_the_search_finds():
+    for degree in range(3, 12):
+        count = primitive_polynomial_count(degree)
+        assert len(primitive_polynomials(degree, count)) == count
+        with pytest.raises(ValueError, match="fewer than"):
+            primitive_polynomials(degree, count + 1)
+    assert primitive_polynomial_count(12) == 144  # phi(4095) / 12: enough for 72 CVs and 72 dithered MVs

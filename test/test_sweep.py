@@ -17,6 +17,7 @@ from pmr_ros.core.classic import diagnose_classic
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.model import SCENARIOS
 from pmr_ros.core.stretch import Stretch
+from pmr_ros.progress import ProgressBar, format_duration
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
@@ -29,7 +30,6 @@ from pmr_ros.sweep.plan import (
     parse_nu_list,
     row_time_constant_ratio,
 )
-from pmr_ros.sweep.progress import ProgressBar, format_duration
 from pmr_ros.sweep.report import paper_comparison_applies
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
@@ -602,3 +602,104 @@ def test_point_model_changes_only_the_swept_time_constant(wood_berry):
 
 def test_load_config_is_unchanged_by_a_sweep(small_sweep):
     assert load_config().mpc.prediction_horizon == 40
+
+
+# --- industrial shapes and a Dask cluster --------------------------------------------------------
+
+LEVEL_TEMPERATURE = Path(__file__).parent / "configs" / "level_temperature.yaml"
+
+
+def _by_key(rows: list[dict]) -> dict[tuple, dict]:
+    keyed = {(r["method"], r["sweep"], r["nu"], r["scenario"], r["seed"], r["element"]): r for r in rows}
+    assert len(keyed) == len(rows)
+    return keyed
+
+
+def test_plan_refuses_elements_without_a_time_constant():
+    model = load_config(LEVEL_TEMPERATURE).model
+    assert element_index(model, "G23") == (1, 2)
+    with pytest.raises(PlanError, match="G11 is integrating: it has no time constant to sweep.*G21, G23"):
+        element_index(model, "G11")
+    with pytest.raises(PlanError, match="G13 is an empty cell"):
+        element_index(model, "G13")
+    # the row's ratio counts the FOPTD neighbours only
+    assert row_time_constant_ratio(model, 1, 0) == pytest.approx(10.0 / 8.0)
+    assert row_time_constant_ratio(model.with_time_constant(1, 2, 8.0), 1, 2) == pytest.approx(8.0 / 10.0)
+
+
+def test_a_sweep_of_a_non_square_system_with_an_integrating_row_reports_every_element(tmp_path):
+    out = tmp_path / "sweep"
+    argv = ["sweep", "--config", str(LEVEL_TEMPERATURE), "--out", str(out), "--elements", "G21", "--nu", "1,2"]
+    assert main([*argv, "--seeds", "1", "--samples", "2048", "--methods", "classic,parametric", "--quiet"]) == 0
+    rows = store.read_rows(out / store.RESULTS_FILE)
+    names = ["G11", "G12", "G13", "G21", "G22", "G23"]
+    assert len(rows) == 2 * 2 * 5 * len(names)  # methods x nu x scenarios x elements, one seed
+    for key in {(r["method"], r["nu"], r["scenario"]) for r in rows}:
+        assert sorted(r["element"] for r in rows if (r["method"], r["nu"], r["scenario"]) == key) == names
+    assert {r["verdict"] for r in rows} <= {"ok", "mismatch", "inconclusive"}
+    assert all(r["mpc_failures"] == 0 and r["loop_spectral_radius"] < STABILITY_LIMIT for r in rows)
+    g21 = {r["time_constant_swept"] for r in rows}
+    assert g21 == {10.0, 20.0}
+    assert (out / "reproduction.md").is_file()
+
+
+def test_a_sweep_refuses_a_plant_block_cleanly(tmp_path, capsys):
+    text = LEVEL_TEMPERATURE.read_text().split("    mismatch:")[0]
+    plant = (
+        "    plant:\n"
+        "      element_type: [integrating, integrating, foptd, foptd, none, foptd]\n"
+        "      gain: [-0.05, 0.03, 0.4, 0.8, 0.0, 1.5]\n"
+        "      time_constant: [0.0, 0.0, 5.0, 10.0, 0.0, 8.0]\n"
+        "      delay: [1.0, 2.0, 3.0, 2.0, 0.0, 1.0]\n"
+    )
+    config = tmp_path / "with_plant.yaml"
+    config.write_text(text + plant)
+    assert main(["sweep", "--config", str(config), "--out", str(tmp_path / "o"), "--elements", "G21", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(config) in err[0] and "plant block" in err[0] and "Traceback" not in err[0]
+
+
+@pytest.fixture(scope="module")
+def dask_cluster():
+    import logging
+
+    from distributed import LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    try:
+        yield cluster
+    finally:
+        cluster.close()
+
+
+def test_sweep_on_a_dask_cluster_writes_the_local_pools_rows(small_sweep, dask_cluster, tmp_path):
+    out = tmp_path / "dask"
+    assert main(["sweep", "--out", str(out), "--scheduler", dask_cluster.scheduler_address, *SMALL]) == 0
+    local = _by_key(store.read_rows(small_sweep / store.RESULTS_FILE))
+    remote = _by_key(store.read_rows(out / store.RESULTS_FILE))
+    assert remote.keys() == local.keys()
+    for key, row in remote.items():
+        for column in store.COLUMNS:
+            mine, theirs = row[column], local[key][column]
+            if isinstance(mine, float) and isinstance(theirs, float):
+                assert mine == pytest.approx(theirs, rel=1e-9, abs=1e-12, nan_ok=True), (key, column)
+            else:
+                assert mine == theirs, (key, column)
+    assert json.loads((out / store.MANIFEST_FILE).read_text())["scheduler"] == dask_cluster.scheduler_address
+
+
+def test_an_unreachable_scheduler_is_one_clear_line(tmp_path, capsys, monkeypatch):
+    from pmr_ros.sweep import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1.0)
+    argv = ["sweep", "--out", str(tmp_path / "o"), "--scheduler", "tcp://127.0.0.1:9", *SMALL]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler tcp://127.0.0.1:9: cannot connect" in err[0]

@@ -11,17 +11,22 @@ are compared with the offline ones number for number.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..config import PmrConfig, load_config, parse_config
-from ..contract.alignment import SIGNALS, SampleAligner
+from ..config.schema import parameter
+from ..contract.alignment import SIGNALS, AddResult, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis, compare_diagnoses
 from .reader import Bag
 from .schema import BagError
+
+EXAMPLES = 3
+"""Rejected messages quoted per signal on the console and in the report."""
 
 DIAGNOSTICIAN_NODE = "pmr_diagnostician"
 """Name of the live diagnostician whose recorded statuses are compared."""
@@ -50,6 +55,54 @@ class RecordedVerdict:
 
 
 @dataclass
+class DropCounts:
+    """The messages the aligner rejected, per signal and kind of problem, with the first few quoted.
+
+    Attributes
+    ----------
+    counts : dict
+        Signal label (``y on /pmr/measured_output``) -> kind (``non-finite value``,
+        ``duplicated`` ...) -> messages.
+    examples : dict
+        Signal label -> the first :data:`EXAMPLES` rejection texts.
+    """
+
+    counts: dict[str, Counter] = field(default_factory=dict)
+    examples: dict[str, list[str]] = field(default_factory=dict)
+
+    def note(self, label: str, result: AddResult) -> None:
+        """Count ``result`` if it rejected a message of ``label``."""
+        if not result.rejected_as:
+            return
+        self.counts.setdefault(label, Counter())[result.rejected_as] += 1
+        quoted = self.examples.setdefault(label, [])
+        if len(quoted) < EXAMPLES:
+            quoted.extend(result.warnings[:1])
+
+    @property
+    def total(self) -> int:
+        """Messages rejected, all signals."""
+        return sum(sum(c.values()) for c in self.counts.values())
+
+    def lines(self) -> list[str]:
+        """One line per signal with drops (``N dropped: a non-finite value, b duplicated``), then the examples."""
+        out = []
+        for label, counts in self.counts.items():
+            kinds = ", ".join(f"{n} {kind}" for kind, n in counts.most_common())
+            total = sum(counts.values())
+            out.append(f"{label}: {total} message{'s' if total > 1 else ''} dropped ({kinds})")
+            out += [f"  e.g. {text}" for text in self.examples.get(label, [])]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: per signal, the counts by kind and the examples."""
+        return {
+            label: {"dropped": sum(c.values()), "by_kind": dict(c), "examples": self.examples.get(label, [])}
+            for label, c in self.counts.items()
+        }
+
+
+@dataclass
 class OfflineResult:
     """Everything the offline diagnosis of a bag found.
 
@@ -74,6 +127,12 @@ class OfflineResult:
     end_of_bag : bool
         The last outcome is an extra diagnosis of the window at the end of the
         data, which fell between two of the diagnostician's updates.
+    drops : DropCounts
+        The rejected messages, counted per signal and kind.
+    gaps : int
+        Times the data broke into a new stretch.
+    notes : list of str
+        What the console should say about how the bag was judged.
     """
 
     config: PmrConfig
@@ -84,6 +143,9 @@ class OfflineResult:
     warnings: list[str] = field(default_factory=list)
     messages: dict[str, int] = field(default_factory=dict)
     end_of_bag: bool = False
+    drops: DropCounts = field(default_factory=DropCounts)
+    gaps: int = 0
+    notes: list[str] = field(default_factory=list)
 
     @property
     def final(self) -> WindowOutcome | None:
@@ -96,18 +158,22 @@ class OfflineResult:
         outcome = self.final
         if outcome is None:
             models = self.config.model.element_models()
-            return Diagnosis.insufficient(
-                method=self.config.pmr.method,
-                models=models,
-                reason="no diagnostician update in the bag's data",
-                samples=0,
-            )
+            reason = "no complete sample of r, u and y in the bag"
+            if self.drops.total:
+                first = next(iter(self.drops.examples.values()))[0]
+                reason += f": {self.drops.total} messages dropped, the first: {first}"
+            return Diagnosis.insufficient(method=self.config.pmr.method, models=models, reason=reason, samples=0)
         return outcome.diagnosis
 
     @property
     def all_equal(self) -> bool:
         """Whether every recorded window agrees with its offline diagnosis."""
         return all(c["equal"] for c in self.comparisons)
+
+    @property
+    def not_diagnosed_live(self) -> int:
+        """Recorded windows the live node gave no verdict for (stale or too few samples): nothing to compare."""
+        return sum(1 for v in self.recorded if v.window is not None and v.diagnosis.status != "ok")
 
 
 def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConfig, str]:
@@ -168,75 +234,189 @@ def bag_namespace(bag: Bag) -> str:
     return found[0] if found else "/"
 
 
-def _replay(
-    bag: Bag, config: PmrConfig, namespace: str = "/"
-) -> tuple[list[WindowOutcome], list[str], dict[str, int], bool]:
-    """Feed the bag's r, u, y through the live diagnostician's aligner and schedule."""
-    model, window = config.model, config.diagnostician
-    labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).resolved(namespace)}" for s in SIGNALS}
-    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-    aligner = SampleAligner(model.sample_time, names, labels, window.window_samples, window.max_lag_samples)
-    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
-    outcomes: list[WindowOutcome] = []
-    warnings: list[str] = []
-    counts = dict.fromkeys(SIGNALS, 0)
-    for message in bag.messages(set(by_topic)):
-        signal = by_topic[message.topic]
-        counts[signal] += 1
-        stamp, channel_names, values = read_signal(bag.decode(message))
-        offer = offer_signal(
-            aligner,
-            signal,
-            stamp_s=stamp,
-            names=channel_names,
-            values=values,
-            update_period_samples=window.update_period_samples,
-        )
-        warnings.extend(offer.result.warnings)
-        if offer.newly_lagging:
-            warnings.append(offer.newly_lagging)
-            outcomes.append(evaluate_window(aligner, config))
-        if offer.update_due:
-            outcomes.append(evaluate_window(aligner, config))
-    end_of_bag = False
-    if aligner.stretch_last is not None and (
-        not outcomes or outcomes[-1].window.get("last_sample") != aligner.stretch_last
-    ):
-        # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
-        outcomes.append(evaluate_window(aligner, config))
-        end_of_bag = True
-    return outcomes, warnings, counts, end_of_bag
+def _signal_labels(namespace: str = "/") -> dict[str, str]:
+    return {s: f"{s} on {topic(SIGNAL_TOPICS[s]).resolved(namespace)}" for s in SIGNALS}
 
 
-def diagnose_bag(
-    bag: Bag, config_path: str | None = None, method: str | None = None, *, namespace: str | None = None
-) -> OfflineResult:
-    """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
+def check_system(bag: Bag, config: PmrConfig, origin: str, namespace: str = "/") -> None:
+    """Refuse a configuration whose channels are not those of the bag's signals.
 
-    ``method`` (``classic`` or ``parametric``) overrides the configuration's
-    ``pmr.method``; recorded verdicts made with another method are not compared.
-    ``namespace`` picks the node set whose topics are read (default: the one
-    the bag recorded, see :func:`bag_namespace`).
+    The first messages of r, u and y must carry as many values (and, when
+    named, the same channel names) as the configuration has channels;
+    otherwise every message would be dropped and the diagnosis would only
+    say that there are no data.
 
     Raises
     ------
     BagError
-        A needed topic is missing, empty or of the wrong type, or no configuration.
+        Naming the topic, the field and both widths.
+    """
+    model = config.model
+    expected = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+    for signal, key in SIGNAL_TOPICS.items():
+        name = topic(key).resolved(namespace)
+        seen = []
+        for message in bag.messages({name}):
+            seen.append(read_signal(bag.decode(message)))
+            if len(seen) == 5:
+                break
+        widths = {len(values) for _, _, values in seen}
+        names = {channels for _, channels, _ in seen}
+        want = expected[signal]
+        if len(widths) == 1 and widths != {len(want)}:
+            shown = f" ({', '.join(next(iter(names)))})" if len(names) == 1 and next(iter(names)) else ""
+            raise BagError(
+                f"{bag.path}: {name} carries {widths.pop()} values{shown} in position where the configuration "
+                f"({origin}) expects {len(want)} ({', '.join(want)}): the bag was recorded from another system"
+            )
+        if len(names) == 1 and next(iter(names)) and next(iter(names)) != tuple(want):
+            raise BagError(
+                f"{bag.path}: {name} names its channels {', '.join(next(iter(names)))} where the configuration "
+                f"({origin}) has {', '.join(want)}: the bag was recorded from another system"
+            )
+
+
+class _Replay:
+    """The bag's r, u, y through the live diagnostician's aligner and schedule."""
+
+    def __init__(self, config: PmrConfig, namespace: str = "/") -> None:
+        model, window = config.model, config.diagnostician
+        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        self.labels = _signal_labels(namespace)
+        self.config = config
+        self.aligner = SampleAligner(
+            model.sample_time, names, self.labels, window.window_samples, window.max_lag_samples
+        )
+        self.outcomes: list[WindowOutcome] = []
+        self.warnings: list[str] = []
+        self.counts = dict.fromkeys(SIGNALS, 0)
+        self.drops = DropCounts()
+
+    def offer(self, signal: str, message: Any) -> None:
+        """One recorded message of ``signal`` (decoded)."""
+        self.counts[signal] += 1
+        stamp, channel_names, values = read_signal(message)
+        offer = offer_signal(
+            self.aligner,
+            signal,
+            stamp_s=stamp,
+            names=channel_names,
+            values=values,
+            update_period_samples=self.config.diagnostician.update_period_samples,
+        )
+        self.warnings.extend(offer.result.warnings)
+        self.drops.note(self.labels[signal], offer.result)
+        if offer.newly_lagging:
+            self.warnings.append(offer.newly_lagging)
+            self.outcomes.append(evaluate_window(self.aligner, self.config))
+        if offer.update_due:
+            self.outcomes.append(evaluate_window(self.aligner, self.config))
+
+    def finish(self) -> bool:
+        """Diagnose the window at the end of the data if no update fell on it; whether one was added."""
+        last = self.aligner.stretch_last
+        if last is None or (self.outcomes and self.outcomes[-1].window.get("last_sample") == last):
+            return False
+        # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
+        self.outcomes.append(evaluate_window(self.aligner, self.config))
+        return True
+
+
+def _replay(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
+    """Feed the r, u, y of the node set in ``namespace`` through the live diagnostician's aligner and schedule."""
+    replay = _Replay(config, namespace)
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
+    for message in bag.messages(set(by_topic)):
+        replay.offer(by_topic[message.topic], bag.decode(message))
+    return replay
+
+
+def held_samples(bag: Bag, namespace: str = "/") -> int:
+    """Samples of r, u and y the bag holds (messages of the sparsest signal)."""
+    return min(bag.counts.get(topic(SIGNAL_TOPICS[s]).resolved(namespace), 0) for s in SIGNALS)
+
+
+def judged_config(
+    config: PmrConfig, *, held: int, origin: str, min_samples: int | None = None
+) -> tuple[PmrConfig, str | None]:
+    """The configuration a bag is judged with offline, and a note when it differs from the recorded one.
+
+    ``min_samples`` (``--min-samples``) replaces ``diagnostician.min_samples``.
+    Without it, a ``pmr-ros run --bag`` recording (its minimum is the run's
+    planned length: ``min_samples == window_samples == run.samples``) that
+    holds fewer samples than planned is judged with the declared default
+    minimum instead: the recording was cut short, the data may still do.
+
+    Raises
+    ------
+    BagError
+        ``min_samples`` exceeds the window.
+    """
+    settings = config.diagnostician
+    if min_samples is not None:
+        if min_samples > settings.window_samples:
+            raise BagError(
+                f"--min-samples {min_samples}: must not exceed diagnostician.window_samples = "
+                f"{settings.window_samples} of the configuration ({origin})"
+            )
+        return replace(config, diagnostician=replace(settings, min_samples=min_samples)), None
+    planned = config.run.samples
+    if not (settings.min_samples == settings.window_samples == planned and held < planned):
+        return config, None
+    cut = f"the bag holds {held} of the {planned} samples its run planned (a recording cut short)"
+    default = int(parameter("diagnostician.min_samples").default)
+    if default >= planned:
+        return config, f"{cut}; --min-samples N judges it on fewer samples"
+    note = (
+        f"{cut}: judged with diagnostician.min_samples = {default} (the declared default) instead of the planned "
+        "length; --min-samples N to require more or fewer"
+    )
+    return replace(config, diagnostician=replace(settings, min_samples=default)), note
+
+
+def diagnose_bag(
+    bag: Bag,
+    config_path: str | None = None,
+    method: str | None = None,
+    *,
+    min_samples: int | None = None,
+    namespace: str | None = None,
+) -> OfflineResult:
+    """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
+
+    ``method`` (``classic`` or ``parametric``) overrides the configuration's
+    ``pmr.method``; recorded verdicts made with another method are not
+    compared.  ``min_samples`` overrides ``diagnostician.min_samples`` (see
+    :func:`judged_config` for a recording cut short).  ``namespace`` picks the
+    node set whose topics are read (default: the one the bag recorded, see
+    :func:`bag_namespace`).
+
+    Raises
+    ------
+    BagError
+        A needed topic is missing, empty or of the wrong type, no
+        configuration, or one whose channels are not the bag's.
     """
     namespace = bag_namespace(bag) if namespace is None else namespace
     bag.require(required_topics(namespace))
     config, origin = bag_configuration(bag, config_path)
+    check_system(bag, config, origin, namespace)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
-    outcomes, warnings, counts, end_of_bag = _replay(bag, config, namespace)
+    config, note = judged_config(config, held=held_samples(bag, namespace), origin=origin, min_samples=min_samples)
+    replay = _replay(bag, config, namespace)
+    end_of_bag = replay.finish()
     result = OfflineResult(
         config,
         origin,
-        outcomes,
+        replay.outcomes,
         _recorded_verdicts(bag, config, namespace),
-        warnings=warnings,
-        messages=counts,
+        warnings=replay.warnings,
+        messages=replay.counts,
         end_of_bag=end_of_bag,
+        drops=replay.drops,
+        gaps=replay.aligner.gaps,
+        notes=[note] if note else [],
     )
     result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
@@ -248,13 +428,34 @@ def diagnose_bag(
     return result
 
 
+def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None) -> dict[str, Any]:
+    """One recorded verdict against the offline outcome of its window."""
+    first, last = verdict.window or (0, 0)
+    entry: dict[str, Any] = {"first_sample": first, "last_sample": last, "recorded_status": verdict.diagnosis.status}
+    if mine is None:
+        entry.update(equal=False, offline_status="not diagnosed offline")
+        return entry
+    entry["offline_status"] = "ok" if mine.kind == VERDICT else mine.kind
+    if mine.kind != VERDICT:
+        entry["equal"] = False
+        return entry
+    entry["differences"] = compare_diagnoses(
+        verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"]
+    )
+    entry["equal"] = not entry["differences"]
+    return entry
+
+
 def compare(
     outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None
 ) -> list[dict[str, Any]]:
-    """For every recorded verdict with a window, whether the offline one for that window agrees.
+    """For every verdict the live node recorded for a window, whether the offline one for that window agrees.
 
-    With ``method``, recorded verdicts made with another method are left out.
-    Agreeing means the same kind (verdict or none) and, for a verdict,
+    Only the live node's verdicts are compared: a window it could not
+    diagnose (stale while its publishers matched, too few samples) is no
+    disagreement, whatever the offline diagnosis of it.  With ``method``,
+    verdicts made with another method are left out.  Agreeing means an
+    offline verdict for the same window in which
     :func:`~pmr_ros.core.results.compare_diagnoses` finds no difference:
     verdicts, flags, delays and strings equal, floats within its tolerance
     (the same data diagnosed on another machine differ in the last digits).
@@ -266,27 +467,9 @@ def compare(
     out = []
     for verdict in recorded:
         window = verdict.window
-        if window is None or (
-            method is not None and verdict.diagnosis.status == "ok" and verdict.diagnosis.method != method
-        ):
+        if window is None or verdict.diagnosis.status != "ok":
             continue
-        mine = offline.get(window)
-        entry: dict[str, Any] = {
-            "first_sample": window[0],
-            "last_sample": window[1],
-            "recorded_status": verdict.diagnosis.status,
-        }
-        if mine is None:
-            entry.update(equal=False, offline_status="not diagnosed offline")
-        else:
-            mine_ok = mine.kind == VERDICT
-            entry["offline_status"] = "ok" if mine_ok else mine.kind
-            if verdict.diagnosis.status == "ok" and mine_ok:
-                entry["differences"] = compare_diagnoses(
-                    verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"]
-                )
-                entry["equal"] = not entry["differences"]
-            else:
-                entry["equal"] = verdict.diagnosis.status != "ok" and not mine_ok
-        out.append(entry)
+        if method is not None and verdict.diagnosis.method != method:
+            continue
+        out.append(_comparison(verdict, offline.get(window)))
     return out

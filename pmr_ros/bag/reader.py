@@ -1,17 +1,29 @@
-"""Reading pmr_ros bags: complete rosbag2 bags with ``rosbags``, killed recordings by a stream scan.
+"""Reading pmr_ros bags: complete rosbag2 bags with ``rosbags``, killed recordings from what they committed.
 
 :func:`open_bag` checks what it is given and always answers with a
 :class:`Bag` or a one-line :class:`~pmr_ros.bag.schema.BagError`: a path that
-is no bag, an unreadable ``metadata.yaml``, a truncated or corrupted storage
-file, an empty bag.  A directory whose recorder was killed (no
-``metadata.yaml``, an MCAP file without its summary) is read by scanning the
-MCAP records in order up to the last complete chunk, i.e. up to the recorder's
-last flush; the bag is then marked ``complete = False``.
+is no bag, a corrupted storage file, an empty bag.  What a recorder that was
+killed left behind is read as far as it is whole, and the bag is marked
+``complete = False``:
+
+* an MCAP file without its summary (no ``metadata.yaml``, or one written
+  before the file was cut short): its records are scanned in order, chunk
+  CRCs checked, up to the first incomplete or damaged one -- the recorder's
+  last flush;
+* a sqlite3 bag without ``metadata.yaml``: the rows its recorder committed,
+  read from a copy of the database (so a pending journal is rolled back there,
+  not in the user's files).
+
+:func:`reindex` writes such a bag again as a complete one (summary and
+``metadata.yaml``) that stock ``ros2 bag`` reads.
 """
 
 from __future__ import annotations
 
+import shutil
+import sqlite3
 import struct
+import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +70,8 @@ class Bag:
         Topic name -> messages.
     custom_data : dict
         ``metadata.yaml`` custom_data (empty for an incomplete bag).
+    recovery : str
+        For an incomplete bag, why it was read by recovery ("" for a complete one).
     """
 
     path: Path
@@ -67,6 +81,7 @@ class Bag:
     counts: dict[str, int]
     custom_data: dict[str, str] = field(default_factory=dict)
     _messages: list[BagMessage] | None = field(default=None, repr=False)
+    recovery: str = ""
 
     @property
     def message_count(self) -> int:
@@ -87,7 +102,7 @@ class Bag:
         except Exception as exc:  # any decoding failure of stored bytes means a corrupted record
             raise BagError(
                 f"{self.path}: a {message.msgtype} message on {message.topic} cannot be decoded "
-                f"({type(exc).__name__}: {exc}); the bag is corrupted"
+                f"({_cause(exc)}); the bag is corrupted"
             ) from None
 
     def run_config(self) -> RunConfig | None:
@@ -148,6 +163,12 @@ def _reader_error_types():
     )
 
 
+def _cause(exc: BaseException, limit: int = 240) -> str:
+    """An exception as one short line: its type and message, whitespace (libyaml's multi-line marks) folded."""
+    text = " ".join(f"{type(exc).__name__}: {exc}".split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _read_rosbag2(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
     from rosbags.rosbag2 import Reader
 
@@ -159,7 +180,7 @@ def _read_rosbag2(path: Path, topics: set[str] | None) -> Iterator[BagMessage]:
             for connection, timestamp, data in reader.messages(connections=connections):
                 yield BagMessage(connection.topic, connection.msgtype, timestamp, bytes(data))
     except _reader_error_types() as exc:
-        raise BagError(f"{path}: the bag is truncated or corrupted ({type(exc).__name__}: {exc})") from None
+        raise BagError(f"{path}: the bag is truncated or corrupted ({_cause(exc)})") from None
 
 
 def _storage_files(path: Path) -> list[Path]:
@@ -179,20 +200,55 @@ def open_bag(path: str | Path) -> Bag:
         raise BagError(f"{path}: no such bag (nothing at this path)")
     if path.is_file():
         if path.suffix == ".mcap":
-            return _recover_mcap(path, path)
+            return _recover_mcap(path, path, "a lone .mcap file, no metadata.yaml")
         raise BagError(f"{path}: not a bag (a rosbag2 bag is a directory with metadata.yaml and a .mcap or .db3 file)")
     files = _storage_files(path)
+    mcaps = [f for f in files if f.suffix == ".mcap"]
+    databases = [f for f in files if f.suffix == ".db3"]
     if not (path / "metadata.yaml").is_file():
-        mcaps = [f for f in files if f.suffix == ".mcap"]
         if len(mcaps) == 1:
-            return _recover_mcap(path, mcaps[0])
-        if any(f.suffix == ".db3" for f in files):
-            raise BagError(
-                f"{path}: no metadata.yaml (the recorder did not close this sqlite3 bag); run 'ros2 bag reindex "
-                f"{path}' first"
-            )
-        raise BagError(f"{path}: not a rosbag2 bag (no metadata.yaml and no .mcap file)")
-    return _open_complete(path)
+            return _recover_mcap(path, mcaps[0], "no metadata.yaml: its recorder did not close it")
+        if databases:
+            return _recover_sqlite3(path, databases)
+        raise BagError(f"{path}: not a rosbag2 bag (no metadata.yaml, no .mcap or .db3 file)")
+    try:
+        return _open_complete(path)
+    except BagError as exc:
+        if len(mcaps) != 1:
+            raise BagError(_metadata_problem(path) or str(exc)) from None
+        # metadata.yaml was written, but the MCAP file was cut short or damaged after it: read what is whole.
+        why = f"not readable whole: {exc.cause}" if isinstance(exc, _Unreadable) else str(exc)
+        try:
+            return _recover_mcap(path, mcaps[0], why)
+        except BagError:
+            raise exc from None
+
+
+def _metadata_problem(path: Path) -> str | None:
+    """What is wrong with a bag's metadata.yaml (one line), or None when it parses as a rosbag2 mapping."""
+    import yaml
+
+    metadata = path / "metadata.yaml"
+    try:
+        document = yaml.safe_load(metadata.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        return f"{metadata}: cannot be read ({_cause(exc)})"
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = " ".join(str(getattr(exc, "problem", None) or exc).split())
+        return f"{metadata}: not valid YAML: {problem}{where}"
+    if not isinstance(document, dict) or not isinstance(document.get("rosbag2_bagfile_information"), dict):
+        return f"{metadata}: not rosbag2 metadata (no 'rosbag2_bagfile_information' mapping)"
+    return None
+
+
+class _Unreadable(BagError):
+    """rosbags cannot open a bag that has its metadata.yaml."""
+
+    def __init__(self, path: Path, cause: str) -> None:
+        super().__init__(f"{path}: cannot read the bag: truncated or corrupted ({cause})")
+        self.cause = cause
 
 
 def _open_complete(path: Path) -> Bag:
@@ -202,7 +258,7 @@ def _open_complete(path: Path) -> Bag:
         reader = Reader(path)
         reader.open()
     except _reader_error_types() as exc:
-        raise BagError(f"{path}: cannot read the bag: truncated or corrupted ({type(exc).__name__}: {exc})") from None
+        raise _Unreadable(path, _cause(exc)) from None
     try:
         topics = {c.topic: c.msgtype for c in reader.connections}
         counts = {c.topic: c.msgcount for c in reader.connections}
@@ -242,7 +298,7 @@ class _McapScan:
             self.footer = True
 
 
-def _recover_mcap(path: Path, mcap_file: Path) -> Bag:
+def _recover_mcap(path: Path, mcap_file: Path, why: str = "") -> Bag:
     """Read an MCAP file record by record up to the first incomplete record (a killed recording)."""
     from mcap.exceptions import McapError
     from mcap.stream_reader import StreamReader
@@ -252,17 +308,61 @@ def _recover_mcap(path: Path, mcap_file: Path) -> Bag:
     scan = _McapScan(path)
     with mcap_file.open("rb") as handle:
         try:
-            for record in StreamReader(handle, record_size_limit=1 << 30).records:
+            for record in StreamReader(handle, validate_crcs=True, record_size_limit=1 << 30).records:
                 scan.take(record)
         except (McapError, *_reader_error_types()) as exc:
             # The end of a killed recording: everything before this record is whole.
             if not scan.channels:
-                raise BagError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
+                raise BagError(f"{path}: not a readable MCAP file ({_cause(exc)})") from None
     if not scan.messages:
         raise BagError(f"{path}: the bag is empty (no complete messages in {mcap_file.name})")
     topics = dict(scan.channels.values())
     counts: dict[str, int] = dict.fromkeys(topics, 0)
     for m in scan.messages:
         counts[m.topic] += 1
-    complete = scan.footer and path.is_dir() and (path / "metadata.yaml").is_file()
-    return Bag(path, "mcap", complete, topics, counts, {}, scan.messages)
+    complete = scan.footer and path.is_dir() and (path / "metadata.yaml").is_file() and not why
+    recovery = "" if complete else (why or "the file was not closed (no summary)")
+    return Bag(path, "mcap", complete, topics, counts, {}, scan.messages, recovery)
+
+
+def _committed_rows(database: Path) -> tuple[dict[int, tuple[str, str]], list[tuple[int, int, bytes]]]:
+    """Topics (id -> name, type) and message rows (topic id, timestamp, data) a sqlite3 bag committed."""
+    with tempfile.TemporaryDirectory(prefix="pmr_ros_bag_") as folder:
+        copy = Path(folder) / database.name
+        for companion in (database, *(database.with_name(database.name + s) for s in ("-journal", "-wal"))):
+            if companion.is_file():
+                shutil.copyfile(companion, copy.with_name(companion.name))
+        connection = sqlite3.connect(copy)
+        try:
+            topics = {int(i): (str(n), str(t)) for i, n, t in connection.execute("SELECT id, name, type FROM topics")}
+            rows = connection.execute(
+                "SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp, id"
+            ).fetchall()
+        finally:
+            connection.close()
+    return topics, [(int(t), int(ts), bytes(data)) for t, ts, data in rows]
+
+
+def _recover_sqlite3(path: Path, databases: list[Path]) -> Bag:
+    """Read the rows a killed sqlite3 recorder committed (no metadata.yaml)."""
+    messages: list[BagMessage] = []
+    topics: dict[str, str] = {}
+    for database in databases:
+        try:
+            by_id, rows = _committed_rows(database)
+        except (sqlite3.Error, OSError) as exc:
+            raise BagError(f"{path}: {database.name} is not a readable rosbag2 sqlite3 file ({_cause(exc)})") from None
+        topics.update(by_id.values())
+        for topic_id, stamp, data in rows:
+            if topic_id not in by_id:
+                raise BagError(f"{path}: {database.name} holds a message of unknown topic id {topic_id}; corrupted")
+            name, msgtype = by_id[topic_id]
+            messages.append(BagMessage(name, msgtype, stamp, data))
+    if not messages:
+        raise BagError(f"{path}: the bag is empty (no committed messages in {', '.join(d.name for d in databases)})")
+    messages.sort(key=lambda m: m.log_time_ns)
+    counts: dict[str, int] = dict.fromkeys(topics, 0)
+    for m in messages:
+        counts[m.topic] += 1
+    why = "no metadata.yaml: its recorder did not close it; the rows it committed are read"
+    return Bag(path, "sqlite3", False, topics, counts, {}, messages, why)

@@ -142,9 +142,8 @@ class RunConfig:
             params = doc["/**"]["ros__parameters"]
             head = doc.get("pmr_ros_run_config", {}) or {}
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(
-                f"the recorded run configuration is not a pmr_ros params document ({type(exc).__name__}: {exc})"
-            ) from None
+            cause = " ".join(f"{type(exc).__name__}: {exc}".split())
+            raise BagError(f"the recorded run configuration is not a pmr_ros params document ({cause})") from None
         if not isinstance(params, dict):
             raise BagError("the recorded run configuration has no parameter mapping under '/**: ros__parameters'")
         return cls(params, str(head.get("source", "")), str(head.get("version", "")))
@@ -158,7 +157,6 @@ class RunConfig:
         try:
             params = yaml.safe_load(text)["/**"]["ros__parameters"]
         except (yaml.YAMLError, TypeError, KeyError) as exc:
-            raise BagError(
-                f"metadata.yaml custom_data pmr_ros.params is not a params file ({type(exc).__name__}: {exc})"
-            ) from None
+            cause = " ".join(f"{type(exc).__name__}: {exc}".split())
+            raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({cause})") from None
         return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""))

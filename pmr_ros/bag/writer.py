@@ -139,14 +139,18 @@ class BagWriter:
         """Serialise a ``rosbags`` message object of the topic's type and write it."""
         self.write_raw(topic_name, timestamp_ns, typestore().serialize_cdr(message, self._types[topic_name]))
 
+    def keep_run_config(self, config: RunConfig) -> None:
+        """Put the run's configuration into ``metadata.yaml`` on close, without a message (one is copied raw)."""
+        self.run_config = config
+        for key, value in config.custom_data().items():
+            self._writer.set_custom_data(key, value)
+
     def write_run_config(self, config: RunConfig, timestamp_ns: int) -> None:
         """Record the run's configuration: on the ``run_config`` topic now, in metadata.yaml on close.
 
         It is flushed at once, so even a bag whose recorder is killed keeps it.
         """
-        self.run_config = config
-        for key, value in config.custom_data().items():
-            self._writer.set_custom_data(key, value)
+        self.keep_run_config(config)
         string = typestore().types["std_msgs/msg/String"]
         self.write_message(self.topics[RUN_CONFIG_KEY].name, timestamp_ns, string(data=config.to_text()))
         self.flush()

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
 from typing import Any
 
 
@@ -38,6 +40,64 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+def writable_file(path: str, option: str) -> None:
+    """Check, before any work, that ``path`` (given with ``option``) can be written; else :class:`CommandError`.
+
+    A file that does not exist yet is created and removed again; one that
+    exists is opened for appending, not changed.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise CommandError(f"{option} {path}: is a folder, not a file")
+    existed = target.exists()
+    try:
+        with target.open("a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        raise CommandError(f"{option} {path}: cannot write: {exc.strerror or exc}") from None
+    if not existed:
+        target.unlink(missing_ok=True)
+
+
+def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer samples") -> None:
+    """Refuse, before allocating, work whose estimated memory exceeds what the machine has available now.
+
+    Parameters
+    ----------
+    parts : dict
+        What needs memory -> bytes (see :mod:`pmr_ros.core.memory`).
+    cause : str
+        The setting that asks for it (``run.samples = 2000000000 (command line)``).
+    advice : str
+        What to do instead.
+
+    Raises
+    ------
+    CommandError
+        One line with the figures.
+    """
+    from ..core.memory import available_bytes, format_bytes
+
+    needed, have = sum(parts.values()), available_bytes()
+    if have is None or needed <= have:
+        return
+    detail = ", ".join(f"{name} {format_bytes(n)}" for name, n in parts.items())
+    raise CommandError(
+        f"{cause}: needs about {format_bytes(needed)} of memory ({detail}); {format_bytes(have)} available: {advice}"
+    )
+
+
+def nonnegative_float(text: str) -> float:
+    """Argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number >= 0")
+    return value
+
+
 def positive_float(text: str) -> float:
     """Argparse type: a finite number > 0."""
     try:
@@ -45,7 +105,7 @@ def positive_float(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{value:g} must be positive (> 0)")
+        raise argparse.ArgumentTypeError(f"{text} must be a finite number > 0")
     return value
 
 

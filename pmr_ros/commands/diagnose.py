@@ -1,4 +1,7 @@
-"""``pmr-ros diagnose BAG``: offline PMR diagnosis straight from a bag, no ROS graph.
+"""``pmr-ros diagnose BAG|FILE.csv|FILE.parquet``: offline PMR diagnosis of a bag or a historian export.
+
+A historian export goes to :mod:`pmr_ros.commands.plant_data` (read, cleaned,
+one estimate from all its clean stretches); the rest of this module is a bag's.
 
 The bag's r, u and y go through the live diagnostician's alignment and window
 schedule (:mod:`pmr_ros.bag.offline`) with the recorded configuration (or
@@ -13,7 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -23,34 +27,65 @@ def register(sub) -> None:
     """Add ``pmr-ros diagnose`` to the sub-command parsers."""
     p = sub.add_parser(
         "diagnose",
-        help="diagnose a recorded rosbag2 bag offline (no ROS graph)",
+        help="diagnose a rosbag2 bag or a historian export (CSV, Parquet) offline (no ROS graph)",
         description=(
             "Diagnose a bag's r, u, y offline exactly as the live pmr_diagnostician does (same alignment, windows and "
             "model), "
-            "with the bag's recorded configuration or --config, and compare with the verdicts recorded on /diagnostics."
+            "with the bag's recorded configuration or --config, and compare with the verdicts recorded on "
+            "/diagnostics. A historian export (.csv, .parquet) is read with the data block of --config (columns, "
+            "time stamps, bad values), cleaned, and diagnosed as one estimate from all its clean stretches."
         ),
     )
-    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
+    p.add_argument(
+        "bag",
+        metavar="PATH",
+        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config)",
+    )
     p.add_argument(
         "--config",
         metavar="FILE",
         help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)",
     )
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    add_report_argument(p)
     add_method_argument(p)
-    add_namespace_argument(p, "diagnose the node set recorded under this namespace (default: the one the bag holds)")
+    add_namespace_argument(
+        p, "a bag: diagnose the node set recorded under this namespace (default: the one the bag holds)"
+    )
+    add_model_arguments(p)
+    p.add_argument(
+        "--min-samples",
+        type=positive_int,
+        metavar="N",
+        help="a bag: fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for "
+        "a 'pmr-ros run --bag' recording cut short, the declared default)",
+    )
     p.set_defaults(handler=handle)
 
 
-def offline_report(result, bag) -> dict:
-    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields)."""
+def add_report_argument(parser: argparse.ArgumentParser) -> None:
+    """--report DIR: the HTML report with its figures (bags and historian exports alike)."""
+    parser.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also write an HTML report (index.html, figures/*.png): verdict matrix, per-element PMR with confidence "
+        "band and fitted curve, data cleaning and time plot",
+    )
+
+
+def offline_report(result, bag, diagnosis=None) -> dict:
+    """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields).
+
+    ``diagnosis`` replaces the final window's diagnosis (e.g. with its control impact added).
+    """
     from ..report import build_report
 
     config = result.config
     recorded = bag.run_config()
     scenario = recorded.scenario if recorded is not None and result.config_origin == "bag" else None
     seed = recorded.seed if recorded is not None and result.config_origin == "bag" else None
-    report = build_report(config, result.final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
+    final_diagnosis = diagnosis if diagnosis is not None else result.final_diagnosis
+    report = build_report(config, final_diagnosis, command="diagnose", scenario=scenario or None, seed=seed)
     final = result.final
     report["path"] = "bag"
     report["bag"] = {
@@ -69,55 +104,108 @@ def offline_report(result, bag) -> dict:
         "different": [c for c in result.comparisons if not c["equal"]],
     }
     report["warnings"] = result.warnings[:100]
+    report["dropped_messages"] = result.drops.to_dict()
+    report["gaps"] = result.gaps
+    report["notes"] = list(result.notes)
     return report
 
 
-def handle(args: argparse.Namespace) -> int:
-    """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
-    from ..bag.offline import diagnose_bag
-    from ..bag.reader import open_bag
-    from ..bag.schema import BagError
-    from ..core.results import RELATIVE_TOLERANCE
-    from ..report import format_table, write_json
-
-    try:
-        bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config, args.method, namespace=args.namespace)
-        report = offline_report(result, bag)
-    except BagError as exc:
-        raise CommandError(str(exc)) from None
-    sys.stdout.write(format_table(report))
-    window = report["window"]
+def print_data_notes(result, bag) -> None:
+    """What the console says about the data beside the table: window, drops, gaps, a recording cut short."""
+    window = result.final.window if result.final is not None else {}
     if window.get("window_samples"):
         print(
             f"window: samples {window.get('first_sample')}..{window.get('last_sample')} ({window['window_samples']} "
             f"samples), configuration from {result.config_origin}"
         )
+    for line in result.drops.lines():
+        print(f"dropped: {line}" if not line.startswith("  ") else line)
+    if result.gaps:
+        print(f"gaps: the data broke {result.gaps} time(s); each unbroken stretch long enough is diagnosed")
+    for note in result.notes:
+        print(f"note: {note}")
     if result.end_of_bag:
         print(
             "note: the data end between two diagnostician updates; the last window is diagnosed at the end of the bag"
         )
     if not bag.complete:
         print(
-            f"note: {bag.path} was not closed by its recorder; read up to its last flush ({bag.message_count} messages)"
+            f"note: {bag.path} is incomplete ({bag.recovery}): read as far as it is whole "
+            f"({bag.message_count} messages)"
         )
+
+
+def print_comparison(report: dict, result) -> None:
+    """How the offline verdicts compare with those the live node recorded on /diagnostics."""
+    from ..core.results import RELATIVE_TOLERANCE
+
     compared = report["recorded_comparison"]
     if compared["windows"]:
         print(
-            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} windows agree offline "
+            f"recorded /diagnostics: {compared['equal']} of {compared['windows']} verdict windows agree offline "
             f"(verdicts, flags and delays exact, numbers within {RELATIVE_TOLERANCE:g} relative)"
         )
-        for entry in compared["different"][:3]:
-            detail = (
-                "; ".join(entry.get("differences", [])[:3])
-                or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
-            )
-            print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
+    for entry in compared["different"][:3]:
+        detail = (
+            "; ".join(entry.get("differences", [])[:3])
+            or f"recorded {entry['recorded_status']}, offline {entry['offline_status']}"
+        )
+        print(f"  window {entry['first_sample']}..{entry['last_sample']} differs: {detail}")
+    if result.not_diagnosed_live:
+        print(
+            f"recorded /diagnostics: {result.not_diagnosed_live} window(s) without a live verdict (stale or too few "
+            "samples) are not compared"
+        )
+
+
+def handle(args: argparse.Namespace) -> int:
+    """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
+    from .plant_data import TABLE, diagnose_table, source_kind
+
+    if args.json:
+        writable_file(args.json, "--json")  # before any work, for a bag and an export alike
+    if source_kind(args.bag) == TABLE:
+        if args.min_samples is not None:
+            raise CommandError(f"--min-samples: an option for a bag; {args.bag} is judged on all its clean data")
+        if args.namespace is not None:
+            raise CommandError(f"--namespace: an option for a bag; {args.bag} is a historian export")
+        return diagnose_table(args)
+    return diagnose_bag_command(args)
+
+
+def _write_bag_outputs(args: argparse.Namespace, report: dict, result, bag) -> None:
+    """--json and --report of a bag's diagnosis."""
+    from ..report import write_json
+
     if args.json:
         try:
             write_json(report, args.json)
         except OSError as exc:
             raise CommandError(f"--json {args.json}: cannot write: {exc.strerror or exc}") from None
-    if compared["different"]:
+    if args.report:
+        from .plant_data import write_bag_report
+
+        write_bag_report(args, result, bag, report)
+
+
+def diagnose_bag_command(args: argparse.Namespace) -> int:
+    """``pmr-ros diagnose BAG``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
+    from ..bag.offline import diagnose_bag
+    from ..bag.reader import open_bag
+    from ..bag.schema import BagError
+    from ..report import format_table
+
+    check_model_output(args)
+    try:
+        bag = open_bag(args.bag)
+        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
+        report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+    sys.stdout.write(format_table(report))
+    print_data_notes(result, bag)
+    print_comparison(report, result)
+    _write_bag_outputs(args, report, result, bag)
+    if report["recorded_comparison"]["different"]:
         return EXIT_DIFFERENT
     return 0 if result.final_diagnosis.status == "ok" else EXIT_INSUFFICIENT

@@ -17,7 +17,7 @@ import argparse
 import sys
 import time
 
-from . import CommandError, add_namespace_argument, nonnegative_int, positive_float, positive_int
+from . import CommandError, add_namespace_argument, nonnegative_float, nonnegative_int, positive_float, positive_int
 
 
 def register(sub) -> None:
@@ -42,7 +42,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--max-samples-per-second",
-        type=float,
+        type=nonnegative_float,
         default=None,
         metavar="N",
         help="lockstep: also at most N samples per second (default: unbounded; the consumers' progress paces it)",
@@ -68,7 +68,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--linger",
-        type=float,
+        type=nonnegative_float,
         default=1.0,
         metavar="S",
         help="keep publishers alive S seconds after the last message (default: 1)",

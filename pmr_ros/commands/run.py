@@ -17,9 +17,12 @@ from . import (
     add_method_argument,
     add_namespace_argument,
     add_system_arguments,
+    check_memory,
     load_checked_config,
     run_overrides,
+    writable_file,
 )
+from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
 
 
@@ -55,6 +58,7 @@ def register(sub) -> None:
         "run the node set in this namespace (its topics become /NS/pmr/...), so several sets share a ROS domain "
         "(with --visible); default: the root namespace",
     )
+    add_model_arguments(p)
     p.set_defaults(handler=handle)
 
 
@@ -67,21 +71,50 @@ def _node_set_report(config):
     return run_node_set, NodeSetOptions, NodeSetError
 
 
+def run_memory(config, *, batch: bool) -> dict[str, int]:
+    """What a run of ``config.run.samples`` needs in memory [bytes]: the record or live window, and the diagnosis."""
+    from ..core.memory import diagnosis_bytes, simulation_bytes, window_bytes
+
+    model, samples = config.model, config.run.samples
+    held = simulation_bytes(model, samples) if batch else window_bytes(model, samples)
+    return {
+        "simulation" if batch else "diagnostician window": held,
+        "diagnosis": diagnosis_bytes(model, samples, dither=config.excitation.active),
+    }
+
+
+def _check_before_running(args: argparse.Namespace, config) -> None:
+    """Everything that can be refused before the run: option clashes, memory, the --json path."""
+    if args.bag and args.batch:
+        raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
+    source = "command line" if args.samples is not None else config.source
+    check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
+    if args.json:
+        writable_file(args.json, "--json")
+
+
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
     from ..report import build_report, format_table
 
     config = load_checked_config(args.config, run_overrides(args))
-    if args.bag and args.batch:
-        raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
+    check_model_output(args)
+    _check_before_running(args, config)
     if args.batch:
         from ..core.closed_loop import simulate
         from ..core.diagnosis import diagnose
 
         record = simulate(config)
         diagnosis = diagnose(
-            record.r, record.u, record.y, model=config.model, pmr=config.pmr, parametric=config.parametric
+            record.r,
+            record.u,
+            record.y,
+            model=config.model,
+            pmr=config.pmr,
+            parametric=config.parametric,
+            dither=record.dither,
         )
+        diagnosis = close_the_loop(args, config, diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "batch"
     else:
@@ -99,7 +132,7 @@ def handle(args: argparse.Namespace) -> int:
         finally:
             if recording is not None:
                 recording.close()
-        diagnosis = result.diagnosis
+        diagnosis = close_the_loop(args, config, result.diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
         report["path"] = "nodes"
         report["node_set"] = {

@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
 from pathlib import Path
 
-from . import CommandError, load_checked_config, nonnegative_int, number, positive_int
+from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
 
 DEFAULT_OUT = "out/sweep"
+
+PLAN_BYTES_PER_RUN = 400
+"""Memory of one planned run before it runs (its key, its place in a point's task) [bytes]."""
 
 
 def register(sub) -> None:
@@ -75,6 +79,12 @@ def register(sub) -> None:
         metavar="N",
         help="worker processes (default: the number of cores)",
     )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
+        "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
+    )
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
     p.add_argument(
         "--resume",
@@ -94,10 +104,59 @@ def register(sub) -> None:
     p.set_defaults(handler=handle)
 
 
+def _seeds(args: argparse.Namespace, config) -> tuple[int, int]:
+    """First seed and count, within the declared range of ``run.seed``."""
+    from ..config.schema import parameter
+
+    first = config.run.seed if args.first_seed is None else args.first_seed
+    highest = int(parameter("run.seed").maximum or 0)
+    if first + args.seeds - 1 > highest:
+        raise CommandError(
+            f"--seeds {args.seeds} from seed {first}: the last seed {first + args.seeds - 1} exceeds run.seed's "
+            f"maximum {highest}"
+        )
+    return first, args.seeds
+
+
+def _nu_count(args: argparse.Namespace) -> int:
+    """How many nu values the grid options ask for (before the grid is built)."""
+    if args.nu is not None:
+        return len(args.nu.split(","))
+    start, stop, step = args.nu_start, args.nu_stop, args.nu_step
+    if not all(math.isfinite(v) and v > 0 for v in (start, stop, step)) or stop < start:
+        return 1  # nu_grid says what is wrong
+    return int(math.floor((stop - start) / step + 1e-9)) + 1
+
+
+def _check_size(args: argparse.Namespace, config) -> None:
+    """Refuse a sweep whose plan or runs in flight do not fit in memory, before building anything."""
+    from ..core.memory import diagnosis_bytes, simulation_bytes
+    from ..core.model import SCENARIOS
+
+    _, seeds = _seeds(args, config)
+    samples = config.run.samples if args.samples is None else args.samples
+    elements = max(1, len([e for e in args.elements.split(",") if e.strip()]))
+    per_point = len(SCENARIOS) * seeds
+    total = elements * _nu_count(args) * per_point
+    jobs = max(1, min(args.jobs, elements * _nu_count(args)))
+    model = config.model
+    in_flight = 2 * simulation_bytes(model, samples, runs=per_point) + diagnosis_bytes(model, samples)
+    check_memory(
+        {"plan": total * PLAN_BYTES_PER_RUN, f"{jobs} point(s) in flight": jobs * in_flight},
+        cause=f"{total} runs of {samples} samples, {per_point} per point",
+        advice="use fewer seeds, nu values or samples (or fewer --jobs)",
+    )
+
+
 def _plan(args: argparse.Namespace, config):
     from ..core.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
+    if config.explicit_plant is not None:
+        raise CommandError(
+            f"{config.source}: the sweep runs the mismatch scenarios of the Table 2 study on the model, and a "
+            "plant block fixes the plant; remove the plant block (give a mismatch block instead) or use pmr-ros run"
+        )
     try:
         nu = parse_nu_list(args.nu) if args.nu is not None else nu_grid(args.nu_start, args.nu_stop, args.nu_step)
         elements = tuple(e.strip() for e in args.elements.split(",") if e.strip())
@@ -113,10 +172,10 @@ def _plan(args: argparse.Namespace, config):
             raise PlanError(f"--methods: {args.methods!r}: give one or more of {', '.join(METHODS)}, each once")
     except PlanError as exc:
         raise CommandError(str(exc)) from None
-    first = config.run.seed if args.first_seed is None else args.first_seed
+    first, count = _seeds(args, config)
     samples = config.run.samples if args.samples is None else args.samples
     return SweepPlan(
-        elements=elements, nu=nu, seeds=tuple(range(first, first + args.seeds)), samples=samples, methods=methods
+        elements=elements, nu=nu, seeds=tuple(range(first, first + count)), samples=samples, methods=methods
     )
 
 
@@ -169,6 +228,8 @@ def handle(args: argparse.Namespace) -> int:
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE
+    if args.report and not args.no_report:
+        writable_file(args.report, "--report")
     if args.report_only:
         _report_only(results, report_path, config)
         return 0
@@ -199,8 +260,9 @@ def _report_only(results: Path, report_path: Path, config) -> None:
 def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     """Run the runs of the plan not yet in ``results``; the manifest, written beside it."""
     from ..sweep import store
-    from ..sweep.execute import execute, plan_tasks
+    from ..sweep.execute import plan_tasks
 
+    _check_size(args, config)
     plan = _plan(args, config)
     manifest = {
         "config": config.source,
@@ -218,22 +280,27 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
         scenarios=list(plan.scenarios),
         methods=list(plan.methods),
         jobs=args.jobs,
+        scheduler=args.scheduler,
         cpu_count=os.cpu_count(),
     )
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
+        where = (
+            f"the Dask cluster at {args.scheduler}"
+            if args.scheduler
+            else f"{min(args.jobs, max(len(tasks), 1))} process(es)"
+        )
         print(
             f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
             f"{len(plan.seeds)} seeds "
-            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on "
-            f"{min(args.jobs, max(len(tasks), 1))} process(es)",
+            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {where}",
             file=sys.stderr,
         )
     t0 = time.perf_counter()
     outcome = None
     try:
-        outcome = execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet)
+        outcome = _execute(args, config, tasks, results)
     finally:
         manifest["wall_time_s"] = round(manifest["wall_time_s"] + time.perf_counter() - t0, 2)
         if outcome is not None:
@@ -242,6 +309,17 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     if not args.quiet:
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
     return manifest
+
+
+def _execute(args: argparse.Namespace, config, tasks: list, results: Path):
+    """Run the tasks locally or on the cluster of ``--scheduler``; a cluster that cannot be used is a clean error."""
+    from ..sweep.cluster import ClusterError
+    from ..sweep.execute import execute
+
+    try:
+        return execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet, scheduler=args.scheduler)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
 
 
 def _done_runs(results: Path, n_elements: int) -> set[tuple]:

@@ -12,7 +12,15 @@ from pathlib import Path
 from typing import Any
 
 from ..resources import share_dir
-from .build import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings, check_tree, parse_config
+from .build import (
+    DataSettings,
+    DiagnosticianSettings,
+    PmrConfig,
+    RunSettings,
+    SimulationSettings,
+    check_tree,
+    parse_config,
+)
 from .errors import ConfigError
 from .files import flatten_parameters, nested, read_parameter_file
 from .schema import SCHEMA_FILE
@@ -20,6 +28,7 @@ from .schema import SCHEMA_FILE
 __all__ = [
     "DEFAULT_SYSTEM",
     "ConfigError",
+    "DataSettings",
     "DiagnosticianSettings",
     "PmrConfig",
     "RunSettings",

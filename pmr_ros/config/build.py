@@ -16,10 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
+from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
-from ..core.prbs import ExcitationSettings, PrbsSettings
+from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
+from .data import DataSettings, data_settings
 from .errors import ConfigError
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
@@ -106,6 +108,8 @@ class PmrConfig:
         The effective nested parameter tree (file values over declared defaults).
     source : str
         Where it came from (a file, or a node's parameters).
+    data : DataSettings
+        How a historian export is read and cleaned (``pmr-ros diagnose FILE.csv``).
     explicit_plant : TransferMatrix or None
         The ``plant`` block: the true plant of a simulation, when given.
     warnings : tuple of str
@@ -123,6 +127,8 @@ class PmrConfig:
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
+    impact: ImpactSettings
+    data: DataSettings
     source: str
     parameters: dict[str, Any]
     explicit_plant: TransferMatrix | None = None
@@ -227,30 +233,40 @@ def _model(v: _Values) -> TransferMatrix:
     return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
 
 
+def _check_elements(v: _Values, block: str, kinds: np.ndarray, gain: np.ndarray, tau: np.ndarray) -> None:
+    """Per element type: a non-zero gain, a positive FOPTD time constant; warn of an integrating one's ignored tau."""
+    shape = v.shape
+    label = (lambda j: element_label(j, shape)) if shape is not None else (lambda j: "")
+    flat_kinds, g, t = kinds.ravel(), gain.ravel(), tau.ravel()
+    zero_gain = np.flatnonzero((flat_kinds != "none") & (g == 0))
+    bad_tau = np.flatnonzero((flat_kinds == "foptd") & (t <= 0))
+    if zero_gain.size and (not bad_tau.size or zero_gain[0] <= bad_tau[0]):
+        j = int(zero_gain[0])
+        raise v.error(
+            f"{block}.gain[{j}] ({label(j)})", 0.0, "must be non-zero: use element_type none for an empty cell"
+        )
+    if bad_tau.size:
+        j = int(bad_tau[0])
+        raise v.error(f"{block}.time_constant[{j}] ({label(j)})", float(t[j]), "must be > 0")
+    for j in np.flatnonzero((flat_kinds == "integrating") & (t > 0)).tolist():
+        v.warnings.append(
+            f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({label(j)}) = "
+            f"{t[j]:g} is ignored: {label(j)} is integrating"
+        )
+
+
 def _matrix(v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[str, ...], name: str) -> TransferMatrix:
     """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type."""
     ts = v["system.sample_time"]
     kinds = v[f"{block}.element_type"]
-    labels = [element_label(j, v.shape) for j in range(kinds.size)] if v.shape else []
     gain, tau, delay = v[f"{block}.gain"], v[f"{block}.time_constant"], v[f"{block}.delay"]
-    for j, kind in enumerate(kinds.ravel()):
-        if kind != "none" and gain.ravel()[j] == 0:
-            raise v.error(
-                f"{block}.gain[{j}] ({labels[j]})", 0.0, "must be non-zero: use element_type none for an empty cell"
-            )
-        if kind == "foptd" and tau.ravel()[j] <= 0:
-            raise v.error(f"{block}.time_constant[{j}] ({labels[j]})", float(tau.ravel()[j]), "must be > 0")
-        if kind == "integrating" and tau.ravel()[j] > 0:
-            v.warnings.append(
-                f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({labels[j]}) = "
-                f"{tau.ravel()[j]:g} is ignored: {labels[j]} is integrating"
-            )
+    _check_elements(v, block, kinds, gain, tau)
     whole = np.where(kinds == "none", 0.0, delay / ts)
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
     if bad.size:
         j = int(bad[0])
         raise v.error(
-            f"{block}.delay[{j}] ({labels[j]})",
+            f"{block}.delay[{j}] ({element_label(j, v.shape) if v.shape else ''})",
             float(delay.ravel()[j]),
             f"must be a whole number of samples (sample_time = {ts:g})",
         )
@@ -286,6 +302,21 @@ def _prbs(v: _Values) -> PrbsSettings:
     )
 
 
+def _check_prbs_channels(v: _Values, model: TransferMatrix, excitation: ExcitationSettings) -> None:
+    """Every PRBS channel (setpoints, then dithered inputs) needs its own primitive polynomial."""
+    degree = v["prbs.register_length"]
+    channels = model.n_outputs + (model.n_inputs if excitation.active else 0)
+    available = primitive_polynomial_count(degree)
+    if channels > available:
+        raise v.error(
+            "prbs.register_length",
+            degree,
+            f"has {available} primitive polynomials, fewer than the {channels} PRBS channels "
+            f"({model.n_outputs} setpoints{f' + {model.n_inputs} dithered inputs' if excitation.active else ''}); "
+            "choose a longer register",
+        )
+
+
 def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
     if nc_h > np_h:
@@ -297,6 +328,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     u_min, u_max = v["mpc.u_min"], v["mpc.u_max"]
     if np.any(u_min >= u_max):
         raise v.error("mpc.u_min", u_min.tolist(), "must be below mpc.u_max")
+    target = v["mpc.input_target"]
+    if np.any((target < u_min) | (target > u_max)):
+        raise v.error("mpc.input_target", target.tolist(), "must lie within mpc.u_min .. mpc.u_max")
     return MpcTuning(
         prediction_horizon=np_h,
         control_horizon=nc_h,
@@ -305,6 +339,9 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
         u_min=u_min,
         u_max=u_max,
         du_max=v["mpc.du_max"],
+        input_target=target,
+        input_target_weight=v["mpc.input_target_weight"],
+        ramp_filter_samples=v["mpc.ramp_filter_samples"],
     )
 
 
@@ -326,6 +363,7 @@ def _pmr(v: _Values) -> PmrSettings:
         "tau_index_threshold",
         "max_delay_samples",
         "coherence_min",
+        "delay_fit_min",
     )
     return PmrSettings(**{key: v[f"pmr.{key}"] for key in keys})
 
@@ -371,12 +409,14 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     checked = check_tree(tree, source)
     v = _Values(_effective(checked), source, sources or {})
     model = _model(v)
+    excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
+    _check_prbs_channels(v, model, excitation)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
         prbs=_prbs(v),
-        excitation=ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"]),
+        excitation=excitation,
         mpc=_mpc(v, model),
         pmr=_pmr(v),
         parametric=_parametric(v),
@@ -388,6 +428,8 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
             max_samples_ahead=v["simulation.max_samples_ahead"],
         ),
         diagnostician=_diagnostician(v),
+        impact=ImpactSettings(samples=v["impact.samples"]),
+        data=data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")]),
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),

@@ -36,7 +36,7 @@ __all__ = [
 SCHEMA_FILE = "parameters.yaml"
 """The declaration file in the package's ``config/`` folder."""
 
-KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types")
+KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types", "columns", "values")
 """Parameter types of the declaration (see its header comment)."""
 
 _REQUIRED = object()
@@ -144,7 +144,7 @@ class Parameter:
     def _number(self, value: Any, source: str, field: str, *, integer: bool) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self._error(source, value, "must be a number", field)
-        if not math.isfinite(value):
+        if not math.isfinite(value if isinstance(value, float) else (0.0 if abs(value) < 2**1023 else math.inf)):
             raise self._error(source, value, "must be finite", field)
         if integer and float(value) != int(value):
             raise self._error(source, value, "must be a whole number", field)
@@ -179,6 +179,33 @@ class Parameter:
         if len(set(value)) != len(value):
             raise self._error(source, value, "names must be unique")
         return tuple(value)
+
+    def _check_columns(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
+        """One column name per channel of ``per``, or an empty list (the default naming)."""
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
+        if value == []:
+            return ()
+        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+            raise self._error(source, value, f"must be a list of {length} column names (one per {self.per[:-1]})")
+        if len(value) != length:
+            raise self._error(source, value, f"needs {length} column names (one per {self.per[:-1]}), got {len(value)}")
+        if len(set(value)) != len(value):
+            raise self._error(source, value, "column names must be unique")
+        return tuple(value)
+
+    def _check_values(self, value: Any, source: str, shape: Shape | None) -> tuple[float | str, ...]:
+        """A list of numbers and strings (may be empty); numbers as floats."""
+        if not isinstance(value, list):
+            raise self._error(source, value, "must be a list of numbers and strings, e.g. [-9999, Bad, '']")
+        out: list[float | str] = []
+        for j, item in enumerate(value):
+            if isinstance(item, str):
+                out.append(item)
+            else:
+                out.append(self._number(item, source, f"{self.name}[{j}]", integer=False))
+        return tuple(out)
 
     def _check_channels(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:
@@ -226,11 +253,36 @@ class Parameter:
             raise self._error(
                 source, value, f"needs {n_out * n_in} entries ({n_out}x{n_in}, row by row), got {len(value)}"
             )
+        fast = self._numbers_at_once(value)
+        if fast is not None:
+            return fast.reshape(n_out, n_in)
         items = [
             self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape)})", integer=self.integer)
             for j, v in enumerate(value)
         ]
         return np.array(items, dtype=float).reshape(n_out, n_in)
+
+    def _numbers_at_once(self, values: list) -> np.ndarray | None:
+        """``values`` as an array when every one passes (checked vectorised); None to check one by one.
+
+        The one-by-one check gives the message naming the first bad element;
+        this path only saves the per-element work of a large matrix that is fine.
+        """
+        if not set(map(type, values)) <= {int, float}:  # bool, str, None: one by one
+            return None
+        try:
+            array = np.array(values, dtype=float)
+        except OverflowError:
+            return None
+        ok = np.isfinite(array)
+        if self.integer:
+            ok &= array == np.round(array)
+        low, high = self.minimum, self.maximum
+        if low is not None:
+            ok &= array > low if self.min_exclusive else array >= low
+        if high is not None:
+            ok &= array < high if self.max_exclusive else array <= high
+        return array if bool(np.all(ok)) else None
 
 
 def element_label(flat_index: int, shape: Shape) -> str:

@@ -2,10 +2,18 @@
 
 Messages carry their sample time as a stamp; sample k has the stamp k * Ts, so
 the index is ``k = round(stamp / Ts)``.  A sample is *complete* once r(k), u(k)
-and y(k) have all arrived, in whatever order.  The diagnostician only ever uses
-the newest unbroken stretch of complete samples: the PMR's spectra and the
-model's element outputs assume evenly spaced, gap-free records, so a missing
-or rejected sample ends the stretch and the window restarts after it.
+and y(k) have all arrived, in whatever order: a signal whose messages come
+late (a publisher discovered late, whose transient-local backlog arrives after
+the other signals moved on) still completes the samples the others left
+pending.  A partial sample is given up only when it can no longer complete
+(a signal it lacks has moved past it) or, oldest first, when more partial
+samples are held than the memory bound allows.
+
+The window is the newest ``capacity`` complete samples.  The PMR's spectra and
+the model's element outputs assume evenly spaced, gap-free records, so a
+missing or rejected sample splits the window into unbroken *stretches*; the
+diagnosis pools the Welch segments of every stretch
+(:func:`pmr_ros.core.diagnosis.diagnose_stretches`).
 
 Rejected, with a reason naming the signal, its topic and the value:
 non-finite values, a wrong number of values or wrong channel names, stamps off
@@ -17,6 +25,7 @@ No rclpy here: this module is plain Python/numpy and is tested without ROS.
 
 from __future__ import annotations
 
+import bisect
 import copy
 from collections import deque
 from collections.abc import Mapping, Sequence
@@ -53,30 +62,43 @@ def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
     return index, position - index
 
 
-def check_signal(
+WRONG_WIDTH, WRONG_NAMES, NON_FINITE = "wrong number of values", "wrong channel names", "non-finite value"
+BAD_STAMP, OFF_GRID, DUPLICATED, OUT_OF_ORDER = "non-finite stamp", "stamp off the grid", "duplicated", "out-of-order"
+"""Kinds of rejected messages (:attr:`AddResult.rejected_as`)."""
+
+
+def signal_problem(
     label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
-) -> str | None:
-    """Why a signal message is unusable, or None if it is fine.
+) -> tuple[str, str] | None:
+    """Why a signal message is unusable, as ``(kind, text)``, or None if it is fine.
 
     ``names`` may be empty (then values are taken in the configured order);
     otherwise they must equal ``expected_names``.
     """
     width = len(expected_names)
     if len(values) != width:
-        return (
+        return WRONG_WIDTH, (
             f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} "
             f"({', '.join(expected_names)}); message dropped"
         )
     if len(names) and tuple(names) != tuple(expected_names):
-        return (
+        return WRONG_NAMES, (
             f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message "
             "dropped"
         )
     array = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(array)):
         bad = [f"{n}={v}" for n, v in zip(expected_names, array.tolist(), strict=True) if not np.isfinite(v)]
-        return f"{label}: non-finite value {', '.join(bad)}; message dropped"
+        return NON_FINITE, f"{label}: non-finite value {', '.join(bad)}; message dropped"
     return None
+
+
+def check_signal(
+    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
+) -> str | None:
+    """Why a signal message is unusable (the text of :func:`signal_problem`), or None if it is fine."""
+    problem = signal_problem(label, names, values, expected_names)
+    return None if problem is None else problem[1]
 
 
 @dataclass
@@ -87,18 +109,54 @@ class AddResult:
     ----------
     accepted : bool
     warnings : list of str
-        Human-readable reasons (rejections, gaps, restarts of the window).
+        Human-readable reasons (rejections, gaps, new stretches).
     completed : list of int
         Sample indices that became complete.
+    rejected_as : str
+        For a rejected message, the kind of problem (``non-finite value``,
+        ``duplicated``, ...: the module's constants); else "".
     """
 
     accepted: bool
     warnings: list[str] = field(default_factory=list)
     completed: list[int] = field(default_factory=list)
+    rejected_as: str = ""
+
+
+@dataclass(frozen=True)
+class AlignedStretch:
+    """An unbroken stretch of complete samples ``first .. first + samples - 1``.
+
+    Attributes
+    ----------
+    first : int
+        Index of its first sample.
+    r, u, y : ndarray
+        One row per sample.
+    """
+
+    first: int
+    r: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+
+    @property
+    def samples(self) -> int:
+        """Samples in the stretch."""
+        return int(self.r.shape[0])
+
+    @property
+    def last(self) -> int:
+        """Index of its last sample."""
+        return self.first + self.samples - 1
+
+
+PENDING_MARGIN = 16
+"""Partial samples held beyond ``capacity + 4 max_lag_samples`` (see :attr:`SampleAligner.pending_limit`)."""
 
 
 class SampleAligner:
-    """Assembles complete samples of r, u and y and keeps the newest unbroken stretch.
+    """Assembles complete samples of r, u and y and keeps the newest ``capacity`` of them, in stretches.
 
     Parameters
     ----------
@@ -109,9 +167,20 @@ class SampleAligner:
     labels : dict
         Signal to how warnings name it, e.g. ``"y on /pmr/measured_output"``.
     capacity : int
-        Samples of the stretch kept (the diagnosis window).
+        Complete samples kept (the diagnosis window).
     max_lag_samples : int
         A signal this many samples behind the newest one counts as stopped.
+
+    Attributes
+    ----------
+    stretch_first, stretch_last : int or None
+        First and last sample of the newest unbroken stretch.
+    gaps : int
+        Times a new stretch began after a gap.
+    rejected : dict
+        Signal -> messages rejected.
+    given_up : int
+        Partial samples given up because more were held than :attr:`pending_limit`.
     """
 
     def __init__(
@@ -130,7 +199,10 @@ class SampleAligner:
         self.newest: dict[str, int | None] = {s: None for s in SIGNALS}
         self.rejected: dict[str, int] = {s: 0 for s in SIGNALS}
         self.gaps = 0
+        self.given_up = 0
         self._pending: dict[int, dict[str, np.ndarray]] = {}
+        self._broken: dict[int, frozenset[str]] = {}
+        self._index: deque[int] = deque(maxlen=self.capacity)
         self._rows: dict[str, deque] = {s: deque(maxlen=self.capacity) for s in SIGNALS}
         self.stretch_first: int | None = None
         self.stretch_last: int | None = None
@@ -138,13 +210,28 @@ class SampleAligner:
     # -- state -------------------------------------------------------------
     @property
     def stretch_length(self) -> int:
-        """Complete samples in the current unbroken stretch (not capped at capacity)."""
+        """Complete samples in the newest unbroken stretch (not capped at capacity)."""
         if self.stretch_first is None or self.stretch_last is None:  # both None together
             return 0
         return self.stretch_last - self.stretch_first + 1
 
+    @property
+    def held(self) -> int:
+        """Complete samples held (at most ``capacity``), in every stretch."""
+        return len(self._index)
+
+    @property
+    def pending_limit(self) -> int:
+        """Most partial samples held: the window, four times the stopped-signal lag and a margin.
+
+        A signal whose backlog arrives late completes every sample it finds
+        still pending; beyond this bound the oldest partial samples are given
+        up, so memory stays bounded whatever the arrival order.
+        """
+        return self.capacity + 4 * self.max_lag_samples + PENDING_MARGIN
+
     def window(self, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """The newest ``samples`` (at most) of the stretch: ``r, u, y, first_index``.
+        """The newest ``samples`` (at most) of the newest unbroken stretch: ``r, u, y, first_index``.
 
         Raises
         ------
@@ -153,9 +240,22 @@ class SampleAligner:
         """
         if self.stretch_last is None:
             raise ValueError("no complete sample yet: the stretch is empty")
-        take = min(samples, len(self._rows["r"]))
+        take = min(samples, len(self._index), self.stretch_length)
         out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
         return out[0], out[1], out[2], self.stretch_last - take + 1
+
+    def stretches(self, samples: int) -> list[AlignedStretch]:
+        """The newest ``samples`` (at most) complete samples, split into unbroken stretches, oldest first."""
+        take = min(samples, len(self._index))
+        if take <= 0:
+            return []
+        index = np.fromiter(list(self._index)[len(self._index) - take :], dtype=np.int64, count=take)
+        rows = {s: list(self._rows[s])[len(self._rows[s]) - take :] for s in SIGNALS}
+        cuts = [0, *(np.flatnonzero(np.diff(index) != 1) + 1).tolist(), take]
+        return [
+            AlignedStretch(int(index[a]), *(np.array(rows[s][a:b]) for s in SIGNALS))
+            for a, b in zip(cuts[:-1], cuts[1:], strict=True)
+        ]
 
     def snapshot(self) -> SampleAligner:
         """A copy of the aligned samples that later messages do not change.
@@ -169,6 +269,8 @@ class SampleAligner:
         twin.newest = dict(self.newest)
         twin.rejected = dict(self.rejected)
         twin._pending = {}
+        twin._broken = {}
+        twin._index = deque(self._index, maxlen=self.capacity)
         twin._rows = {s: deque(self._rows[s], maxlen=self.capacity) for s in SIGNALS}
         return twin
 
@@ -181,17 +283,24 @@ class SampleAligner:
         waiting = self._pending.get(k, {}).get(signal)
         if waiting is not None:
             return waiting
-        if self.stretch_last is None or not self.stretch_last - len(self._rows[signal]) < k <= self.stretch_last:
+        if not self._index or not self._index[0] <= k <= self._index[-1]:
             return None
-        return self._rows[signal][k - self.stretch_last - 1]
+        if self.stretch_first is not None and self.stretch_last is not None and k >= self.stretch_first:
+            return self._rows[signal][k - self.stretch_last - 1]  # in the newest stretch: counted from the end
+        index = list(self._index)  # an older stretch: the indices are sorted, with gaps
+        pos = bisect.bisect_left(index, k)
+        return self._rows[signal][pos] if index[pos] == k else None
 
     def restart(self) -> None:
         """Begin a new stretch after a break the stamps do not show (samples that cannot be trusted).
 
-        The complete samples are forgotten, as after a gap; what comes next starts a new stretch.
+        Every complete sample held is forgotten, in every stretch (the window
+        may already mix two publishers' samples); what comes next starts a new
+        stretch.
         """
         if self.stretch_last is not None:
             self.gaps += 1
+        self._index.clear()
         for s in SIGNALS:
             self._rows[s].clear()
         self.stretch_first = self.stretch_last = None
@@ -199,6 +308,7 @@ class SampleAligner:
     def resize(self, capacity: int) -> None:
         """Keep up to ``capacity`` samples from now on (newest first kept)."""
         self.capacity = int(capacity)
+        self._index = deque(self._index, maxlen=self.capacity)
         for s in SIGNALS:
             self._rows[s] = deque(self._rows[s], maxlen=self.capacity)
 
@@ -217,36 +327,41 @@ class SampleAligner:
         return None
 
     # -- input -------------------------------------------------------------
-    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray) -> AddResult:
-        """Offer one message of ``signal``; returns what happened, never raises on bad data."""
+    def _problem(
+        self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray
+    ) -> tuple[int, tuple[str, str] | None]:
+        """The message's sample index and why it is rejected (``(kind, text)``), or None."""
         label = self.labels[signal]
-        problem = check_signal(label, names, values, self.channel_names[signal])
-        if problem is None and not np.isfinite(stamp_s):
-            problem = f"{label}: stamp {stamp_s!r} s is not finite; message dropped"
+        problem = signal_problem(label, names, values, self.channel_names[signal])
         if problem is not None:
-            self.rejected[signal] += 1
-            return AddResult(False, [problem])
+            return 0, problem
+        if not np.isfinite(stamp_s):
+            return 0, (BAD_STAMP, f"{label}: stamp {stamp_s!r} s is not finite; message dropped")
         k, offset = sample_index(stamp_s, self.sample_time_s)
         if abs(offset) > GRID_TOLERANCE:
-            self.rejected[signal] += 1
-            return AddResult(
-                False,
-                [
-                    f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = "
-                    f"{self.sample_time_s:g} s); message dropped"
-                ],
+            return k, (
+                OFF_GRID,
+                f"{label}: stamp {stamp_s:.9g} s is {offset:+.2f} samples off the sample grid (Ts = "
+                f"{self.sample_time_s:g} s); message dropped",
             )
         last = self.newest[signal]
         if last is not None and k <= last:
+            kind = DUPLICATED if k == last else OUT_OF_ORDER
+            return k, (kind, f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped")
+        return k, None
+
+    def add(self, signal: str, stamp_s: float, names: Sequence[str], values: Sequence[float] | np.ndarray) -> AddResult:
+        """Offer one message of ``signal``; returns what happened, never raises on bad data."""
+        k, problem = self._problem(signal, stamp_s, names, values)
+        if problem is not None:
             self.rejected[signal] += 1
-            kind = "duplicated" if k == last else "out-of-order"
-            return AddResult(
-                False, [f"{label}: {kind} stamp {stamp_s:.9g} s (sample {k}, newest is {last}); message dropped"]
-            )
+            return AddResult(False, [problem[1]], rejected_as=problem[0])
+        label, last = self.labels[signal], self.newest[signal]
         result = AddResult(True)
         if last is not None and k > last + 1:
             result.warnings.append(f"{label}: samples {last + 1}..{k - 1} missing (gap of {k - last - 1})")
         self.newest[signal] = k
+        self._forget_passed(signal, last, k)
         if self.stretch_last is not None and k <= self.stretch_last:
             # Another signal already completed a later sample: this one cannot join the stretch.
             result.warnings.append(
@@ -254,11 +369,38 @@ class SampleAligner:
             )
             return result
         entry = self._pending.setdefault(k, {})
-        entry[signal] = np.asarray(values, dtype=float)
+        entry[signal] = np.array(values, dtype=float)  # a copy: a view would keep the message's buffer alive
         if len(entry) == len(SIGNALS):
             self._complete(k, result)
-        self._trim_pending()
+        elif len(self._pending) > self.pending_limit:
+            self._give_up_oldest(result)
         return result
+
+    def _forget_passed(self, signal: str, last: int | None, k: int) -> None:
+        """Give up the partial samples before ``k`` that lack ``signal``: it moved past them."""
+        if last is not None and k - last - 1 <= len(self._pending):
+            candidates: list[int] = [j for j in range(last + 1, k) if j in self._pending]
+        else:
+            candidates = [j for j in self._pending if j < k]
+        for j in candidates:
+            entry = self._pending[j]
+            if signal not in entry:
+                self._broken[j] = frozenset(SIGNALS) - entry.keys()
+                del self._pending[j]
+
+    def _give_up_oldest(self, result: AddResult) -> None:
+        """More partial samples than :attr:`pending_limit`: give up the oldest quarter."""
+        keep = (3 * self.pending_limit) // 4
+        doomed = sorted(self._pending)[: len(self._pending) - keep]
+        for j in doomed:
+            self._broken[j] = frozenset(SIGNALS) - self._pending.pop(j).keys()
+        for j in sorted(self._broken)[: max(0, len(self._broken) - self.pending_limit)]:
+            del self._broken[j]
+        self.given_up += len(doomed)
+        result.warnings.append(
+            f"more than {self.pending_limit} partial samples held: samples {doomed[0]}..{doomed[-1]} given up "
+            f"({self._missing_between(doomed[0], doomed[-1] + 1)})"
+        )
 
     def _complete(self, k: int, result: AddResult) -> None:
         entry = self._pending.pop(k)
@@ -266,31 +408,25 @@ class SampleAligner:
             self.gaps += 1
             missing = self._missing_between(self.stretch_last + 1, k)
             result.warnings.append(
-                f"samples {self.stretch_last + 1}..{k - 1} incomplete ({missing}): the window restarts at sample {k} "
-                f"after {self.stretch_length} samples"
+                f"samples {self.stretch_last + 1}..{k - 1} incomplete ({missing}): a new stretch starts at sample "
+                f"{k} after {self.stretch_length} samples"
             )
-            for s in SIGNALS:
-                self._rows[s].clear()
             self.stretch_first = None
         for old in [j for j in self._pending if j < k]:
-            del self._pending[old]
+            self._broken[old] = frozenset(SIGNALS) - self._pending.pop(old).keys()
+        self._broken = {j: m for j, m in self._broken.items() if j > k}
         if self.stretch_first is None:
             self.stretch_first = k
         self.stretch_last = k
+        self._index.append(k)
         for s in SIGNALS:
             self._rows[s].append(entry[s])
         result.completed.append(k)
 
     def _missing_between(self, first: int, last_exclusive: int) -> str:
-        missing: set[str] = set()
-        for j in range(first, last_exclusive):
-            have = self._pending.get(j, {})
-            missing.update(s for s in SIGNALS if s not in have)
+        """Which signals samples ``first .. last_exclusive - 1`` lacked."""
+        known = [m for j, m in self._broken.items() if first <= j < last_exclusive]
+        missing: set[str] = set().union(*known)
+        if len(known) < last_exclusive - first:  # samples no signal held at all
+            missing |= {s for s in SIGNALS if self.newest[s] is not None}
         return "missing " + ", ".join(s for s in SIGNALS if s in missing) if missing else "rejected"
-
-    def _trim_pending(self) -> None:
-        # Samples far behind the newest message can never complete in a live stream; bound the memory.
-        if len(self._pending) > 4 * self.max_lag_samples + 16:
-            head = max(k for k in self.newest.values() if k is not None)
-            for old in [j for j in self._pending if j < head - 2 * self.max_lag_samples]:
-                del self._pending[old]

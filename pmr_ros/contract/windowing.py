@@ -15,11 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import PmrConfig
-from ..core.diagnosis import diagnose
+from ..config import ConfigError, PmrConfig
+from ..core.diagnosis import diagnose_stretches, shortest_useful_stretch
+from ..core.memory import available_bytes, diagnosis_bytes, format_bytes, window_bytes
 from ..core.prbs import dither_generator
 from ..core.results import Diagnosis
-from .alignment import AddResult, SampleAligner
+from ..core.stretch import Stretch
+from .alignment import AddResult, AlignedStretch, SampleAligner
 
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
 """Kinds of :class:`WindowOutcome`."""
@@ -74,12 +76,17 @@ def offer_signal(
 def window_info(
     aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None
 ) -> dict:
-    """``window_samples``, ``first_sample``, ``last_sample`` of the current window [samples]."""
+    """``window_samples``, ``first_sample``, ``last_sample`` of the current window [samples].
+
+    Without ``samples`` and ``first``: the complete samples the window holds
+    (the newest ``window_samples``, in one or more stretches); the last sample
+    is always the newest complete one.
+    """
     if aligner.stretch_last is None:
         return {"window_samples": 0}
-    if samples is None:
-        samples = min(aligner.stretch_length, window_samples)
-        first = aligner.stretch_last - samples + 1
+    if samples is None or first is None:
+        pieces = aligner.stretches(window_samples)
+        samples, first = sum(p.samples for p in pieces), pieces[0].first
     return {"window_samples": samples, "first_sample": first, "last_sample": aligner.stretch_last}
 
 
@@ -109,6 +116,31 @@ class WindowOutcome:
     stamp_s: float
 
 
+def check_window_memory(config: PmrConfig, source: str) -> None:
+    """Refuse a window (``diagnostician.window_samples``) that cannot fit in the memory available now.
+
+    The window fills one sample at a time; its diagnosis needs the most
+    (:mod:`pmr_ros.core.memory`).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``diagnostician.window_samples`` and the figures.
+    """
+    model, samples = config.model, config.diagnostician.window_samples
+    held = window_bytes(model, samples)
+    diagnosis = diagnosis_bytes(model, samples, dither=config.excitation.active)
+    have = available_bytes()
+    if have is not None and held + diagnosis > have:
+        raise ConfigError(
+            source,
+            "diagnostician.window_samples",
+            samples,
+            f"a full window needs about {format_bytes(held + diagnosis)} of memory (samples {format_bytes(held)}, "
+            f"diagnosis {format_bytes(diagnosis)}); {format_bytes(have)} available",
+        )
+
+
 def window_dither(config: PmrConfig, first: int, samples: int) -> np.ndarray | None:
     """The MV dither over samples ``first ..`` of the run, or None without dither.
 
@@ -121,51 +153,103 @@ def window_dither(config: PmrConfig, first: int, samples: int) -> np.ndarray | N
     return generator.values(first + np.arange(samples))
 
 
+@dataclass(frozen=True)
+class UsefulData:
+    """The stretches of the window that add to a diagnosis, and what was left out.
+
+    Attributes
+    ----------
+    pieces : list of AlignedStretch
+        The useful stretches as aligned (sample indices).
+    stretches : list of Stretch
+        The same with their MV dither, for the core.
+    held, held_stretches : int
+        Complete samples and stretches the window holds.
+    shortest : int
+        Fewest samples with which a stretch adds a Welch segment.
+    all_stretches : list of Stretch
+        Every stretch of the window, useful or not.
+    """
+
+    pieces: list[AlignedStretch]
+    stretches: list[Stretch]
+    held: int
+    held_stretches: int
+    shortest: int
+    all_stretches: list[Stretch]
+
+    @property
+    def samples(self) -> int:
+        """Samples that count towards ``diagnostician.min_samples``.
+
+        Those of the useful stretches; in a window of one stretch, all of it
+        (a stretch too short for a Welch segment is then the core's to explain).
+        """
+        if self.held_stretches <= 1:
+            return self.held
+        return sum(s.samples for s in self.stretches)
+
+    def shortfall(self, min_samples: int) -> str:
+        """Why there are too few: ``N unbroken samples, need M`` and how the window is broken up."""
+        reason = f"{self.samples} unbroken samples, need {min_samples}"
+        if self.held_stretches > 1:
+            left_out = self.held_stretches - len(self.stretches)
+            reason += f" (the window holds {self.held} samples in {self.held_stretches} stretches"
+            reason += f"; {left_out} shorter than {self.shortest} samples add nothing)" if left_out else ")"
+        return reason
+
+
+def useful_data(aligner: SampleAligner, config: PmrConfig) -> UsefulData:
+    """The stretches of the window (``diagnostician.window_samples``) long enough to add to a diagnosis.
+
+    A stretch shorter than the model's settling plus one Welch segment adds
+    nothing to the spectra; it is left out, not an error.
+    """
+    pieces = aligner.stretches(config.diagnostician.window_samples)
+    data = [Stretch(p.r, p.u, p.y, window_dither(config, p.first, p.samples)) for p in pieces]
+    shortest = shortest_useful_stretch(data, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    keep = [j for j, d in enumerate(data) if d.samples >= shortest]
+    held = sum(p.samples for p in pieces)
+    return UsefulData([pieces[j] for j in keep], [data[j] for j in keep], held, len(pieces), shortest, data)
+
+
+def _without_verdict(kind: str, reason: str, config: PmrConfig, window: dict, stamp: float) -> WindowOutcome:
+    samples = int(window.get("window_samples", 0))
+    diagnosis = Diagnosis.insufficient(
+        method=config.pmr.method, models=config.model.element_models(), reason=reason, samples=samples
+    )
+    return WindowOutcome(kind, diagnosis, reason, window, stamp)
+
+
 def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
-    """Diagnose the newest ``diagnostician.window_samples`` of the unbroken stretch, as the diagnostician does.
+    """Diagnose the window's unbroken stretches together, as the diagnostician does.
 
     Parameters
     ----------
     aligner : SampleAligner
     config : PmrConfig
         The model Ghat, the PMR settings and the diagnostician's window
-        (``window_samples``, and ``min_samples``: the fewest unbroken samples
-        for a verdict).
+        (``window_samples``: the newest complete samples diagnosed, in one or
+        more stretches; ``min_samples``: the fewest samples, in stretches that
+        add to the diagnosis, for a verdict).
     """
     window_samples, min_samples = config.diagnostician.window_samples, config.diagnostician.min_samples
     stamp = (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
-    window = window_info(aligner, window_samples)
-
-    def without_verdict(kind: str, reason: str) -> WindowOutcome:
-        models = config.model.element_models()
-        samples = int(window.get("window_samples", 0))
-        return WindowOutcome(
-            kind,
-            Diagnosis.insufficient(method=config.pmr.method, models=models, reason=reason, samples=samples),
-            reason,
-            window,
-            stamp,
-        )
-
     stale = aligner.lagging()
     if stale:
-        return without_verdict(STALE, stale)
-    if aligner.stretch_length < min_samples:
-        reason = f"{aligner.stretch_length} unbroken samples, need {min_samples}"
-        if aligner.gaps:
-            reason += f" (the window restarted after a gap {aligner.gaps} time(s))"
-        return without_verdict(INSUFFICIENT, reason)
-    r, u, y, first = aligner.window(window_samples)
-    diagnosis = diagnose(
-        r,
-        u,
-        y,
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        dither=window_dither(config, first, r.shape[0]),
-    )
-    window = window_info(aligner, window_samples, r.shape[0], first)
+        return _without_verdict(STALE, stale, config, window_info(aligner, window_samples), stamp)
+    data = useful_data(aligner, config)
+    if data.samples < min_samples:
+        return _without_verdict(
+            INSUFFICIENT, data.shortfall(min_samples), config, window_info(aligner, window_samples), stamp
+        )
+    if not data.stretches:  # one stretch, too short for a Welch segment: the core says why
+        diagnosis = diagnose_stretches(
+            data.all_stretches, model=config.model, pmr=config.pmr, parametric=config.parametric
+        )
+        return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window_info(aligner, window_samples), stamp)
+    diagnosis = diagnose_stretches(data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    window = window_info(aligner, window_samples, data.samples, data.pieces[0].first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)
     return WindowOutcome(VERDICT, diagnosis, "", window, stamp)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .closed_loop import LoopConfig, RunRecord
-from .model import SCENARIOS, TransferMatrix
+from .model import SCENARIOS, StateSpace, TransferMatrix
 from .mpc import LinearMpc, MpcStatistics, MpcTuning
 from .plant import noise_generator
 from .prbs import PrbsGenerator, dither_generator
@@ -76,25 +76,39 @@ def _mv(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
 
 @dataclass
 class _PlantGroup:
-    """Runs whose plants have the same state size, stacked for batched stepping."""
+    """Runs whose plants have the same state size, stacked for batched stepping.
+
+    Each state is advanced as in :meth:`StateSpace.advance` (its pole and its one
+    source, per run), elementwise, so the numbers equal the plant's own.
+    """
 
     runs: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
+    pole: np.ndarray
+    source: np.ndarray
+    weight: np.ndarray
     C: np.ndarray
     x: np.ndarray
 
+    def advance(self, u: np.ndarray) -> None:
+        """Hold each run's input ``u`` (rows: the group's runs) for one sample."""
+        feed = np.take_along_axis(np.concatenate((self.x, u), axis=1), self.source, axis=1)
+        self.x = self.pole * self.x + self.weight * feed
 
-def _plant_groups(spaces: list) -> list[_PlantGroup]:
+
+def _plant_groups(spaces: list[StateSpace]) -> list[_PlantGroup]:
     sizes = sorted({ss.A.shape[0] for ss in spaces})
     groups = []
     for nx in sizes:
         idx = np.array([j for j, ss in enumerate(spaces) if ss.A.shape[0] == nx])
+        pole, source, weight = (
+            np.stack(parts) for parts in zip(*(spaces[j].one_source_form for j in idx), strict=True)
+        )
         groups.append(
             _PlantGroup(
                 runs=idx,
-                A=np.stack([spaces[j].A for j in idx]),
-                B=np.stack([spaces[j].B for j in idx]),
+                pole=pole,
+                source=source,
+                weight=weight,
                 C=np.stack([spaces[j].C for j in idx]),
                 x=np.zeros((idx.size, nx)),
             )
@@ -106,43 +120,36 @@ class _BatchMpc:
     """:meth:`LinearMpc.step` for every run at once, in the same floating-point operations.
 
     One controller per run holds that run's OSQP warm start and statistics;
-    the unconstrained step, the same linear map for every run, is one batched
-    product.
+    the disturbance estimate and the unconstrained step, the same for every
+    run, are batched; limits and clipping are the controller's own methods.
     """
 
     def __init__(self, model: TransferMatrix, tuning: MpcTuning, n_runs: int) -> None:
         self.controllers = [LinearMpc(model, tuning) for _ in range(n_runs)]
-        self.mats = self.controllers[0].matrices
-        self.tuning = tuning
+        self.first = self.controllers[0]
+        self.mats = self.first.matrices
         self.n_in = model.n_inputs
-        self.neg_gradient = -self.mats.weighted_dynamic  # LinearMpc computes q = (-Theta'Q) @ (target - free)
         self.x = np.zeros((n_runs, self.mats.A.shape[0]))
         self.u_prev = np.zeros((n_runs, self.n_in))
+        self.step_estimate = np.zeros((n_runs, model.n_outputs))
+        self.slope = np.zeros((n_runs, self.first.estimator.n_ramps))
 
     def step(self, y: np.ndarray, setpoint: np.ndarray, dither: np.ndarray | None) -> np.ndarray:
         """``u(k)`` of every run from ``y(k)``, ``r(k)`` and the dither (rows: runs); advances the models."""
-        mats, tuning = self.mats, self.tuning
-        bias = y - _mv(mats.C, self.x)
-        target = np.tile(setpoint - bias, (1, tuning.prediction_horizon))
-        free = _mv(mats.free_state, self.x) + _mv(mats.free_input, self.u_prev)
-        q = _mv(self.neg_gradient, target - free)
-        u_rep = np.tile(self.u_prev, (1, tuning.control_horizon))
-        moves = _mv(mats.unconstrained_gain, q)
-        u_path = u_rep + _mv(mats.cumulative, moves)
-        feasible = np.all(np.abs(moves) <= mats.du_bound, axis=1) & np.all(
-            (u_path >= mats.u_min_path) & (u_path <= mats.u_max_path), axis=1
-        )
+        mats, first = self.mats, self.first
+        residual = y - _mv(mats.C, self.x)
+        self.step_estimate, self.slope = first.estimator.update(residual, self.step_estimate, self.slope)
+        z = np.concatenate((self.x, self.u_prev, setpoint, self.step_estimate, self.slope), axis=1)
+        moves = _mv(mats.gain, z) + mats.gain_offset
+        feasible = first.within_limits(moves, self.u_prev)
         move = moves[:, : self.n_in].copy()
         for j in np.flatnonzero(~feasible):
-            lower = np.concatenate([mats.u_min_path - u_rep[j], -mats.du_bound])
-            upper = np.concatenate([mats.u_max_path - u_rep[j], mats.du_bound])
+            lower, upper = first.move_bounds(self.u_prev[j])
+            q = mats.gradient @ z[j] + mats.gradient_offset
             # The run's own controller and solver, so warm starts and counters match simulate().
-            move[j] = self.controllers[j].solve_constrained(q[j].copy(), lower=lower, upper=upper)
-        du_first = mats.du_bound[: self.n_in]
-        u_min, u_max = np.asarray(tuning.u_min, dtype=float), np.asarray(tuning.u_max, dtype=float)
-        u = np.clip(self.u_prev + np.clip(move, -du_first, du_first), u_min, u_max)
-        applied = u if dither is None else np.clip(u + dither, u_min, u_max)
-        self.x = _mv(mats.A, self.x) + _mv(mats.B, applied)
+            move[j] = self.controllers[j].solve_constrained(q, lower=lower, upper=upper)
+        u, applied = first.apply_move(self.u_prev, move, dither)
+        self.x = first.advance_model(self.x, applied)
         self.u_prev = u
         return applied
 
@@ -191,7 +198,7 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         y_rec[k] = y
         u = u_rec[k] = mpc.step(y, setpoints[k], None if dither is None else dither[k])
         for group in groups:
-            group.x = _mv(group.A, group.x) + _mv(group.B, u[group.runs])
+            group.advance(u[group.runs])
     for c in mpc.controllers:
         c.statistics.steps += samples
     records = [

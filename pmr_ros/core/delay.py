@@ -72,6 +72,8 @@ def hamon_hannan_delay(
     coherence: np.ndarray,
     max_delay_samples: int,
     band: np.ndarray | None = None,
+    *,
+    lowest: int | None = None,
 ) -> tuple[int, np.ndarray]:
     """Integer delay mismatch maximizing the Hamon-Hannan cost (eqs. 9-10).
 
@@ -91,12 +93,14 @@ def hamon_hannan_delay(
         band, so the log magnitude is held at its median over the top quarter
         of B there (a FOPTD ratio's magnitude is flat at high frequency; a
         single edge bin is too noisy to hold) and only B enters the cost.
+    lowest : int, optional
+        The smallest candidate (default ``-max``).
 
     Returns
     -------
     delay_samples : int
         ``Delta D = D - Dhat`` [samples].
-    cost : ndarray, shape (2 * max + 1,)
+    cost : ndarray, shape (max - lowest + 1,)
         The normalized cost of each candidate, best = largest.
     """
     if band is None:
@@ -111,7 +115,28 @@ def hamon_hannan_delay(
     residual = np.angle(response) - delay_free
     kappa2 = np.clip(coherence, 0.0, 0.999)
     weight = np.where(band, kappa2 / (1.0 - kappa2), 0.0)
-    candidates = np.arange(-max_delay_samples, max_delay_samples + 1)
+    candidates = np.arange(-max_delay_samples if lowest is None else lowest, max_delay_samples + 1)
     cost = np.cos(residual[None, :] + candidates[:, None] * omega[None, :]) @ weight
     cost = cost / max(weight.sum(), 1e-300)
     return int(candidates[int(np.argmax(cost))]), cost
+
+
+def search_limit_reason(delay: int, *, low: int, high: int, low_is_limit: bool = True) -> str | None:
+    """Why a delay found at the edge of its search range cannot be trusted, or None.
+
+    A delay at the limit of the candidates may lie beyond them: the fit then
+    bends the other parameters (gain, time constant) to mimic the missing
+    delay and gives confident wrong numbers.  Such an element is inconclusive.
+
+    Parameters
+    ----------
+    delay : int
+        The delay found [samples].
+    low, high : int
+        The candidates searched [samples].
+    low_is_limit : bool
+        False when ``low`` is a physical bound (a plant delay cannot be negative), not a search limit.
+    """
+    if delay >= high or (low_is_limit and delay <= low):
+        return f"delay at the search limit ({delay:+d} samples of {low:+d} .. {high:+d}): widen pmr.max_delay_samples"
+    return None

@@ -10,9 +10,10 @@ from .classic import PmrSettings, diagnose_classic
 from .model import TransferMatrix
 from .parametric import ParametricSettings, diagnose_parametric
 from .results import Diagnosis
+from .spectra import WelchSettings
 from .stretch import Stretch
 
-__all__ = ["METHODS", "diagnose", "diagnose_stretches"]
+__all__ = ["METHODS", "diagnose", "diagnose_stretches", "shortest_useful_stretch", "useful_stretches"]
 
 
 def _classic(
@@ -29,6 +30,68 @@ def _parametric(
 
 METHODS: dict[str, Callable[..., Diagnosis]] = {"classic": _classic, "parametric": _parametric}
 """Diagnosis methods by name: the paper's Table 1, or the FOPTD-ratio fit of :mod:`pmr_ros.core.parametric`."""
+
+
+def _welch(
+    stretches: Sequence[Stretch],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> WelchSettings:
+    """The Welch segments ``method`` would average over ``stretches`` (the parametric one depends on the longest)."""
+    if (method or pmr.method) == "parametric":
+        return parametric.welch(model, max((s.samples for s in stretches), default=0), pmr)
+    return pmr.welch
+
+
+def shortest_useful_stretch(
+    stretches: Sequence[Stretch],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> int:
+    """Fewest samples with which a stretch adds a Welch segment: the model's settling plus one segment [samples].
+
+    Parameters
+    ----------
+    stretches : sequence of Stretch
+        The data (the parametric method sizes its segment from the longest stretch).
+    model : TransferMatrix
+        The controller's model ``Ghat`` (its settling is dropped from every stretch).
+    pmr : PmrSettings
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS` (default ``pmr.method``).
+    """
+    welch = _welch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
+    return model.settling_samples() + welch.segment_length
+
+
+def useful_stretches(
+    stretches: Sequence[Stretch],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> list[Stretch]:
+    """The stretches that add at least one Welch segment to a diagnosis with ``method``; shorter ones add nothing.
+
+    Parameters
+    ----------
+    stretches : sequence of Stretch
+    model : TransferMatrix
+    pmr : PmrSettings
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS` (default ``pmr.method``).
+    """
+    shortest = shortest_useful_stretch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
+    return [s for s in stretches if s.samples >= shortest]
 
 
 def diagnose_stretches(

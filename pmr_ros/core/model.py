@@ -17,6 +17,7 @@ Frequencies are in rad/sample.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -72,15 +73,45 @@ class DiscreteFoptd:
 
 @dataclass(frozen=True)
 class StateSpace:
-    """Discrete realization ``x+ = A x + B u``, ``y = C x`` of a FOPTD matrix.
+    """Discrete realization ``x+ = A x + B u``, ``y = C x`` of a transfer matrix.
 
     Each input feeds a shift register as long as its largest delay; each
     element is one first-order state reading the register tap of its delay.
+    So every state has its own pole (0 for a register) and exactly one other
+    source, a register tap or an input: :meth:`advance` steps it with two
+    multiplications per state instead of the dense products.
     """
 
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
+
+    @cached_property
+    def one_source_form(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(pole, source, weight)`` per state: ``x+[j] = pole[j] x[j] + weight[j] [x; u][source[j]]``."""
+        pole = np.diag(self.A).copy()
+        feed = np.hstack([self.A - np.diag(pole), self.B])  # columns: states, then inputs
+        if np.any(np.count_nonzero(feed, axis=1) > 1):
+            raise ValueError("advance needs one source per state (the realization of TransferMatrix.state_space)")
+        source = np.argmax(np.abs(feed), axis=1)
+        return pole, source, feed[np.arange(feed.shape[0]), source]
+
+    def advance(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``A x + B u`` for one state ``(nx,)`` or a batch ``(runs, nx)``, elementwise (same numbers either way).
+
+        Parameters
+        ----------
+        x : ndarray, shape (..., nx)
+            State.
+        u : ndarray, shape (..., n_inputs)
+            Input held over the sample [input unit].
+
+        Returns
+        -------
+        ndarray, shape (..., nx)
+        """
+        pole, source, weight = self.one_source_form
+        return pole * x + weight * np.concatenate((x, u), axis=-1)[..., source]
 
 
 @dataclass(frozen=True)
@@ -271,10 +302,9 @@ class TransferMatrix:
         """
         disc = self.discretize()
         n_out, n_in = self.n_outputs, self.n_inputs
-        elements = [(i, k) for i in range(n_out) for k in range(n_in) if self.present[i, k]]
-        lengths = np.array(
-            [max([disc.delay_samples[i, k] for i, kk in elements if kk == k] or [0]) for k in range(n_in)]
-        )
+        present = self.present
+        elements = [(int(i), int(k)) for i, k in zip(*np.nonzero(present), strict=False)]  # row-major
+        lengths = np.where(present, disc.delay_samples, 0).max(axis=0)
         reg_start = len(elements) + np.concatenate(([0], np.cumsum(lengths)[:-1]))
         nx = len(elements) + int(lengths.sum())
         A = np.zeros((nx, nx))
@@ -315,9 +345,10 @@ class TransferMatrix:
         u = np.asarray(u, dtype=float)
         disc = self.discretize()
         out = np.zeros((u.shape[0], self.n_outputs, self.n_inputs))
+        present = self.present
         for i in range(self.n_outputs):
             for k in range(self.n_inputs):
-                if not self.present[i, k]:
+                if not present[i, k]:
                     continue
                 b, a = disc.filter_coefficients(i, k)
                 zi = np.zeros(len(b) - 1) if self.integrating[i, k] else lfilter_zi(b, a) * u[0, k]

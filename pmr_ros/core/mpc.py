@@ -1,20 +1,32 @@
-"""Linear constrained MPC on OSQP with offset-free output-bias correction.
+"""Linear constrained MPC: offset-free on any shape, integrating outputs included.
 
-The controller predicts with its model ``Ghat`` (the state-space realization of
-the FOPTD matrix, delays as shift registers), penalizes tracking error and
-input moves, and respects input magnitude and rate limits.  The QP is posed in
-the condensed form over the input moves ``dU`` of the control horizon:
+The controller predicts with its model ``Ghat`` (the state-space realization
+of the transfer matrix, delays as shift registers), penalizes tracking error,
+input moves and -- when there are more inputs than the outputs need -- the
+inputs' distance from their targets, and respects input magnitude and rate
+limits.  The QP is posed in the condensed form over the input moves ``dU`` of
+the control horizon (:mod:`pmr_ros.core.mpc_design`):
 
-    min  (Yfree + Theta dU - Rtarget)' Q (...) + dU' R dU
+    min  (Yfree + Theta dU - Ys)' Q (...) + dU' R dU + (U - Utarget)' M (U - Utarget)
     s.t. u_min <= u_prev + L dU <= u_max,  |dU| <= du_max
 
-so its Hessian and constraint matrix never change: OSQP factors them once and
-each step only the linear term and the bounds are updated (warm-started).
-When the unconstrained minimizer ``-H^-1 q`` satisfies every constraint it is
-the QP's solution, so it is used directly and OSQP runs only when a limit
-would bind; ``statistics`` counts how often.
-Offset-free tracking uses the DMC/IMC output-disturbance bias
-``d = y_measured - yhat`` held constant over the horizon.
+so its Hessian and constraint matrix never change: they are factored once, and
+each step only the linear term and the bounds change.
+The linear term and the unconstrained minimizer ``-H^-1 q`` are linear in
+``z = [x; u_prev; r; d; p]``, so one precomputed matrix gives the moves in
+one product.  When they satisfy every constraint they are the QP's solution
+and are used directly; only when a limit would bind is the QP solved, exactly,
+by the dual active-set method of :mod:`pmr_ros.core.qp` (OSQP stands by should
+it break down) (``statistics`` counts how often).
+
+Disturbance model (:mod:`pmr_ros.core.disturbance`): every output carries an
+estimated step ``d`` (the DMC/IMC output bias ``y - yhat``), and an integrating
+output a ramp ``d + j p`` as well, so a constant unmeasured input disturbance
+leaves no offset and no ramp on any output.  Shapes
+(:mod:`pmr_ros.core.mpc_design`): extra MVs rest at their input targets
+(``input_target``, weighted by ``input_target_weight``) as far as the
+setpoints allow; with more CVs than MVs the outputs settle at the
+``Q``-weighted least-squares compromise; empty cells simply have no element.
 """
 
 from __future__ import annotations
@@ -26,7 +38,19 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from .model import StateSpace, TransferMatrix
+from .disturbance import DisturbanceEstimator
+from .model import TransferMatrix
+from .mpc_design import (
+    QpWeights,
+    condensed_qp,
+    input_target_penalty,
+    prediction_matrices,
+    steady_state_gain,
+    target_map,
+)
+from .qp import DenseQp
+
+__all__ = ["LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +71,15 @@ class MpcTuning:
         Input magnitude limits [input unit], in deviation from nominal.
     du_max : ndarray, shape (n_inputs,)
         Largest move per sample [input unit].
+    input_target : ndarray, shape (n_inputs,)
+        Where inputs rest in the freedom the setpoints leave (ideal resting
+        values) [input unit, deviation from nominal].
+    input_target_weight : ndarray, shape (n_inputs,)
+        S, per input, how strongly it is held at its target there
+        [1/input unit^2]; no effect when the setpoints fix every input.
+    ramp_filter_samples : float
+        Time constant of the slope estimate of integrating outputs'
+        disturbances [samples]; 0 is deadbeat.
     """
 
     prediction_horizon: int
@@ -56,6 +89,9 @@ class MpcTuning:
     u_min: np.ndarray
     u_max: np.ndarray
     du_max: np.ndarray
+    input_target: np.ndarray
+    input_target_weight: np.ndarray
+    ramp_filter_samples: float
 
 
 @dataclass(frozen=True)
@@ -63,101 +99,53 @@ class MpcMatrices:
     """Read-only view of the matrices a :class:`LinearMpc` computes with.
 
     For code that evaluates the same controller for many runs at once (the
-    lockstep batch simulator) or analyses the closed loop.  Shapes use
-    ``nx`` model states, ``Np`` prediction and ``Nc`` control horizon.
+    lockstep batch simulator) or analyses the closed loop.  ``z`` stacks
+    ``[x (nx); u_prev (n_in); r (n_out); d (n_out); p (n_ramps)]``.
 
     Attributes
     ----------
     A, B, C : ndarray
         The model's realization ``x+ = A x + B u``, ``yhat = C x``.
-    free_state : ndarray, shape (Np*n_out, nx)
-        ``Phi``: the predicted outputs' dependence on the model state.
-    free_input : ndarray, shape (Np*n_out, n_in)
-        ``Psi``: their dependence on holding the previous input.
-    weighted_dynamic : ndarray, shape (Nc*n_in, Np*n_out)
-        ``Theta' Q``: the QP's linear term is ``q = -Theta' Q (target - free)``.
-    unconstrained_gain : ndarray, shape (Nc*n_in, Nc*n_in)
-        ``-H^-1``: the unconstrained optimum is ``dU* = unconstrained_gain @ q``.
-    cumulative : ndarray, shape (Nc*n_in, Nc*n_in)
-        Moves to input path: ``u_path = tile(u_prev) + cumulative @ dU``.
-    du_bound, u_min_path, u_max_path : ndarray, shape (Nc*n_in,)
-        Move and magnitude limits tiled over the control horizon.
+    gain : ndarray, shape (Nc*n_in, nz)
+        Unconstrained optimum: ``dU* = gain @ z + gain_offset``.
+    gain_offset : ndarray, shape (Nc*n_in,)
+    gradient : ndarray, shape (Nc*n_in, nz)
+        The QP's linear term: ``q = gradient @ z + gradient_offset``.
+    gradient_offset : ndarray, shape (Nc*n_in,)
     """
 
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
-    free_state: np.ndarray
-    free_input: np.ndarray
-    weighted_dynamic: np.ndarray
-    unconstrained_gain: np.ndarray
-    cumulative: np.ndarray
-    du_bound: np.ndarray
-    u_min_path: np.ndarray
-    u_max_path: np.ndarray
+    gain: np.ndarray
+    gain_offset: np.ndarray
+    gradient: np.ndarray
+    gradient_offset: np.ndarray
 
 
 @dataclass
 class MpcStatistics:
-    """Counters of the QP solves, for benchmarks and health reporting."""
+    """Counters of the QP solves, for benchmarks and health reporting.
+
+    ``solves``: steps whose unconstrained optimum broke a limit; ``fallbacks``: of those, solves the
+    active-set method gave to OSQP; ``failures``: solves neither managed (the input was held).
+    """
 
     steps: int = 0
     solves: int = 0
     failures: int = 0
+    fallbacks: int = 0
     solve_time_s: list[float] | None = None
 
 
-def prediction_matrices(
-    ss: StateSpace, *, prediction_horizon: int, control_horizon: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The condensed predictions ``Phi``, ``Psi``, ``Theta`` of a model over the horizons.
-
-    ``yhat(k+1..k+Np) = Phi x(k) + Psi u(k-1) + Theta dU`` with ``dU`` the
-    moves of the control horizon (the input held after it).
-
-    Parameters
-    ----------
-    ss : StateSpace
-        The model's realization.
-    prediction_horizon, control_horizon : int
-        Np and Nc [samples].
-
-    Returns
-    -------
-    Phi : ndarray, shape (Np*n_out, nx)
-        Effect of the current state.
-    Psi : ndarray, shape (Np*n_out, n_in)
-        Effect of holding the previous input.
-    Theta : ndarray, shape (Np*n_out, Nc*n_in)
-        Effect of the moves: block (j, m) is the step response ``S_(j-m)``.
-    """
-    A, B, C = ss.A, ss.B, ss.C
-    Np, Nc = prediction_horizon, control_horizon
-    n_out, n_in, nx = C.shape[0], B.shape[1], A.shape[0]
-    markov = []  # C A^j B, j = 0..Np-1
-    Apow = np.eye(nx)
-    for _ in range(Np):
-        markov.append(C @ Apow @ B)
-        Apow = A @ Apow
-    Phi = np.zeros((Np * n_out, nx))
-    Psi = np.zeros((Np * n_out, n_in))
-    Apow = np.eye(nx)
-    acc = np.zeros((n_out, n_in))
-    for j in range(Np):
-        Apow = A @ Apow  # A^(j+1)
-        Phi[j * n_out : (j + 1) * n_out] = C @ Apow
-        acc = acc + markov[j]
-        Psi[j * n_out : (j + 1) * n_out] = acc
-    step = np.cumsum(np.stack(markov), axis=0)  # step[j] = sum_{t<=j} C A^t B
-    Theta = np.zeros((Np * n_out, Nc * n_in))
-    for j in range(Np):
-        for m in range(min(j + 1, Nc)):
-            Theta[j * n_out : (j + 1) * n_out, m * n_in : (m + 1) * n_in] = step[j - m]
-    return Phi, Psi, Theta
+def _frozen(a: np.ndarray) -> np.ndarray:
+    out = np.array(a, dtype=float, copy=True)
+    out.flags.writeable = False
+    return out
 
 
 class LinearMpc:
-    """Constrained MPC for a FOPTD matrix model.
+    """Constrained MPC for a transfer-matrix model of any shape.
 
     Parameters
     ----------
@@ -165,10 +153,15 @@ class LinearMpc:
         The controller's model ``Ghat`` (deviation variables).
     tuning : MpcTuning
     record_solve_times : bool
-        Keep each OSQP solve's wall time in ``statistics.solve_time_s``.
+        Keep each QP solve's wall time in ``statistics.solve_time_s``.
     always_solve_qp : bool
-        Call OSQP every step, even when no constraint binds (for benchmarks
+        Solve the QP every step, even when no constraint binds (for benchmarks
         and for checking the unconstrained shortcut).
+
+    Attributes
+    ----------
+    estimator : DisturbanceEstimator
+        The disturbance model (steps; ramps on integrating outputs).
     """
 
     def __init__(
@@ -182,79 +175,88 @@ class LinearMpc:
         self.model = model
         self.always_solve_qp = always_solve_qp
         self.tuning = tuning
-        ss = model.state_space()
-        self._A, self._B, self._C = ss.A, ss.B, ss.C
         Np, Nc = tuning.prediction_horizon, tuning.control_horizon
         if Nc > Np:
             raise ValueError("control_horizon must not exceed prediction_horizon")
-        self._Phi, self._Psi, self._Theta = prediction_matrices(ss, prediction_horizon=Np, control_horizon=Nc)
+        self._ss = ss = model.state_space()
+        self._A, self._B, self._C = ss.A, ss.B, ss.C
+        self.estimator = DisturbanceEstimator.for_model(model, filter_samples=tuning.ramp_filter_samples)
+        qp = condensed_qp(
+            ss,
+            horizons=(Np, Nc),
+            weights=self._weights(),
+            targets=target_map(
+                steady_state_gain(model), model.integrating_outputs, _vector(tuning.output_weight, model.n_outputs)
+            ),
+            estimator=self.estimator,
+        )
+        unconstrained = -np.linalg.solve(qp.hessian, np.eye(qp.hessian.shape[0]))  # dU* = this @ q
+        self._gradient, self._gradient_offset = qp.gradient, qp.gradient_offset
+        self._gain, self._gain_offset = unconstrained @ qp.gradient, unconstrained @ qp.gradient_offset
         n_in = model.n_inputs
-        Q = np.tile(np.asarray(tuning.output_weight, dtype=float), Np)
-        R = np.tile(np.asarray(tuning.move_weight, dtype=float), Nc)
-        self._QTheta_T = (self._Theta * Q[:, None]).T  # Theta' Q
-        H = self._QTheta_T @ self._Theta + np.diag(R)
-        H = 0.5 * (H + H.T)
-        self._cumulative = np.kron(np.tril(np.ones((Nc, Nc))), np.eye(n_in))
-        self._du_bound = np.tile(np.asarray(tuning.du_max, dtype=float), Nc)
-        self._u_min = np.tile(np.asarray(tuning.u_min, dtype=float), Nc)
-        self._u_max = np.tile(np.asarray(tuning.u_max, dtype=float), Nc)
-        self._unconstrained = -np.linalg.solve(H, np.eye(H.shape[0]))  # dU* = this @ q
-        self._solver = self._setup_solver(H)
+        self._du = _vector(tuning.du_max, n_in)
+        self._u_min, self._u_max = _vector(tuning.u_min, n_in), _vector(tuning.u_max, n_in)
+        self._hessian, self._constraints = qp.hessian, np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
+        self._qp = DenseQp(self._hessian, self._constraints)
+        self._fallback: osqp.OSQP | None = None  # set up on first need
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
         self.reset()
 
-    def _setup_solver(self, H: np.ndarray) -> osqp.OSQP:
-        """OSQP with the fixed Hessian and constraint matrix, factored once."""
-        n_moves = H.shape[0]
-        A_con = sp.vstack([sp.csc_matrix(self._cumulative), sp.identity(n_moves, format="csc")], format="csc")
+    def _weights(self) -> QpWeights:
+        t, n_out, n_in = self.tuning, self.model.n_outputs, self.model.n_inputs
+        penalty = input_target_penalty(steady_state_gain(self.model), _vector(t.input_target_weight, n_in))
+        return QpWeights(
+            _vector(t.output_weight, n_out), _vector(t.move_weight, n_in), _vector(t.input_target, n_in), penalty
+        )
+
+    def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
+        """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
+        n_moves = self._hessian.shape[0]
         solver = osqp.OSQP()
         solver.setup(
-            sp.triu(sp.csc_matrix(H), format="csc"),
+            sp.triu(sp.csc_matrix(self._hessian), format="csc"),
             np.zeros(n_moves),
-            A_con,
-            np.concatenate([self._u_min, -self._du_bound]),
-            np.concatenate([self._u_max, self._du_bound]),
+            sp.csc_matrix(self._constraints),
+            lower,
+            upper,
             verbose=False,
             warm_starting=True,
-            eps_abs=1e-7,
-            eps_rel=1e-7,
-            max_iter=10000,
-            polishing=False,
+            eps_abs=1e-9,
+            eps_rel=1e-9,
+            max_iter=100000,
+            polishing=True,
         )
         return solver
 
     def reset(self) -> None:
-        """Forget the model state and past input (plant at rest)."""
+        """Forget the model state, past input and disturbance estimates (plant at rest)."""
         self._x = np.zeros(self._A.shape[0])
         self._u_prev = np.zeros(self.model.n_inputs)
+        self._step = np.zeros(self.model.n_outputs)
+        self._slope = np.zeros(self.estimator.n_ramps)
 
     @property
     def matrices(self) -> MpcMatrices:
         """The controller's matrices as read-only copies (see :class:`MpcMatrices`)."""
-
-        def frozen(a: np.ndarray) -> np.ndarray:
-            out = np.array(a, dtype=float, copy=True)
-            out.flags.writeable = False
-            return out
-
         return MpcMatrices(
-            A=frozen(self._A),
-            B=frozen(self._B),
-            C=frozen(self._C),
-            free_state=frozen(self._Phi),
-            free_input=frozen(self._Psi),
-            weighted_dynamic=frozen(self._QTheta_T),
-            unconstrained_gain=frozen(self._unconstrained),
-            cumulative=frozen(self._cumulative),
-            du_bound=frozen(self._du_bound),
-            u_min_path=frozen(self._u_min),
-            u_max_path=frozen(self._u_max),
+            A=_frozen(self._A),
+            B=_frozen(self._B),
+            C=_frozen(self._C),
+            gain=_frozen(self._gain),
+            gain_offset=_frozen(self._gain_offset),
+            gradient=_frozen(self._gradient),
+            gradient_offset=_frozen(self._gradient_offset),
         )
 
     @property
     def model_output(self) -> np.ndarray:
         """The model's prediction ``yhat(k)`` of the current output [output unit]."""
         return self._C @ self._x
+
+    @property
+    def disturbance(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current estimates: the step on every output and the slope on each integrating one."""
+        return self._step.copy(), self._slope.copy()
 
     def step(self, y_measured: np.ndarray, setpoint: np.ndarray, *, dither: np.ndarray | None = None) -> np.ndarray:
         """Compute ``u(k)`` from ``y(k)`` and ``r(k)``; advance the internal model.
@@ -278,51 +280,104 @@ class LinearMpc:
         ndarray, shape (n_inputs,)
             The input to apply over the next sample [input unit].
         """
-        y_measured = np.asarray(y_measured, dtype=float)
-        bias = y_measured - self._C @ self._x
-        target = np.tile(np.asarray(setpoint, dtype=float) - bias, self.tuning.prediction_horizon)
-        free = self._Phi @ self._x + self._Psi @ self._u_prev
-        q = -self._QTheta_T @ (target - free)
-        u_rep = np.tile(self._u_prev, self.tuning.control_horizon)
-        stats = self.statistics
-        stats.steps += 1
-        moves = self._unconstrained @ q
-        u_path = u_rep + self._cumulative @ moves
-        feasible = np.all(np.abs(moves) <= self._du_bound) and np.all((u_path >= self._u_min) & (u_path <= self._u_max))
-        if feasible and not self.always_solve_qp:
-            move = moves[: self.model.n_inputs]
+        residual = np.asarray(y_measured, dtype=float) - self._C @ self._x
+        self._step, self._slope = self.estimator.update(residual, self._step, self._slope)
+        z = np.concatenate((self._x, self._u_prev, np.asarray(setpoint, dtype=float), self._step, self._slope))
+        self.statistics.steps += 1
+        moves = self._gain @ z + self._gain_offset
+        if self.always_solve_qp or not self.within_limits(moves, self._u_prev):
+            lower, upper = self.move_bounds(self._u_prev)
+            move = self.solve_constrained(self._gradient @ z + self._gradient_offset, lower=lower, upper=upper)
         else:
-            lower = np.concatenate([self._u_min - u_rep, -self._du_bound])
-            upper = np.concatenate([self._u_max - u_rep, self._du_bound])
-            move = self.solve_constrained(q, lower=lower, upper=upper)
-        n_in = self.model.n_inputs
-        u = np.clip(
-            self._u_prev + np.clip(move, -self._du_bound[:n_in], self._du_bound[:n_in]),
-            self.tuning.u_min,
-            self.tuning.u_max,
-        )
-        applied = u if dither is None else np.clip(u + dither, self.tuning.u_min, self.tuning.u_max)
-        self._x = self._A @ self._x + self._B @ applied
+            move = moves[: self.model.n_inputs]
+        u, applied = self.apply_move(self._u_prev, move, dither)
+        self._x = self.advance_model(self._x, applied)
         self._u_prev = u
         return applied
 
-    def solve_constrained(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-        """The first move of the constrained QP for linear term ``q`` and move bounds (OSQP, warm-started).
+    def advance_model(self, x: np.ndarray, applied: np.ndarray) -> np.ndarray:
+        """The model's next state ``A x + B u`` after the applied input (rows of a batch alike)."""
+        return self._ss.advance(x, applied)
 
-        Counts the solve in :attr:`statistics`; on a failed solve the input is
-        held (a zero move), the safe fallback of industrial MPC.
+    def within_limits(self, moves: np.ndarray, u_prev: np.ndarray) -> np.ndarray:
+        """Whether moves ``dU`` keep every move and magnitude limit (per row of a batch).
+
+        Parameters
+        ----------
+        moves : ndarray, shape (..., Nc*n_in)
+            Moves of the control horizon [input unit].
+        u_prev : ndarray, shape (..., n_in)
+            The input before them [input unit].
+
+        Returns
+        -------
+        bool or ndarray of bool, shape (...)
         """
-        self._solver.update(q=q, l=lower, u=upper)
+        steps = moves.reshape(*moves.shape[:-1], self.tuning.control_horizon, self.model.n_inputs)
+        path = u_prev[..., None, :] + np.cumsum(steps, axis=-2)
+        ok = (np.abs(steps) <= self._du) & (path >= self._u_min) & (path <= self._u_max)
+        return ok.reshape(moves.shape).all(axis=-1)
+
+    def move_bounds(self, u_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the QP's constraints ``[L dU; dU]`` after input ``u_prev`` [input unit]."""
+        Nc = self.tuning.control_horizon
+        u_rep, du = np.tile(u_prev, Nc), np.tile(self._du, Nc)
+        return (
+            np.concatenate([np.tile(self._u_min, Nc) - u_rep, -du]),
+            np.concatenate([np.tile(self._u_max, Nc) - u_rep, du]),
+        )
+
+    def apply_move(
+        self, u_prev: np.ndarray, move: np.ndarray, dither: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The controller's input after ``move`` and the applied input with the dither, both within limits.
+
+        Works row by row on a batch (``(..., n_in)`` arrays).
+
+        Returns
+        -------
+        u, applied : ndarray
+            ``u_prev + move`` (move and magnitude limits held) and ``u + dither`` (magnitude limits held).
+        """
+        # np.minimum(np.maximum(.)) is np.clip, without its overhead on short vectors
+        bounded = np.minimum(np.maximum(move, -self._du), self._du)
+        u = np.minimum(np.maximum(u_prev + bounded, self._u_min), self._u_max)
+        applied = u if dither is None else np.minimum(np.maximum(u + dither, self._u_min), self._u_max)
+        return u, applied
+
+    def solve_constrained(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+        """The first move of the constrained QP for linear term ``q`` and the bounds of ``[L dU; dU]``.
+
+        Solved exactly by the dual active-set method (:class:`~pmr_ros.core.qp.DenseQp`); should it
+        break down, by OSQP; should that fail too, the input is held (a zero move), the safe fallback of
+        industrial MPC.  Counts the solve in :attr:`statistics`.
+        """
         t0 = time.perf_counter()
-        result = self._solver.solve(raise_error=False)
+        solution = self._qp.solve(q, lower=lower, upper=upper)
+        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         elapsed = time.perf_counter() - t0
         stats = self.statistics
         stats.solves += 1
         if stats.solve_time_s is not None:
             stats.solve_time_s.append(elapsed)
         n_in = self.model.n_inputs
-        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
-            return result.x[:n_in]
-        # Holding the input is the safe fallback of industrial MPC on a failed solve.
+        if x is not None:
+            return x[:n_in]
         stats.failures += 1
         return np.zeros(n_in)
+
+    def _solve_fallback(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
+        """OSQP's solution, or None when it fails too."""
+        self.statistics.fallbacks += 1
+        if self._fallback is None:
+            self._fallback = self._setup_fallback(lower, upper)
+        self._fallback.update(q=q, l=lower, u=upper)
+        result = self._fallback.solve(raise_error=False)
+        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
+            return result.x
+        return None
+
+
+def _vector(values: np.ndarray, n: int) -> np.ndarray:
+    """One float per channel (a scalar stands for every channel)."""
+    return np.broadcast_to(np.asarray(values, dtype=float), (n,)).copy()

@@ -1,4 +1,4 @@
-"""Discrete MIMO FOPTD plant with additive white Gaussian measurement noise."""
+"""The true plant: a transfer matrix (FOPTD, integrating, empty elements), measurement noise, optional load."""
 
 from __future__ import annotations
 
@@ -32,11 +32,11 @@ class FoptdPlant:
 
     def __init__(self, model: TransferMatrix, noise_std, seed: int) -> None:
         self.model = model
-        ss = model.state_space()
-        self._A, self._B, self._C = ss.A, ss.B, ss.C
+        self._ss = ss = model.state_space()
+        self._C = ss.C
         self._noise_std = np.broadcast_to(np.asarray(noise_std, dtype=float), (model.n_outputs,)).copy()
         self._rng = noise_generator(seed)
-        self._x = np.zeros(self._A.shape[0])
+        self._x = np.zeros(ss.A.shape[0])
 
     def output(self) -> np.ndarray:
         """Noise-free output ``y(k)`` [output unit]."""
@@ -46,6 +46,19 @@ class FoptdPlant:
         """Measured output ``y(k)`` with noise; draws one noise sample per call."""
         return self.output() + self._noise_std * self._rng.standard_normal(self.model.n_outputs)
 
-    def advance(self, u) -> None:
-        """Hold ``u(k)`` [input unit] for one sample."""
-        self._x = self._A @ self._x + self._B @ np.asarray(u, dtype=float)
+    def advance(self, u, *, disturbance=None) -> None:
+        """Hold ``u(k)`` [input unit] for one sample.
+
+        Parameters
+        ----------
+        u : array_like, shape (n_inputs,)
+            The input applied [input unit].
+        disturbance : array_like, shape (n_inputs,), optional
+            An unmeasured input disturbance (a load) added to ``u`` inside the
+            plant: it acts like a move of the inputs that nobody sees
+            [input unit].
+        """
+        u = np.asarray(u, dtype=float)
+        if disturbance is not None:
+            u = u + np.asarray(disturbance, dtype=float)
+        self._x = self._ss.advance(self._x, u)

@@ -63,6 +63,19 @@ def is_primitive(poly: int, degree: int) -> bool:
     return all(_gf2_powmod(2, order // q, poly, degree) != 1 for q in _prime_factors(order))
 
 
+def primitive_polynomial_count(degree: int) -> int:
+    """How many primitive polynomials of ``degree`` exist: ``phi(2^degree - 1) / degree``.
+
+    Each PRBS channel of a loop (setpoints, then dither) needs its own, so this
+    bounds the channels a register length can serve.
+    """
+    order = (1 << degree) - 1
+    phi = order
+    for p in _prime_factors(order):
+        phi = phi // p * (p - 1)
+    return phi // degree
+
+
 @cache
 def primitive_polynomials(degree: int, count: int) -> tuple[int, ...]:
     """The first ``count`` primitive polynomials of ``degree``, in increasing order."""

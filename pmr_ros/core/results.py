@@ -36,8 +36,11 @@ __all__ = [
 VERDICTS = ("ok", "mismatch", "inconclusive")
 """An element's (and a parameter's) verdict: no mismatch, mismatch, or the data cannot tell."""
 
-PROPERTIES = ("gain", "time_constant", "delay")
-"""The properties of an element a mismatch is found in."""
+PROPERTIES = ("gain", "time_constant", "delay", "interaction")
+"""The properties of an element a mismatch is found in (``interaction``: an unmodeled one in an empty cell)."""
+
+KINDS = ("foptd", "integrating", "none")
+"""Element kinds of a model (:class:`ElementModel.kind`); ``none`` is an empty cell."""
 
 RELATIVE_TOLERANCE = 1e-6
 """Floats of two diagnoses agree within this relative difference.
@@ -60,11 +63,12 @@ class ElementModel:
     Attributes
     ----------
     kind : str
-        ``foptd``: K exp(-theta s)/(tau s + 1).
+        One of :data:`KINDS`: ``foptd`` K exp(-theta s)/(tau s + 1), ``integrating``
+        K exp(-theta s)/s, ``none`` an empty cell (no model; gain 0).
     gain : float
-        K [output unit / input unit].
+        K [output unit / input unit; per time unit when integrating].
     time_constant : float or None
-        tau [time unit].
+        tau [time unit]; None unless ``foptd``.
     delay_samples : int
         theta / Ts [samples].
     """
@@ -79,25 +83,33 @@ class ElementModel:
 class ClassicResult:
     """The paper's Table 1 diagnosis of one element.
 
+    An ``integrating`` element has no time constant (``tau_index`` None).  The
+    classic method does not test empty cells (model ``none``): those have no
+    classic result.
+
     Attributes
     ----------
     gain_ratio : float
         ``M(0) = K / Khat``.
-    tau_index : float
+    tau_index : float or None
         ``-100 x`` the slope of ``M(w)/M(0)`` on ``(0, tau_band]`` [1/(rad/sample)];
-        positive when the plant is slower than the model.
+        positive when the plant is slower than the model.  None unless ``foptd``.
     delay_mismatch_samples : int
         ``D - Dhat`` [samples].
     gain_mismatch, tau_mismatch, delay_mismatch : bool
         Beyond the configured thresholds.
+    reasons : tuple of str
+        Why the element's numbers cannot be trusted (a delay at the search
+        limit); any reason makes the verdict ``inconclusive``.
     """
 
     gain_ratio: float
-    tau_index: float
+    tau_index: float | None
     delay_mismatch_samples: int
     gain_mismatch: bool
     tau_mismatch: bool
     delay_mismatch: bool
+    reasons: tuple[str, ...] = ()
 
     NUMBERS: ClassVar[tuple[str, ...]] = ("gain_ratio", "tau_index", "delay_mismatch_samples")
     """The numeric fields (for plotting topics and tables)."""
@@ -106,11 +118,13 @@ class ClassicResult:
     def mismatches(self) -> tuple[str, ...]:
         """The properties (of :data:`PROPERTIES`) found mismatched."""
         flags = (self.gain_mismatch, self.tau_mismatch, self.delay_mismatch)
-        return tuple(p for p, flag in zip(PROPERTIES, flags, strict=True) if flag)
+        return tuple(p for p, flag in zip(PROPERTIES, flags, strict=False) if flag)
 
     @property
     def verdict(self) -> str:
-        """``mismatch`` if any property is off, else ``ok`` (the classic method is never inconclusive)."""
+        """``inconclusive`` with reasons, else ``mismatch`` if any property is off, else ``ok``."""
+        if self.reasons:
+            return "inconclusive"
         return "mismatch" if self.mismatches else "ok"
 
     @property
@@ -123,21 +137,22 @@ class ClassicResult:
     @property
     def tau_direction(self) -> str:
         """``larger``/``smaller`` plant time constant than the model's, or ``ok``."""
-        if not self.tau_mismatch:
+        if not self.tau_mismatch or self.tau_index is None:
             return "ok"
         return "larger" if self.tau_index > 0 else "smaller"
-
-    @property
-    def reasons(self) -> tuple[str, ...]:
-        """Why a verdict cannot be given (never, for a classic result)."""
-        return ()
 
     def summary(self) -> str:
         """One line for people: ``gain +15 %, τ larger (index +20), delay +2 samples``."""
         gain = f"gain {100 * (self.gain_ratio - 1):+.0f} %" if self.gain_mismatch else "gain ok"
-        tau = f"τ {self.tau_direction} (index {self.tau_index:+.0f})" if self.tau_mismatch else "τ ok"
-        delay = f"delay {self.delay_mismatch_samples:+d} samples" if self.delay_mismatch else "delay ok"
-        return f"{gain}, {tau}, {delay}"
+        parts = [gain]
+        if self.tau_index is not None:
+            parts.append(f"τ {self.tau_direction} (index {self.tau_index:+.0f})" if self.tau_mismatch else "τ ok")
+        parts.append(f"delay {self.delay_mismatch_samples:+d} samples" if self.delay_mismatch else "delay ok")
+        return _with_reasons(", ".join(parts), self.reasons)
+
+
+def _with_reasons(text: str, reasons: tuple[str, ...]) -> str:
+    return f"{text} (inconclusive: {'; '.join(reasons)})" if reasons else text
 
 
 Interval = tuple[float, float]
@@ -149,20 +164,33 @@ class ParametricResult:
 
     Numbers are None when the data could not support a fit (then every
     verdict is ``inconclusive`` and ``reasons`` say why).  Intervals are
-    ``(low, high)`` at the configured confidence level.
+    ``(low, high)`` at the configured confidence level.  A verdict is None
+    where the property does not apply: ``tau_verdict`` of an integrating
+    element (it has no time constant), every verdict but
+    ``unmodeled_verdict`` of an empty cell, ``unmodeled_verdict`` of a
+    modeled element.
 
     Attributes
     ----------
     gain_mismatch_pct, gain_mismatch_pct_interval : float, Interval
         ``dK = (K - Khat)/Khat`` [%].
     tau_mismatch_pct, tau_mismatch_pct_interval : float, Interval
-        ``dtau`` [%].
+        ``dtau`` [%]; None unless the element is ``foptd``.
     delay_mismatch_samples : int
         ``dD = D - Dhat`` [samples].
     delay_confidence : float
-        Profile-likelihood confidence of ``dD`` against its neighbours, 0..1.
-    gain_verdict, tau_verdict, delay_verdict : str
-        One of :data:`VERDICTS` per property.
+        Profile-likelihood confidence of ``dD`` (of the interaction's delay in
+        an empty cell) against its neighbours, 0..1.
+    gain_verdict, tau_verdict, delay_verdict : str or None
+        One of :data:`VERDICTS` per property, None where it does not apply.
+    unmodeled_gain, unmodeled_gain_interval : float, Interval
+        Empty cell only: the steady-state gain of the plant's interaction there
+        [output unit / input unit; per time unit in an integrating row].
+    unmodeled_delay_samples : int
+        Empty cell only: the interaction's dead time [samples].
+    unmodeled_verdict : str or None
+        Empty cell only: ``mismatch`` (an interaction the model lacks), ``ok``
+        (none of practical size) or ``inconclusive``.
     reasons : tuple of str
         Why a property is inconclusive.
     warnings : tuple of str
@@ -177,9 +205,13 @@ class ParametricResult:
     tau_mismatch_pct_interval: Interval | None = None
     delay_mismatch_samples: int | None = None
     delay_confidence: float | None = None
-    gain_verdict: str = "inconclusive"
-    tau_verdict: str = "inconclusive"
-    delay_verdict: str = "inconclusive"
+    gain_verdict: str | None = "inconclusive"
+    tau_verdict: str | None = "inconclusive"
+    delay_verdict: str | None = "inconclusive"
+    unmodeled_gain: float | None = None
+    unmodeled_gain_interval: Interval | None = None
+    unmodeled_delay_samples: int | None = None
+    unmodeled_verdict: str | None = None
     reasons: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     quality: Mapping[str, float] = field(default_factory=dict)
@@ -191,13 +223,16 @@ class ParametricResult:
         "tau_mismatch_pct_interval",
         "delay_mismatch_samples",
         "delay_confidence",
+        "unmodeled_gain",
+        "unmodeled_gain_interval",
+        "unmodeled_delay_samples",
     )
     """The numeric fields (intervals are pairs), for plotting topics and tables."""
 
     @property
-    def verdicts(self) -> tuple[str, str, str]:
-        """The gain, time-constant and delay verdicts."""
-        return self.gain_verdict, self.tau_verdict, self.delay_verdict
+    def verdicts(self) -> tuple[str | None, str | None, str | None, str | None]:
+        """The gain, time-constant, delay and interaction verdicts (None: does not apply)."""
+        return self.gain_verdict, self.tau_verdict, self.delay_verdict, self.unmodeled_verdict
 
     @property
     def mismatches(self) -> tuple[str, ...]:
@@ -213,20 +248,55 @@ class ParametricResult:
 
     def summary(self) -> str:
         """One line: ``gain +15.0 % [+12.0, +18.0] MISMATCH, τ ... ok, delay +2 samples (99 %) MISMATCH``."""
+        if self.unmodeled_gain is not None and self.unmodeled_gain_interval is not None:
+            return self._interaction_summary()
         if self.gain_mismatch_pct is None or self.gain_mismatch_pct_interval is None:
             return "inconclusive: " + "; ".join(self.reasons)
-        marks = {"ok": "ok", "mismatch": "MISMATCH", "inconclusive": "?"}
         lo, hi = self.gain_mismatch_pct_interval
-        parts = [f"gain {self.gain_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {marks[self.gain_verdict]}"]
+        parts = [f"gain {self.gain_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {_MARKS[self.gain_verdict]}"]
         if self.tau_mismatch_pct is not None and self.tau_mismatch_pct_interval is not None:
             lo, hi = self.tau_mismatch_pct_interval
-            parts.append(f"τ {self.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {marks[self.tau_verdict]}")
+            parts.append(f"τ {self.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {_MARKS[self.tau_verdict]}")
         if self.delay_mismatch_samples is not None and self.delay_confidence is not None:
             confidence = 100 * self.delay_confidence
             parts.append(
-                f"delay {self.delay_mismatch_samples:+d} samples ({confidence:.0f} %) {marks[self.delay_verdict]}"
+                f"delay {self.delay_mismatch_samples:+d} samples ({confidence:.0f} %) {_MARKS[self.delay_verdict]}"
             )
         return ", ".join(parts)
+
+    def _interaction_summary(self) -> str:
+        assert self.unmodeled_gain is not None and self.unmodeled_gain_interval is not None
+        lo, hi = self.unmodeled_gain_interval
+        head = "unmodeled interaction" if self.unmodeled_verdict == "mismatch" else "no model"
+        found = self.unmodeled_delay_samples is not None and self.unmodeled_verdict == "mismatch"
+        delay = f", delay {self.unmodeled_delay_samples} samples" if found else ""
+        return f"{head}: gain {self.unmodeled_gain:+.3g} [{lo:+.3g}, {hi:+.3g}]{delay} {_MARKS[self.unmodeled_verdict]}"
+
+
+_MARKS = {"ok": "ok", "mismatch": "MISMATCH", "inconclusive": "?", None: "-"}
+"""How :meth:`ParametricResult.summary` marks a verdict."""
+
+
+@dataclass(frozen=True)
+class ImpactResult:
+    """What a mismatch does to control: the configured MPC on the plant as estimated vs as modelled.
+
+    Attributes
+    ----------
+    ise_ratio : float
+        Integrated squared tracking error (weighted by the MPC's output
+        weights) on the plant as estimated over that on the plant as modelled;
+        ``inf`` when the loop goes unstable.
+    input_movement_ratio : float
+        Sum of squared input moves (weighted by the move weights), the same ratio.
+    rank : int
+        1 for the element whose mismatch alone raises the tracking error most
+        (among the elements with a mismatch); 0 for "all together".
+    """
+
+    ise_ratio: float
+    input_movement_ratio: float
+    rank: int = 0
 
 
 Part = ClassicResult | ParametricResult
@@ -250,6 +320,8 @@ class ElementDiagnosis:
         Each method's result, None when it did not run or the data were insufficient.
     reasons : tuple of str
         Why there is no result at all (insufficient data), empty otherwise.
+    impact : ImpactResult or None
+        What this element's mismatch alone does to control (elements with a mismatch verdict, when computed).
     """
 
     name: str
@@ -260,6 +332,7 @@ class ElementDiagnosis:
     classic: ClassicResult | None = None
     parametric: ParametricResult | None = None
     reasons: tuple[str, ...] = ()
+    impact: ImpactResult | None = None
 
     @property
     def result(self) -> Part | None:
@@ -303,6 +376,7 @@ class ElementDiagnosis:
             "classic": None if self.classic is None else _part_dict(self.classic),
             "parametric": None if self.parametric is None else _part_dict(self.parametric),
             "reasons": list(self.reasons),
+            "impact": None if self.impact is None else _plain(self.impact),
             "summary": self.summary(),
         }
 
@@ -320,6 +394,7 @@ class ElementDiagnosis:
             model=_build(ElementModel, data["model"]),
             method=str(data["method"]),
             reasons=tuple(data.get("reasons") or ()),
+            impact=None if data.get("impact") is None else _build(ImpactResult, data["impact"]),
             **parts,
         )
 
@@ -375,6 +450,8 @@ class Diagnosis:
         Element name to :class:`ElementDiagnosis`, row-major.
     estimate : object, optional
         The spectral PMR estimate behind the numbers (for figures); not serialised.
+    impact : ImpactResult or None
+        What all the mismatches together do to control (when computed).
     """
 
     method: str
@@ -383,6 +460,7 @@ class Diagnosis:
     samples: int
     elements: Mapping[str, ElementDiagnosis]
     estimate: Any = field(default=None, repr=False, compare=False)
+    impact: ImpactResult | None = None
 
     def __iter__(self) -> Iterator[ElementDiagnosis]:
         """The elements, row-major."""
@@ -406,6 +484,7 @@ class Diagnosis:
             "reason": self.reason,
             "samples": self.samples,
             "method": self.method,
+            "impact": None if self.impact is None else _plain(self.impact),
             "elements": {name: e.to_dict() for name, e in self.elements.items()},
         }
 
@@ -413,9 +492,9 @@ class Diagnosis:
     def from_dict(cls, data: Mapping[str, Any]) -> Diagnosis:
         """Inverse of :meth:`to_dict`."""
         elements = {name: ElementDiagnosis.from_dict(e) for name, e in data["elements"].items()}
-        return cls(
-            str(data["method"]), str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0)), elements
-        )
+        impact = None if data.get("impact") is None else _build(ImpactResult, data["impact"])
+        status, reason, samples = str(data["status"]), str(data.get("reason", "")), int(data.get("samples", 0))
+        return cls(str(data["method"]), status, reason, samples, elements, impact=impact)
 
 
 DERIVED_KEYS = ("summary",)

@@ -8,6 +8,39 @@ The segment FFTs are kept (:class:`SegmentSpectra`) so that every cross-spectrum
 of a record comes from one transform, and so that the estimate's statistics
 (equivalent number of segments, correlation of neighbouring bins) are at hand.
 The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
+
+**The regression of one output row** (:class:`RowSpectra`) relates the row's
+output ``y_i`` to one regressor ``x_ik`` per input, through the instruments
+z (setpoints and moving MV dither):
+
+* a modeled element (``foptd`` or ``integrating``): ``x_ik = Ghat_ik u_k``,
+  so that ``y_i = sum_k G_PMR_ik x_ik + v_i`` with ``G_PMR = G / Ghat``;
+* an empty cell (``none``): the *reference* ``x_ik = u_k(t - 1)``, the output
+  of a unit static gain behind the zero-order hold's sample of lag, so that
+  the coefficient of ``x_ik`` is the plant's interaction ``G_ik`` itself
+  (zero when there is none); the parametric method fits it with a
+  first-order template (:mod:`pmr_ros.core.parametric.ratio`).
+
+**Integrating rows are differenced.**  An output with an integrating element
+(a level, a gas pressure) drifts: its model outputs ``Ghat_ik u_k`` ramp with
+the mean of ``u_k``, its plant integrator starts from an unknown level, and
+neither is a stationary signal Welch's estimate may average.  Every signal of
+such a row -- ``y_i`` and each of its regressors -- is passed through the same
+filter ``Delta = 1 - z^-1`` before the transform.  That is unbiased: the row's
+relation ``y_i = sum_k G_PMR_ik x_ik + v_i`` is linear and time-invariant, so
+``Delta y_i = sum_k G_PMR_ik (Delta x_ik) + Delta v_i`` with the *same* ratios;
+the instruments are not filtered, so ``S_{z, Delta y} = Delta(w) S_{z y}``
+scales both sides of the regression by the same ``Delta(w)`` and the ratios
+solve the same equations.  Differencing makes the drift stationary: ``Delta
+Ghat_ik`` of an integrator is the finite impulse ``K Ts z^-(1+D)``, an unknown
+initial level becomes a single sample at the start (dropped with the warm-up),
+and the noise ``Delta v_i`` is what the fit's weighting estimates from the
+residual anyway.  The price: ``Delta(0) = 0``, so the zero-frequency bin of a
+differenced row carries nothing, and its gain is read from the lowest nonzero
+bins (an integrating ratio ``(K/Khat) z^-dD`` has the same magnitude at every
+frequency).  In a differenced row the reference of an empty cell is the
+differenced output of a unit integrator, ``Ts u_k(t - 1)``: an unmodeled
+interaction on an integrating output is taken to integrate as well.
 """
 
 from __future__ import annotations
@@ -21,6 +54,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
 from .model import TransferMatrix
+from .products import hermitian_product
 from .stretch import Stretch, active_dither, instruments
 
 
@@ -163,48 +197,6 @@ def cross_spectra(x: np.ndarray, y: np.ndarray, settings: WelchSettings) -> tupl
     return seg.omega, seg.cross(slice(0, p), slice(p, None))
 
 
-@dataclass(frozen=True)
-class RecordSpectra:
-    """The cross-spectra of a record that the PMR needs, from one Welch transform per stretch.
-
-    The "r" of the names is the instrument vector z: the setpoints, then the
-    MV dither columns that move (when the controller's outputs were dithered).
-
-    Attributes
-    ----------
-    omega : ndarray, shape (F,)
-        Frequencies 0 .. pi [rad/sample].
-    rr : ndarray, shape (F, n_z, n_z)
-        Instrument spectra ``S_{z z}``.
-    ry : ndarray, shape (F, n_z, n_out)
-        ``S_{z_l y_i}``.
-    ryhat : ndarray, shape (F, n_z, n_out, n_in)
-        ``S_{z_l yhat_ik}``.
-    yy : ndarray, shape (F, n_out)
-        Output auto-spectra ``S_{y_i y_i}`` (real).
-    yhat_y : ndarray, shape (F, n_out, n_in)
-        ``S_{yhat_ik y_i}``.
-    yhat_yhat : ndarray, shape (F, n_out, n_in, n_in)
-        ``S_{yhat_ik yhat_im}``.
-    segments : int
-        Welch segments averaged (over every stretch).
-    equivalent_segments : float
-        Independent segments they are worth (overlap).
-    settings : WelchSettings
-    """
-
-    omega: np.ndarray
-    rr: np.ndarray
-    ry: np.ndarray
-    ryhat: np.ndarray
-    yy: np.ndarray
-    yhat_y: np.ndarray
-    yhat_yhat: np.ndarray
-    segments: int
-    equivalent_segments: float
-    settings: WelchSettings
-
-
 def stretch_segments(blocks: Sequence[np.ndarray], settings: WelchSettings) -> tuple[SegmentSpectra, float]:
     """The Welch segments of every block (each its own mean removed), pooled; and what they are worth.
 
@@ -221,40 +213,144 @@ def stretch_segments(blocks: Sequence[np.ndarray], settings: WelchSettings) -> t
     return SegmentSpectra(parts[0].omega, ffts, settings), equivalent
 
 
+@dataclass(frozen=True)
+class RowSpectra:
+    """The cross-spectra of one output row's regression (see the module docstring).
+
+    Attributes
+    ----------
+    zy : ndarray, shape (F, n_z)
+        ``S_{z_l y_i}``.
+    zx : ndarray, shape (F, n_z, n_in)
+        ``S_{z_l x_ik}``: instruments with each regressor.
+    yy : ndarray, shape (F,)
+        ``S_{y_i y_i}`` (real).
+    xy : ndarray, shape (F, n_in)
+        ``S_{x_ik y_i}``.
+    xx : ndarray, shape (F, n_in, n_in)
+        ``S_{x_ik x_im}``.
+    differenced : bool
+        Whether the row's signals were differenced (an integrating output).
+    """
+
+    zy: np.ndarray
+    zx: np.ndarray
+    yy: np.ndarray
+    xy: np.ndarray
+    xx: np.ndarray
+    differenced: bool
+
+
+def row_regressors(model: TransferMatrix, u: np.ndarray, i: int) -> np.ndarray:
+    """The regressors ``x_ik`` of row ``i`` (undifferenced), shape (N, n_in).
+
+    ``Ghat_ik u_k`` for a modeled element, started as
+    :meth:`TransferMatrix.element_outputs` starts it; for an empty cell the
+    reference ``u_k(t-1)`` (times ``Ts`` integrated, in an integrating row).
+    """
+    u = np.asarray(u, dtype=float)
+    x = np.empty_like(u)
+    x[0] = u[0]
+    x[1:] = u[:-1]
+    if model.integrating_outputs[i]:
+        x = np.cumsum(x, axis=0) * model.sample_time
+    present = np.flatnonzero(model.present[i])
+    if present.size:
+        row = _model_row(model, i)
+        x[:, present] = row.element_outputs(u[:, present])[:, 0, :]
+    return x
+
+
+def _model_row(model: TransferMatrix, i: int) -> TransferMatrix:
+    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix)."""
+    present = model.present[i]
+    return TransferMatrix(
+        model.gain[i : i + 1, present],
+        np.nan_to_num(model.time_constant[i : i + 1, present], nan=1.0),
+        model.delay[i : i + 1, present],
+        model.sample_time,
+        element_type=model.element_type[i : i + 1, present],
+    )
+
+
+class RecordSpectra:
+    """The spectra of a record that the PMR needs: instruments at once, each output row on demand.
+
+    The instruments' segment transforms are computed once; :meth:`row` filters
+    the inputs through one row of the model, transforms that row's signals and
+    crosses them with the instruments, so memory stays that of one row
+    (a 32 x 32 model would need gigabytes for every row at once).
+
+    Attributes
+    ----------
+    omega : ndarray, shape (F,)
+        Frequencies 0 .. pi [rad/sample].
+    rr : ndarray, shape (F, n_z, n_z)
+        Instrument spectra ``S_{z z}`` (the "r" of the names is the instrument
+        vector z: the setpoints, then the MV dither columns that move).
+    segments : int
+        Welch segments averaged (over every stretch).
+    equivalent_segments : float
+        Independent segments they are worth (overlap).
+    settings : WelchSettings
+    differenced : ndarray of bool, shape (n_out,)
+        Rows whose signals are differenced (integrating outputs).
+    dithered : ndarray of bool, shape (n_in,)
+        Inputs whose dither is an instrument.
+    """
+
+    def __init__(self, stretches: Sequence[Stretch], model: TransferMatrix, welch: WelchSettings) -> None:
+        self.model, self.settings = model, welch
+        self.dithered = active_dither(stretches)
+        self.differenced = model.integrating_outputs
+        warmup = model.settling_samples()
+        self._data = [
+            (np.asarray(s.u, dtype=float), np.asarray(s.y, dtype=float), warmup)
+            for s in stretches
+            if welch.segments(s.samples - warmup) > 0
+        ]
+        blocks = [instruments(s, self.dithered)[warmup:] for s in stretches]
+        self._z, self.equivalent_segments = stretch_segments(blocks, welch)
+        self.omega = self._z.omega
+        self.segments = self._z.segments
+        self.rr = self._z.cross(slice(None), slice(None))
+
+    @property
+    def n_instruments(self) -> int:
+        """Instruments: setpoints and moving dither columns."""
+        return int(self._z.ffts.shape[2])
+
+    def row(self, i: int) -> RowSpectra:
+        """The cross-spectra of row ``i``'s regression."""
+        differenced = bool(self.differenced[i])
+        blocks = []
+        for u, y, warmup in self._data:
+            block = np.column_stack([y[:, i], row_regressors(self.model, u, i)])
+            if differenced:
+                block = np.diff(block, axis=0, prepend=block[:1])
+            blocks.append(block[warmup:])
+        seg, _ = stretch_segments(blocks, self.settings)
+        Z = np.transpose(self._z.ffts, (1, 0, 2))  # (F, K, n_z)
+        X = np.transpose(seg.ffts, (1, 0, 2))  # (F, K, 1 + n_in)
+        K = seg.segments
+        zc = hermitian_product(Z, X) / K
+        cc = hermitian_product(X, X) / K
+        return RowSpectra(
+            zy=zc[:, :, 0],
+            zx=zc[:, :, 1:],
+            yy=cc[:, 0, 0].real.copy(),
+            xy=cc[:, 1:, 0],
+            xx=cc[:, 1:, 1:],
+            differenced=differenced,
+        )
+
+
 def record_spectra(stretches: Sequence[Stretch], model: TransferMatrix, welch: WelchSettings) -> RecordSpectra:
-    """Spectra of instruments, outputs and per-element model outputs ``yhat_ik = Ghat_ik u_k``.
+    """The instrument spectra of a record, and each output row's regression on demand.
 
     Every stretch is filtered through the model on its own and its first
     :meth:`TransferMatrix.settling_samples` are dropped (the filters start
     from a guessed state); the segments of all stretches are averaged.  The
     data must have passed :func:`~pmr_ros.core.record.check_stretches`.
     """
-    n_out, n_in = model.n_outputs, model.n_inputs
-    active = active_dither(stretches)
-    warmup = model.settling_samples()
-    blocks = []
-    for stretch in stretches:
-        u = np.asarray(stretch.u, dtype=float)
-        yhat = model.element_outputs(u).reshape(u.shape[0], n_out * n_in)
-        blocks.append(np.hstack([instruments(stretch, active), np.asarray(stretch.y, dtype=float), yhat])[warmup:])
-    seg, equivalent = stretch_segments(blocks, welch)
-    n_r = blocks[0].shape[1] - n_out - n_out * n_in
-    R = slice(0, n_r)
-    Y = slice(n_r, n_r + n_out)
-    F = seg.omega.size
-    yhat_cols = np.arange(n_r + n_out, n_r + n_out + n_out * n_in).reshape(n_out, n_in)
-    yy = np.stack([seg.cross([n_r + i], [n_r + i])[:, 0, 0].real for i in range(n_out)], axis=1)
-    yhat_y = np.stack([seg.cross(yhat_cols[i], [n_r + i])[:, :, 0] for i in range(n_out)], axis=1)
-    yhat_yhat = np.stack([seg.cross(yhat_cols[i], yhat_cols[i]) for i in range(n_out)], axis=1)
-    return RecordSpectra(
-        omega=seg.omega,
-        rr=seg.cross(R, R),
-        ry=seg.cross(R, Y),
-        ryhat=seg.cross(R, yhat_cols.ravel()).reshape(F, n_r, n_out, n_in),
-        yy=yy,
-        yhat_y=yhat_y,
-        yhat_yhat=yhat_yhat,
-        segments=seg.segments,
-        equivalent_segments=equivalent,
-        settings=welch,
-    )
+    return RecordSpectra(stretches, model, welch)

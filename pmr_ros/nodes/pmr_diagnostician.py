@@ -39,7 +39,16 @@ from ..contract.alignment import SIGNALS, SampleAligner, sample_index
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.topics import SIGNAL_TOPICS, topic
-from ..contract.windowing import STALE, VERDICT, Offer, WindowOutcome, evaluate_window, offer_signal, window_info
+from ..contract.windowing import (
+    STALE,
+    VERDICT,
+    Offer,
+    WindowOutcome,
+    check_window_memory,
+    evaluate_window,
+    offer_signal,
+    window_info,
+)
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message
@@ -74,6 +83,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, live_parameters=True, **kwargs)
+        check_window_memory(self.config, f"parameters of node {self.get_fully_qualified_name()}")
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0

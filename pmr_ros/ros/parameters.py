@@ -75,7 +75,17 @@ def plain_value(value: Any) -> Any:
 
 
 def parameter_overrides(flat: dict[str, Any]) -> list[Any]:
-    """``rclpy.parameter.Parameter`` list of dotted values, for in-process nodes."""
+    """``rclpy.parameter.Parameter`` list of dotted values, for in-process nodes.
+
+    Parameters of a block no node declares (``data``: read by ``pmr-ros``
+    alone; its lists mix numbers and strings, which no ROS parameter can hold)
+    are left out; unknown names stay, so a node refuses a typo.
+    """
     from rclpy.parameter import Parameter as RosParameter
 
-    return [RosParameter(name, value=ros_value(value)) for name, value in flat.items()]
+    declared = schema.parameters()
+    return [
+        RosParameter(name, value=ros_value(value))
+        for name, value in flat.items()
+        if name not in declared or declared[name].nodes
+    ]

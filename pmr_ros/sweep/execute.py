@@ -26,9 +26,9 @@ from ..core.closed_loop import RunRecord
 from ..core.diagnosis import diagnose
 from ..core.model import TransferMatrix
 from ..core.results import Diagnosis, ElementDiagnosis
+from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
-from .progress import ProgressBar
 from .tuning import stable_tuning
 
 
@@ -104,7 +104,14 @@ def method_fields(
 ) -> tuple[str, dict[str, dict[str, Any]]]:
     """Diagnose one run with ``method``: its status and each element's CSV fields."""
     diagnosis = diagnose(
-        record.r, record.u, record.y, model=model, pmr=config.pmr, parametric=config.parametric, method=method
+        record.r,
+        record.u,
+        record.y,
+        model=model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        method=method,
+        dither=record.dither,
     )
     return diagnosis.status, ROW_FIELDS[method](diagnosis)
 
@@ -215,9 +222,7 @@ def _init_worker(config: PmrConfig) -> None:
 def _work(task: PointTask) -> tuple[PointTask, list[dict], float]:
     if _WORKER_CONFIG is None:
         raise RuntimeError("_work runs in a pool worker that _init_worker set up")
-    t0 = time.process_time()
-    rows = run_point(_WORKER_CONFIG, task)
-    return task, rows, time.process_time() - t0
+    return timed_point(_WORKER_CONFIG, task)
 
 
 @dataclass
@@ -231,57 +236,86 @@ class SweepOutcome:
 
 
 def execute(
-    config: PmrConfig, tasks: list[PointTask], results: Path, jobs: int | None = None, progress: bool = True
+    config: PmrConfig,
+    tasks: list[PointTask],
+    results: Path,
+    jobs: int | None = None,
+    progress: bool = True,
+    *,
+    scheduler: str | None = None,
 ) -> SweepOutcome:
-    """Run ``tasks`` on ``jobs`` processes, appending each point's rows to ``results``.
+    """Run ``tasks`` on ``jobs`` processes, or on a Dask cluster, appending each point's rows to ``results``.
 
-    ``jobs = 1`` runs in this process (no pool).  On Ctrl-C the pool is
-    terminated, the finished points stay in the CSV and KeyboardInterrupt is
-    raised again.
+    ``jobs = 1`` runs in this process (no pool).  With ``scheduler`` (a Dask
+    scheduler's address) the points run on that cluster's workers instead
+    (:func:`pmr_ros.sweep.cluster.run_on_cluster`); the rows are the same.
+    On Ctrl-C the pool (or the cluster's pending points) is stopped, the
+    finished points stay in the CSV and KeyboardInterrupt is raised again.
     """
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     bar = ProgressBar(sum(len(t.runs) for t in tasks), stream=sys.stderr) if progress else None
     # The slowest points (largest nu: longest horizons) go first, so no process idles at the end.
     ordered = sorted(tasks, key=lambda t: -t.point.nu)
     start = time.perf_counter()
-    points = runs = 0
-    cpu = 0.0
+    done = {"points": 0, "runs": 0, "cpu": 0.0}
 
     def record(task: PointTask, rows: list[dict], cpu_s: float) -> None:
-        nonlocal points, runs, cpu
         store.append_rows(results, rows)
-        cpu += cpu_s
-        points += 1
-        runs += len(task.runs)
+        done["cpu"] += cpu_s
+        done["points"] += 1
+        done["runs"] += len(task.runs)
         if bar:
             bar.update(len(task.runs))
 
     try:
-        if jobs == 1:
-            global _WORKER_CONFIG
-            _WORKER_CONFIG = config
-            for task in ordered:
-                record(*_work(task))
+        if scheduler is not None:
+            from .cluster import run_on_cluster
+
+            run_on_cluster(config, ordered, scheduler, work=timed_point, record=record)
+        elif jobs == 1:
+            _run_here(config, ordered, record)
         else:
-            pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
-            try:
-                for task, rows, cpu_s in pool.imap_unordered(_work, ordered):
-                    record(task, rows, cpu_s)
-                pool.close()
-            except BaseException:
-                pool.terminate()
-                raise
-            finally:
-                pool.join()
+            _run_pool(config, ordered, jobs, record)
     except KeyboardInterrupt:
         if bar:
             bar.close()
         print(
-            f"pmr-ros sweep: interrupted; {points} finished points ({runs} runs) are in {results}; continue with "
-            "--resume",
+            f"pmr-ros sweep: interrupted; {done['points']} finished points ({done['runs']} runs) are in {results}; "
+            "continue with --resume",
             file=sys.stderr,
         )
         raise
     if bar:
         bar.close()
-    return SweepOutcome(points, runs, time.perf_counter() - start, cpu)
+    return SweepOutcome(int(done["points"]), int(done["runs"]), time.perf_counter() - start, float(done["cpu"]))
+
+
+Recorder = Callable[[PointTask, list[dict], float], None]
+"""Takes a finished point: its task, CSV rows and CPU time [s]."""
+
+
+def _run_here(config: PmrConfig, tasks: list[PointTask], record: Recorder) -> None:
+    global _WORKER_CONFIG
+    _WORKER_CONFIG = config
+    for task in tasks:
+        record(*_work(task))
+
+
+def _run_pool(config: PmrConfig, tasks: list[PointTask], jobs: int, record: Recorder) -> None:
+    pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
+    try:
+        for task, rows, cpu_s in pool.imap_unordered(_work, tasks):
+            record(task, rows, cpu_s)
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+def timed_point(config: PmrConfig, task: PointTask) -> tuple[PointTask, list[dict], float]:
+    """:func:`run_point` with the CPU time it took [s]: what a pool or cluster worker returns."""
+    t0 = time.process_time()
+    rows = run_point(config, task)
+    return task, rows, time.process_time() - t0

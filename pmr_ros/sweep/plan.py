@@ -73,7 +73,8 @@ def element_index(model: TransferMatrix, element: str) -> tuple[int, int]:
     Raises
     ------
     PlanError
-        If the model has no such element.
+        If the model has no such element, or it is not FOPTD (integrating
+        and empty elements have no time constant to sweep).
     """
     names = model.element_names()
     if element not in names:
@@ -81,7 +82,16 @@ def element_index(model: TransferMatrix, element: str) -> tuple[int, int]:
             f"unknown element {element!r} to sweep; this {model.n_outputs}x{model.n_inputs} system has "
             f"{', '.join(names)}"
         )
-    return divmod(names.index(element), model.n_inputs)
+    i, k = divmod(names.index(element), model.n_inputs)
+    kind = str(model.element_type[i, k])
+    if kind != "foptd":
+        sweepable = [n for n, t in zip(names, model.element_type.ravel(), strict=True) if t == "foptd"]
+        what = "an empty cell" if kind == "none" else "integrating"
+        raise PlanError(
+            f"element {element} is {what}: it has no time constant to sweep; choose a FOPTD element "
+            f"({', '.join(sweepable) or 'this system has none'})"
+        )
+    return i, k
 
 
 def row_time_constant_ratio(model: TransferMatrix, i: int, k: int) -> float:
@@ -89,9 +99,12 @@ def row_time_constant_ratio(model: TransferMatrix, i: int, k: int) -> float:
 
     For a 2x2 matrix this is the ratio to the one neighbour in the row, the
     quantity the paper's section 3.6 calls the time-constant difference
-    (tau11/tau12 for the G11 sweep, tau21/tau22 for the G21 sweep).
+    (tau11/tau12 for the G11 sweep, tau21/tau22 for the G21 sweep).  Only
+    the row's other FOPTD elements count (integrating and empty ones have no
+    time constant); with none the ratio is 1.
     """
-    row = np.delete(model.time_constant[i], k)
+    others = np.delete(model.time_constant[i], k)
+    row = others[np.delete(model.element_type[i], k) == "foptd"]
     if row.size == 0:
         return 1.0
     return float(model.time_constant[i, k] / np.exp(np.mean(np.log(row))))

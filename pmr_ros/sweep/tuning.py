@@ -15,8 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
-
+from ..core import mpc_analysis
 from ..core.model import TransferMatrix
 from ..core.mpc import LinearMpc, MpcTuning
 
@@ -34,10 +33,9 @@ def loop_spectral_radius(
     """Spectral radius of the unconstrained closed loop of the MPC on ``model`` and ``plant``.
 
     With no limit active the MPC is linear in (plant state, model state,
-    previous input): ``u = u_prev + K (T (r - C_p x_p + C_m x_m) - Phi x_m - Psi u_prev)``
-    with ``K`` the first block row of ``-H^-1 Theta' Q`` and ``T`` stacking the
-    identity over the horizon.  The loop is stable iff every eigenvalue of the
-    joint state matrix is inside the unit circle.
+    previous input, disturbance estimates); the loop is stable iff every
+    eigenvalue of the joint state matrix that shows in u and y lies inside
+    the unit circle (:func:`pmr_ros.core.mpc_analysis.loop_spectral_radius`).
 
     Parameters
     ----------
@@ -54,23 +52,7 @@ def loop_spectral_radius(
     float
         Largest eigenvalue magnitude [-]; < 1 means stable.
     """
-    controller = controller or LinearMpc(model, tuning)
-    m = controller.matrices
-    n_out, n_in = model.n_outputs, model.n_inputs
-    Np = tuning.prediction_horizon
-    K = (m.unconstrained_gain @ -m.weighted_dynamic)[:n_in]  # first move = K (target - free)
-    T = np.tile(np.eye(n_out), (Np, 1))
-    p = plant.state_space()
-    npx, nmx = p.A.shape[0], m.A.shape[0]
-    feedback = np.hstack([-K @ T @ p.C, K @ T @ m.C - K @ m.free_state, np.eye(n_in) - K @ m.free_input])
-    n = npx + nmx + n_in
-    M = np.zeros((n, n))
-    M[:npx, :npx] = p.A
-    M[npx : npx + nmx, npx : npx + nmx] = m.A
-    M[:npx] += p.B @ feedback
-    M[npx : npx + nmx] += m.B @ feedback
-    M[npx + nmx :] = feedback
-    return float(np.abs(np.linalg.eigvals(M)).max())
+    return mpc_analysis.loop_spectral_radius(controller or LinearMpc(model, tuning), plant)
 
 
 @dataclass(frozen=True)
@@ -111,7 +93,7 @@ def stable_tuning(
     limit : float
         Largest accepted spectral radius.
     """
-    settle = int(math.ceil(4.0 * float(model.time_constant.max()) / model.sample_time)) + int(model.delay_samples.max())
+    settle = int(math.ceil(4.0 * model.slowest_time_constant / model.sample_time)) + int(model.delay_samples.max())
     best: StableTuning | None = None
     horizon = tuning.prediction_horizon
     while True:

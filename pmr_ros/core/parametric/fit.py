@@ -1,208 +1,286 @@
-"""Fitting one output row: the whole-sample delay search, the two-pass noise estimate, the profile.
+"""Fitting one output row: the delay search, the two-pass noise estimate, the profile, the covariance.
 
 :func:`fit_row` runs, for one output row of the implicit regression,
 
-1. a coordinate search over whole-sample delays, each trial a weighted
-   least-squares fit of gains and time constants (:class:`~.ratio.RowProblem`),
-   weighted with the noise spectrum of the nonparametric estimate;
+1. the column-by-column global search over whole-sample delays and time
+   constants (:mod:`.search`), weighted with the noise spectrum of the
+   nonparametric estimate, then the joint fit of every continuous parameter
+   (:class:`~.lsq.RowProblem`);
 2. the same fit again with the noise spectrum re-estimated from the first
    fit's residual (the weights of the final fit);
-3. the profile of each element's delay over its neighbours, the others held
-   at their best (a neighbour that fits better is taken: the search stopped early);
+3. the profile of each column's delay over its neighbours, the others held
+   at their best (a neighbour that fits better is taken);
 4. the Gauss-Newton covariance, inflated by the Welch window's bin correlation
-   and by the reduced chi-square when that exceeds one.
+   and by the reduced chi-square when that exceeds one;
+5. each column's lack of fit: how far the fitted coefficient lies from the
+   per-bin free estimate, in units of that estimate's noise (first-pass
+   weights, which the fit's own misfit has not inflated).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..implicit import RowLayout
 from ..model import TransferMatrix
-from ..spectra import RecordSpectra
-from .ratio import RowProblem, noise_spectrum, row_ratio, whitened_row
+from ..spectra import RowSpectra
+from .lsq import RowParameters, RowProblem
+from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
+from .search import ColumnGrid, column_grids, move_delay, sweep_columns
 
-__all__ = ["PROFILE_HALF_WIDTH", "RowFit", "delay_bounds", "fit_row"]
+__all__ = ["PROFILE_HALF_WIDTH", "RowData", "RowFit", "column_models", "fit_row", "interaction_delay_range"]
 
 PROFILE_HALF_WIDTH = 2
 """Delay candidates either side of the chosen one that enter its confidence [samples]."""
 
-SEARCH_SWEEPS = 3
-"""Most passes of the coordinate delay search over the row's elements."""
+PROFILE_PRUNE = 60.0
+"""A neighbour this many (reduced) chi-square units worse ends its side of the profile."""
 
-Fit = tuple[np.ndarray, float, np.ndarray]
+NEIGHBOUR_ITERATIONS = 3
+"""Joint-fit steps at a neighbouring delay, from the column refitted alone: its chi-square to far below one."""
 
 
 @dataclass(frozen=True)
 class RowFit:
-    """The fitted parameters of one output row and their covariance.
+    """The fitted parameters of one output row and their uncertainty.
 
     Attributes
     ----------
-    gain_ratio : ndarray, shape (n_in,)
-        ``rho_k = K / Khat``.
-    log_tau_ratio : ndarray, shape (n_in,)
-        ``log(tau_k / tauhat_k)``.
-    delay_samples : ndarray of int, shape (n_in,)
-        ``dD_k``.
-    covariance : ndarray, shape (2 n_in, 2 n_in)
-        Of ``(rho..., log tau ratio...)``, inflated.
+    lin : ndarray, shape (n,)
+        ``rho = K / Khat`` of an element, ``gamma`` of an interaction.
+    s : ndarray, shape (n,)
+        ``log(tau / tau_reference)`` (0 without a time constant).
+    delays : ndarray of int, shape (n,)
+        ``dD`` of an element, ``D`` of an interaction.
+    sd_lin, sd_s : ndarray, shape (n,)
+        Standard deviations, inflated (``sd_s`` NaN without a time constant;
+        an interaction's time constant is held, so its gain's is conditional on it).
     chi_square : float
         Weighted squared residual at the fit.
     dof : int
         Its degrees of freedom.
     delay_profile : tuple of dict
-        Per element: ``dD -> chi_square`` with the others at their best.
+        Per column: ``delay -> chi_square`` with the others at their best.
+    lack_of_fit : ndarray, shape (n,)
+        Mean squared distance of the fit from the free estimate per bin, in its noise units (about 1 when it fits).
+    columns : tuple of ColumnModel
     """
 
-    gain_ratio: np.ndarray
-    log_tau_ratio: np.ndarray
-    delay_samples: np.ndarray
-    covariance: np.ndarray
+    lin: np.ndarray
+    s: np.ndarray
+    delays: np.ndarray
+    sd_lin: np.ndarray
+    sd_s: np.ndarray
     chi_square: float
     dof: int
     delay_profile: tuple[dict[int, float], ...]
+    lack_of_fit: np.ndarray
+    columns: tuple[ColumnModel, ...]
+
+    @property
+    def scale(self) -> float:
+        """The reduced chi-square the likelihood is tempered by (>= 1)."""
+        return max(1.0, self.chi_square / self.dof)
 
 
-def delay_bounds(model: TransferMatrix, i: int, max_delay_samples: int) -> list[tuple[int, int]]:
-    """``(lowest, highest)`` dD of each element of row ``i``: ``+-max``, never below ``-Dhat``.
+def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
+    """``(0, highest)`` dead time [samples] searched for an unmodeled interaction.
 
-    A plant delay cannot be negative.
+    Up to the model's largest delay plus the delay-mismatch range: an
+    interaction is taken to be no slower to appear than a modeled element could be.
     """
-    return [
-        (max(-max_delay_samples, -int(model.delay_samples[i, k])), max_delay_samples) for k in range(model.n_inputs)
-    ]
+    return 0, int(model.delay_samples.max()) + int(max_delay_samples)
+
+
+def column_models(model: TransferMatrix, layout: RowLayout, *, max_delay_samples: int) -> list[ColumnModel]:
+    """The parameterization of each column of a row's layout (:class:`~.ratio.ColumnModel`)."""
+    i = layout.row
+    differenced = bool(model.integrating_outputs[i])
+    reference = max(model.slowest_time_constant / model.sample_time, 1.0)
+    interaction = interaction_delay_range(model, max_delay_samples)
+    tau_bound = math.log(TAU_RATIO_BOUND)
+    out = []
+    for k in layout.columns:
+        kind = str(model.element_type[i, k])
+        if kind == "none":
+            template = "pulse" if differenced else "lag"
+            bounds = (math.log(TEMPLATE_TAU_FLOOR / reference), tau_bound)
+            out.append(ColumnModel(template, 0.0, reference, bounds, interaction, False))
+            continue
+        delay = int(model.delay_samples[i, k])
+        delays = (max(-max_delay_samples, -delay), max_delay_samples)
+        if kind == "integrating":
+            out.append(ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), delays, max_delay_samples < delay))
+            continue
+        tau = float(model.time_constant[i, k]) / model.sample_time
+        pole = math.exp(-1.0 / tau)
+        out.append(ColumnModel("ratio", pole, tau, (-tau_bound, tau_bound), delays, max_delay_samples < delay))
+    return out
+
+
+@dataclass(frozen=True)
+class RowData:
+    """What a row's fit reads.
+
+    Attributes
+    ----------
+    spectra : RowSpectra
+    factor : ndarray, shape (F, n_z, n_z)
+        Cholesky factor of the instrument spectra.
+    columns : ndarray of int
+        The regressors that enter.
+    bins : ndarray of int
+        Frequency bins that enter the fit.
+    omega : ndarray, shape (F,)
+        All frequencies [rad/sample].
+    equivalent_segments : float
+    bin_correlation : float
+        Of the Welch window (:attr:`~pmr_ros.core.spectra.WelchSettings.bin_correlation`).
+    """
+
+    spectra: RowSpectra
+    factor: np.ndarray
+    columns: np.ndarray
+    bins: np.ndarray
+    omega: np.ndarray
+    equivalent_segments: float
+    bin_correlation: float
+
+    def system(self, theta: np.ndarray) -> RowSystem:
+        """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n)."""
+        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
+        return row_system(
+            self.spectra,
+            self.factor,
+            columns=self.columns,
+            noise=noise,
+            bins=self.bins,
+            omega=self.omega,
+            equivalent_segments=self.equivalent_segments,
+        )
 
 
 class _Trials:
-    """Fits of one row with one weighting, cached by delay vector."""
+    """Joint fits of one row with one weighting, cached by delay vector."""
 
-    def __init__(self, problem: RowProblem) -> None:
-        self.problem = problem
-        self._cache: dict[tuple[int, ...], Fit] = {}
+    def __init__(self, problem: RowProblem, grids: Sequence[ColumnGrid]) -> None:
+        self.problem, self.grids = problem, grids
+        self._cache: dict[tuple[int, ...], tuple[RowParameters, float]] = {}
 
-    def __call__(self, delays: np.ndarray, start: np.ndarray) -> Fit:
-        key = tuple(int(v) for v in delays)
+    def full(self, start: RowParameters) -> tuple[RowParameters, float]:
+        """The converged joint fit at ``start``'s delays."""
+        fit = self.problem.fit(start)
+        self._cache[tuple(int(v) for v in start.delays)] = fit
+        return fit
+
+    def neighbour(self, fit: tuple[RowParameters, float], k: int, delay: int) -> tuple[RowParameters, float]:
+        """The joint fit with column ``k`` at ``delay``: from ``fit`` with that column refitted alone, a few steps."""
+        params = fit[0]
+        key = tuple(int(v) for v in params.with_delay(k, delay).delays)
         if key not in self._cache:
-            self._cache[key] = self.problem.fit(start, delays)
+            theta = self.problem.coefficients(params).theta
+            start = move_delay(self.problem.system, self.grids[k], params, theta=theta, k=k, delay=delay)
+            self._cache[key] = self.problem.fit(start, iterations=NEIGHBOUR_ITERATIONS)
         return self._cache[key]
 
 
-def _coordinate_search(
-    trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]
-) -> tuple[np.ndarray, Fit]:
-    """Move one element's delay at a time, one sample per step, while the fit improves."""
-    x, cost, _ = fit
-    for _sweep in range(SEARCH_SWEEPS):
-        improved = False
-        for k, (low, high) in enumerate(bounds):
-            for step in (-1, 1):
-                while low <= delays[k] + step <= high:
-                    trial = delays.copy()
-                    trial[k] += step
-                    candidate = trials(trial, x)
-                    if candidate[1] >= cost - 1e-9:
-                        break
-                    delays, fit, improved = trial, candidate, True
-                    x, cost = candidate[0], candidate[1]
-        if not improved:
-            break
-    return delays, fit
-
-
 def _profile(
-    trials: _Trials, delays: np.ndarray, fit: Fit, bounds: list[tuple[int, int]]
-) -> tuple[np.ndarray, Fit, tuple[dict[int, float], ...]]:
-    """Each element's delay profile, the others at their best; a better neighbour is taken."""
+    trials: _Trials, fit: tuple[RowParameters, float], *, scale: float
+) -> tuple[tuple[RowParameters, float], tuple[dict[int, float], ...]]:
+    """Each column's delay profile, the others at their best; a better neighbour is taken (and fitted in full).
+
+    Outwards from the chosen delay, a side stops once a neighbour's chi-square
+    exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
+    reduced chi-square): its likelihood weight, below ``exp(-PROFILE_PRUNE/2)``,
+    changes no confidence, and the one beyond it would weigh less still.
+    """
     profiles = []
-    for k, (low, high) in enumerate(bounds):
-        profile = {}
-        for d in range(max(low, delays[k] - PROFILE_HALF_WIDTH), min(high, delays[k] + PROFILE_HALF_WIDTH) + 1):
-            trial = delays.copy()
-            trial[k] = d
-            profile[d] = trials(trial, fit[0])[1]
+    for k, column in enumerate(trials.problem.columns):
+        low, high = column.delay_bounds
+        chosen = int(fit[0].delays[k])
+        profile = {chosen: fit[1]}
+        for direction in (-1, 1):
+            for step in range(1, PROFILE_HALF_WIDTH + 1):
+                d = chosen + direction * step
+                if not low <= d <= high:
+                    break
+                profile[d] = trials.neighbour(fit, k, d)[1]
+                if profile[d] - fit[1] > PROFILE_PRUNE * scale:
+                    break
         best = min(profile, key=profile.__getitem__)
-        if best != delays[k]:
-            delays = delays.copy()
-            delays[k] = best
-            fit = trials(delays, fit[0])
-        profiles.append(profile)
-    return delays, fit, tuple(profiles)
+        if best != chosen:
+            fit = trials.full(trials.neighbour(fit, k, best)[0])
+            profile[best] = fit[1]
+        profiles.append(dict(sorted(profile.items())))
+    return fit, tuple(profiles)
 
 
-def _covariance(J: np.ndarray, *, cost: float, dof: int, bin_correlation: float) -> np.ndarray:
-    """Gauss-Newton covariance inflated by the bin correlation and an excess reduced chi-square."""
-    inflation = bin_correlation * max(1.0, cost / dof)
+def _uncertainty(problem: RowProblem, params: RowParameters, inflation: float) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations of ``lin`` and of the fitted ``s`` (an interaction's time constant is held)."""
+    n = problem.n
+    info = problem.information(problem.coefficients(params))
+    packed = np.full(info.shape[0], np.inf)
     try:
-        return np.linalg.inv(J.T @ J) * inflation
+        packed = np.sqrt(np.maximum(np.diag(np.linalg.inv(info)) * inflation, 0.0))
     except np.linalg.LinAlgError:
-        return np.full((J.shape[1], J.shape[1]), np.inf)
+        pass
+    sd_s = np.full(n, np.nan)
+    sd_s[problem.free_tau] = packed[n:]
+    return packed[:n], sd_s
 
 
-def fit_row(
-    spectra: RecordSpectra,
-    model: TransferMatrix,
-    *,
-    row: int,
-    theta_start: np.ndarray,
-    delay_start: np.ndarray,
-    max_delay_samples: int,
-    bins: np.ndarray,
-) -> RowFit:
-    """Fit the FOPTD-ratio parameters of every element of one output row.
+def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) -> np.ndarray:
+    """Per column: mean over bins of ``|free - fitted|^2 / var(free)`` (complex variance ``2 [M^-1]_kk``)."""
+    free, variance = system.free_estimate()
+    theta = problem.coefficients(params).theta
+    return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
+
+
+def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.ndarray) -> RowFit:
+    """Fit every coefficient of one output row (see the module docstring).
 
     Parameters
     ----------
-    spectra : RecordSpectra
-    model : TransferMatrix
-        The controller's model.
-    row : int
-        Output row i.
-    theta_start : ndarray of complex, shape (F, n_in)
-        A first PMR estimate of the row (the nonparametric one) for the noise spectrum.
-    delay_start : ndarray of int, shape (n_in,)
-        Starting delays (the classic Hamon-Hannan ones).
-    max_delay_samples : int
-        ``dD`` is searched over ``-max .. +max`` samples (and never below ``-Dhat``).
-    bins : ndarray of int
-        Frequency bins that enter the fit.
+    data : RowData
+    columns : sequence of ColumnModel
+        One per column of ``data.columns``.
+    theta_start : ndarray of complex, shape (F, n)
+        A first estimate of the row (the nonparametric one) for the first noise spectrum.
 
     Returns
     -------
     RowFit
     """
-    pole_model = model.discretize().pole[row]
-    omega = spectra.omega[bins]
-    bounds = delay_bounds(model, row, max_delay_samples)
-    delays = np.array([int(np.clip(d, low, high)) for d, (low, high) in zip(delay_start, bounds, strict=True)])
-    n = model.n_inputs
-
-    def trials_for(noise: np.ndarray) -> _Trials:
-        b, A = whitened_row(spectra, row, noise, bins)
-        return _Trials(
-            RowProblem(
-                b,
-                A,
-                z_inv=np.exp(-1j * omega),
-                pole_model=pole_model,
-                sample_time=model.sample_time,
-                tau_model=model.time_constant[row],
-            )
-        )
-
-    # pass 1: weights from the nonparametric estimate's residual, delays searched
-    trials = trials_for(noise_spectrum(spectra, row, theta_start))
-    delays, fit = _coordinate_search(trials, delays, trials(delays, np.r_[np.ones(n), np.zeros(n)]), bounds)
-    # pass 2: weights from the first fit's residual, delays kept
-    x = fit[0]
-    pole_plant = np.exp(-model.sample_time / (model.time_constant[row] * np.exp(x[n:])))
-    theta = row_ratio(spectra.omega, gain_ratio=x[:n], pole_model=pole_model, pole_plant=pole_plant, delays=delays)
-    trials = trials_for(noise_spectrum(spectra, row, theta))
-    fit = trials(delays, x)
-    delays, fit, profiles = _profile(trials, delays, fit, bounds)
-
-    x, cost, J = fit
-    dof = max(1, J.shape[0] - 2 * n)
-    covariance = _covariance(J, cost=cost, dof=dof, bin_correlation=spectra.settings.bin_correlation)
-    return RowFit(x[:n], x[n:], delays, covariance, cost, dof, profiles)
+    # pass 1: weights from the nonparametric estimate's residual; delays searched
+    first = data.system(theta_start)
+    problem = RowProblem(first, columns)
+    grids = column_grids(columns, first.z_inv)
+    fit = _Trials(problem, grids).full(sweep_columns(first, grids))
+    # pass 2: weights from the first fit's residual; delays profiled
+    z_inv = np.exp(-1j * data.omega)
+    second = data.system(problem.coefficients(fit[0], z_inv).theta)
+    final = RowProblem(second, columns)
+    trials = _Trials(final, grids)
+    p = len(columns) + final.free_tau.size
+    dof = max(1, second.components - p)
+    fit = trials.full(fit[0])
+    fit, profiles = _profile(trials, fit, scale=max(1.0, fit[1] / dof))
+    params, cost = fit
+    inflation = data.bin_correlation * max(1.0, cost / dof)
+    sd_lin, sd_s = _uncertainty(final, params, inflation)
+    return RowFit(
+        lin=params.lin,
+        s=params.s,
+        delays=params.delays,
+        sd_lin=sd_lin,
+        sd_s=sd_s,
+        chi_square=cost,
+        dof=dof,
+        delay_profile=profiles,
+        lack_of_fit=_lack_of_fit(first, problem, params),
+        columns=tuple(columns),
+    )

@@ -1,10 +1,12 @@
 """The data-quality guard of the parametric method: which rows and elements the data can diagnose at all.
 
-Per output row: the informative band (where the row's coherence with the
-setpoints holds), the mean coherence over it, the median condition number of
-the row's regression and the spread of its model time constants; per element,
-its share of the row's setpoint-driven output.  A row or element that fails
-a check is ``inconclusive`` with the reason -- never a number that cannot be trusted.
+Per output row: whether it is identifiable at all (as many instruments as
+regressors, :func:`~pmr_ros.core.implicit.row_layout`), the informative band
+(where the row's coherence with the instruments holds), the mean coherence
+over it, the median condition number of the row's regression and the spread
+of its model time constants; per modeled element, its share of the row's
+instrument-driven output.  A row or element that fails a check is
+``inconclusive`` with the reason -- never a number that cannot be trusted.
 """
 
 from __future__ import annotations
@@ -14,13 +16,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..classic import PmrSettings
-from ..delay import informative_band
-from ..implicit import PmrEstimate
+from ..implicit import RowEstimate, RowLayout
 from ..model import TransferMatrix
-from ..spectra import RecordSpectra, WelchSettings
+from ..spectra import WelchSettings
 from .settings import ParametricSettings
 
-__all__ = ["RowQuality", "row_quality"]
+__all__ = ["RowQuality", "fitted_bins", "row_quality"]
 
 
 @dataclass(frozen=True)
@@ -29,22 +30,25 @@ class RowQuality:
 
     Attributes
     ----------
+    layout : RowLayout
+        The regressors the row's data carry.
     bins : ndarray of int
-        The fitted frequency bins: 0 and the informative band.
+        The fitted frequency bins: the informative band, and 0 unless the row is differenced.
     coherence : float
-        Mean squared coherence of the row with the setpoints over ``bins``.
+        Mean squared coherence of the row with the instruments over ``bins``.
     condition : float
         Median condition number of the row's regression over ``bins``.
     time_constant_ratio : float
         Largest over smallest model time constant of the row.
-    excitation : ndarray, shape (n_in,)
-        Each element's share of the row's setpoint-driven output.
+    excitation : ndarray, shape (n_columns,)
+        Each modeled element's share of the row's instrument-driven output (0 for an empty cell).
     reasons : tuple of str
         Why the row cannot be diagnosed (empty: it can).
     warnings : tuple of str
         Remarks that do not stop a verdict.
     """
 
+    layout: RowLayout
     bins: np.ndarray
     coherence: float
     condition: float
@@ -53,61 +57,129 @@ class RowQuality:
     reasons: tuple[str, ...]
     warnings: tuple[str, ...]
 
-    def quality(self, k: int, *, omega: np.ndarray, welch: WelchSettings) -> dict[str, float]:
-        """The quality figures reported with element ``k``."""
-        return {
+    def quality(self, c: int, *, omega: np.ndarray, welch: WelchSettings) -> dict[str, float]:
+        """The quality figures reported with column ``c`` of the layout (any row figures when ``c`` < 0)."""
+        figures = {
             "coherence": self.coherence,
-            "excitation": float(self.excitation[k]),
             "condition": self.condition,
             "row_time_constant_ratio": self.time_constant_ratio,
-            "band_rad_per_sample": float(omega[self.bins].max()),
+            "band_rad_per_sample": float(omega[self.bins].max()) if self.bins.size else 0.0,
             "segment_length": int(welch.segment_length),
         }
+        if c >= 0:
+            figures["excitation"] = float(self.excitation[c])
+        return figures
 
-    def element_reasons(self, k: int, settings: ParametricSettings) -> tuple[str, ...]:
-        """The row's reasons plus the element's own (barely excited)."""
-        share = float(self.excitation[k])
-        if share < settings.excitation_min:
-            return (*self.reasons, f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output)")
+    def element_reasons(
+        self, c: int, settings: ParametricSettings, *, modeled: bool, input_name: str
+    ) -> tuple[str, ...]:
+        """The row's reasons plus column ``c``'s own (a modeled element barely excited: which input to move)."""
+        share = float(self.excitation[c])
+        if modeled and share < settings.excitation_min:
+            return (
+                *self.reasons,
+                f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output < "
+                f"parametric.excitation_min {100 * settings.excitation_min:g} %): move {input_name} more (MV dither)",
+            )
         return self.reasons
 
 
-def row_quality(
-    i: int,
+def fitted_bins(omega: np.ndarray, coherence: np.ndarray, *, differenced: bool, coherence_min: float) -> np.ndarray:
+    """The bins a row's fit uses: 0 (unless differenced) and the informative band.
+
+    The band is the paper's (:func:`~pmr_ros.core.delay.informative_band`),
+    except that it may start above the lowest bins: slow disturbances or
+    saturated inputs can leave the lowest bins with little coherence with the
+    instruments, and they would end the band before it began.  The fit's
+    weighting already gives such bins little say where they are noisy.
+    """
+    good = (omega > 0) & (coherence >= coherence_min)
+    band = np.zeros(omega.size, dtype=bool)
+    usable = np.flatnonzero(good)
+    if usable.size:
+        start = int(usable[0])
+        drops = np.flatnonzero(~good[start:])
+        band[start : start + int(drops[0]) if drops.size else omega.size] = True
+    band[0] = not differenced  # a differenced row has nothing at 0
+    return np.flatnonzero(band)
+
+
+def _reasons(
+    layout: RowLayout,
+    bins: np.ndarray,
+    coherence: float,
+    condition: float,
     *,
-    spectra: RecordSpectra,
-    estimate: PmrEstimate,
+    settings: ParametricSettings,
+    min_bins: int,
+    coherence_min: float,
+) -> list[str]:
+    reasons = list(layout.reasons)
+    if reasons:
+        return reasons
+    if bins.size < min_bins:
+        reasons.append(
+            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below "
+            f"{coherence_min:g}"
+        )
+    if coherence < settings.coherence_min:
+        reasons.append(f"coherence with the setpoints too low ({coherence:.2f} < {settings.coherence_min:g})")
+    if not np.isfinite(condition) or condition > settings.max_condition:
+        reasons.append(f"ill-conditioned row regression (condition {condition:.3g} > {settings.max_condition:g})")
+    return reasons
+
+
+def _warnings(
+    layout: RowLayout, ratio: float, *, bins: np.ndarray, omega: np.ndarray, settings: ParametricSettings
+) -> tuple[str, ...]:
+    """Remarks on a row that do not stop its verdicts."""
+    warnings = []
+    if ratio > settings.row_time_constant_ratio_warn:
+        warnings.append(
+            f"row {layout.row + 1} mixes time constants {ratio:.1f}x apart "
+            f"(> {settings.row_time_constant_ratio_warn:g}: the classic PMR's filtering effect)"
+        )
+    band = bins[bins > 0]
+    skipped = int(band[0]) - 1 if band.size else 0
+    if skipped > 0:
+        warnings.append(
+            f"{f'the lowest {skipped} bins' if skipped > 1 else 'the lowest bin'} (below {omega[skipped + 1]:.3f} "
+            "rad/sample) lack coherence with the instruments and are not fitted (slow disturbances, saturated inputs?)"
+        )
+    if layout.untested:
+        warnings.append(f"assumes no unmodeled interaction where the model is empty ({layout.untested})")
+    return tuple(warnings)
+
+
+def row_quality(
+    layout: RowLayout,
+    estimate: RowEstimate,
+    *,
+    omega: np.ndarray,
     model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
 ) -> RowQuality:
-    """Judge output row ``i`` of a record before it is fitted."""
-    n_in = model.n_inputs
-    coherence = estimate.coherence[:, i]
-    band = informative_band(spectra.omega, coherence, classic.coherence_min)
-    band[0] = True
-    bins = np.flatnonzero(band)
+    """Judge one output row (its layout and implicit estimate) before it is fitted."""
+    i = layout.row
+    differenced = bool(model.integrating_outputs[i])
+    bins = fitted_bins(omega, estimate.coherence, differenced=differenced, coherence_min=classic.coherence_min)
     taus = model.time_constant[i][model.element_type[i] == "foptd"]
     ratio = float(taus.max() / taus.min()) if taus.size else 1.0
-    row_coherence = float(coherence[bins].mean())
-    condition = float(np.median(estimate.condition[bins, i]))
-    reasons = []
-    if bins.size < 2 * n_in + 2:
-        reasons.append(
-            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below "
-            f"{classic.coherence_min:g}"
-        )
-    if row_coherence < settings.coherence_min:
-        reasons.append(f"coherence with the setpoints too low ({row_coherence:.2f} < {settings.coherence_min:g})")
-    if not np.isfinite(condition) or condition > settings.max_condition:
-        reasons.append(f"ill-conditioned row regression (condition {condition:.3g} > {settings.max_condition:g})")
-    warnings = []
-    if ratio > settings.row_time_constant_ratio_warn:
-        warnings.append(
-            f"row {i + 1} mixes time constants {ratio:.1f}x apart "
-            f"(> {settings.row_time_constant_ratio_warn:g}: the classic PMR's filtering effect)"
-        )
-    # each element's share of the row's setpoint-driven output: can it be seen at all?
-    driven = np.abs(spectra.ryhat[bins][:, :, i, :]) ** 2  # (F', n_r, n_in)
-    share = driven.sum(axis=(0, 1)) / max(driven.sum(), 1e-300)
-    return RowQuality(bins, row_coherence, condition, ratio, share, tuple(reasons), tuple(warnings))
+    coherence = float(estimate.coherence[bins].mean()) if bins.size else 0.0
+    condition = float(np.median(estimate.condition[bins])) if bins.size and layout.columns.size else np.inf
+    reasons = _reasons(
+        layout,
+        bins,
+        coherence,
+        condition,
+        settings=settings,
+        min_bins=2 * layout.columns.size + 2,
+        coherence_min=classic.coherence_min,
+    )
+    warnings = _warnings(layout, ratio, bins=bins, omega=omega, settings=settings)
+    # each modeled element's share of the row's instrument-driven output: can it be seen at all?
+    modeled = model.present[i, layout.columns]
+    driven = np.where(modeled, estimate.power[bins].sum(axis=0), 0.0) if bins.size else np.zeros(modeled.size)
+    share = driven / max(float(driven.sum()), 1e-300)
+    return RowQuality(layout, bins, coherence, condition, ratio, share, tuple(reasons), warnings)

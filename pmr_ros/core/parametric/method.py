@@ -10,70 +10,152 @@ likelihood of the chosen ``dD`` against its neighbours, on the same scale.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..classic import PmrSettings, classic_estimate, classic_results
-from ..delay import hamon_hannan_delay, informative_band
-from ..implicit import PmrEstimate, implicit_estimate
+from ..classic import PmrSettings, classic_estimate, classic_results, readable
+from ..implicit import (
+    EstimateBuilder,
+    PmrEstimate,
+    RowEstimate,
+    RowLayout,
+    implicit_row,
+    instrument_factor,
+    row_layout,
+)
 from ..model import TransferMatrix
 from ..record import MIN_SEGMENTS, InsufficientData, check_stretches
 from ..results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
-from ..spectra import RecordSpectra, record_spectra
+from ..spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 from ..stretch import Stretch, total_samples
-from .fit import fit_row
+from .fit import RowData, RowFit, column_models, fit_row
 from .guard import RowQuality, row_quality
 from .settings import ParametricSettings
-from .verdicts import element_result
+from .verdicts import element_result, interaction_result
 
 __all__ = ["diagnose_parametric", "parametric_results"]
 
 
-def _delay_start(i: int, *, spectra: RecordSpectra, estimate: PmrEstimate, classic: PmrSettings) -> np.ndarray:
-    """The classic Hamon-Hannan delay of each element of row ``i``: where the search starts."""
-    coherence = estimate.coherence[:, i]
-    band = informative_band(spectra.omega, coherence, classic.coherence_min)
-    band &= spectra.omega > 0
-    n_in = estimate.ratio.shape[2]
-    return np.array(
-        [
-            hamon_hannan_delay(spectra.omega, estimate.ratio[:, i, k], coherence, classic.max_delay_samples, band)[0]
-            for k in range(n_in)
-        ]
-    )
+def _without_numbers(kind: str, reasons: tuple[str, ...], warnings: tuple[str, ...], figures: dict) -> ParametricResult:
+    """An inconclusive result of an element of ``kind``; the verdicts that do not apply are None."""
+    if kind == "none":
+        return ParametricResult(
+            gain_verdict=None,
+            tau_verdict=None,
+            delay_verdict=None,
+            unmodeled_verdict="inconclusive",
+            reasons=reasons,
+            warnings=warnings,
+            quality=figures,
+        )
+    tau = "inconclusive" if kind == "foptd" else None
+    return ParametricResult(tau_verdict=tau, reasons=reasons, warnings=warnings, quality=figures)
 
 
-def _row_results(
+@dataclass(frozen=True)
+class _FittedRow:
+    """One output row judged and (when the guard lets it) fitted."""
+
+    layout: RowLayout
+    estimate: RowEstimate
+    quality: RowQuality
+    fit: RowFit | None
+
+
+def _fit(
     i: int,
-    quality: RowQuality,
+    row: RowSpectra,
     *,
     spectra: RecordSpectra,
-    estimate: PmrEstimate,
+    factor: np.ndarray,
     model: TransferMatrix,
     classic: PmrSettings,
     settings: ParametricSettings,
-) -> list[ParametricResult]:
-    fit = None
-    if not quality.reasons:
-        delay_start = _delay_start(i, spectra=spectra, estimate=estimate, classic=classic)
-        fit = fit_row(
-            spectra,
-            model,
-            row=i,
-            theta_start=estimate.ratio[:, i, :],
-            delay_start=delay_start,
-            max_delay_samples=classic.max_delay_samples,
-            bins=quality.bins,
+) -> _FittedRow:
+    """Row ``i``'s layout, implicit estimate (from its spectra ``row``), guard and, when the guard passes it, fit."""
+    layout = row_layout(model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
+    estimate = implicit_row(row, spectra.rr, factor, layout.columns)
+    quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
+    if quality.reasons:
+        return _FittedRow(layout, estimate, quality, None)
+    data = RowData(
+        spectra=row,
+        factor=factor,
+        columns=layout.columns,
+        bins=quality.bins,
+        omega=spectra.omega,
+        equivalent_segments=spectra.equivalent_segments,
+        bin_correlation=spectra.settings.bin_correlation,
+    )
+    columns = column_models(model, layout, max_delay_samples=classic.max_delay_samples)
+    return _FittedRow(layout, estimate, quality, fit_row(data, columns, theta_start=estimate.ratio))
+
+
+def _share_per_gain(row: _FittedRow, c: int, omega: np.ndarray) -> float:
+    """RMS share of the row's instrument-driven output that a unit gain of column ``c``'s fitted template carries."""
+    assert row.fit is not None
+    bins = row.quality.bins
+    shape, _ = row.fit.columns[c].shapes(np.exp(-1j * omega[bins]), np.array([row.fit.s[c]]))
+    driven = np.sum(np.abs(shape[0]) ** 2 * row.estimate.power[bins, c])
+    return float(np.sqrt(driven / max(float(row.estimate.explained[bins].sum()), 1e-300)))
+
+
+def _element(
+    row: _FittedRow, k: int, kind: str, *, spectra: RecordSpectra, settings: ParametricSettings
+) -> ParametricResult:
+    """The result of input ``k`` of a fitted row."""
+    quality = row.quality
+    position = np.flatnonzero(row.layout.columns == k)
+    c = int(position[0]) if position.size else -1
+    figures = quality.quality(c, omega=spectra.omega, welch=spectra.settings)
+    if c < 0:
+        return _without_numbers(kind, quality.reasons or (row.layout.untested,), quality.warnings, figures)
+    reasons = quality.element_reasons(c, settings, modeled=kind != "none", input_name=spectra.model.input_names[k])
+    if row.fit is None or reasons:
+        return _without_numbers(kind, reasons, quality.warnings, figures)
+    if kind == "none":
+        share = _share_per_gain(row, c, spectra.omega)
+        return interaction_result(
+            row.fit, c, share_per_gain=share, settings=settings, quality=figures, warnings=quality.warnings
         )
-    out = []
-    for k in range(model.n_inputs):
-        figures = quality.quality(k, omega=spectra.omega, welch=spectra.settings)
-        reasons = quality.element_reasons(k, settings)
-        if fit is None or reasons:
-            out.append(ParametricResult(reasons=reasons, warnings=quality.warnings, quality=figures))
-        else:
-            out.append(element_result(fit, k, settings=settings, quality=figures, warnings=quality.warnings))
-    return out
+    return element_result(row.fit, c, settings=settings, quality=figures, warnings=quality.warnings)
+
+
+def _check_segments(welch: WelchSettings, stretches: Sequence[Stretch], model: TransferMatrix) -> None:
+    usable = [s.samples - model.settling_samples() for s in stretches]
+    segments = sum(welch.segments(n) for n in usable)
+    if segments < MIN_SEGMENTS:
+        raise InsufficientData(
+            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
+            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
+            "shorten it (0 picks one from the model)"
+        )
+
+
+def _results(
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
+) -> tuple[dict[str, ParametricResult], PmrEstimate | None]:
+    """The parametric results, and the classic estimate when both methods' segments agree (one transform per row)."""
+    welch = settings.welch(model, max(s.samples for s in stretches), classic)
+    _check_segments(welch, stretches, model)
+    spectra = record_spectra(stretches, model, welch)
+    factor = instrument_factor(spectra.rr)
+    shared = EstimateBuilder(spectra) if welch == classic.welch else None
+    names = model.element_names()
+    out: dict[str, ParametricResult] = {}
+    for i in range(model.n_outputs):
+        row_spectra = spectra.row(i)
+        if shared is not None:
+            layout = row_layout(
+                model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=False
+            )
+            shared.add(layout, implicit_row(row_spectra, spectra.rr, factor, layout.columns))
+        row = _fit(i, row_spectra, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
+        kinds = [str(kind) for kind in model.element_type[i]]
+        results = [_element(row, k, kind, spectra=spectra, settings=settings) for k, kind in enumerate(kinds)]
+        out.update(zip(names[i * model.n_inputs : (i + 1) * model.n_inputs], results, strict=True))
+    return out, None if shared is None else shared.build()
 
 
 def parametric_results(
@@ -86,39 +168,22 @@ def parametric_results(
     InsufficientData
         The parametric Welch segment leaves fewer than :data:`MIN_SEGMENTS` segments.
     """
-    longest = max(s.samples for s in stretches)
-    welch = settings.welch(model, longest, classic)
-    usable = [s.samples - model.settling_samples() for s in stretches]
-    segments = sum(welch.segments(n) for n in usable)
-    if segments < MIN_SEGMENTS:
-        raise InsufficientData(
-            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
-            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
-            "shorten it (0 picks one from the model)"
-        )
-    spectra = record_spectra(stretches, model, welch)
-    estimate = implicit_estimate(spectra)
-    names = model.element_names()
-    out: dict[str, ParametricResult] = {}
-    for i in range(model.n_outputs):
-        quality = row_quality(i, spectra=spectra, estimate=estimate, model=model, classic=classic, settings=settings)
-        results = _row_results(
-            i, quality, spectra=spectra, estimate=estimate, model=model, classic=classic, settings=settings
-        )
-        out.update(zip(names[i * model.n_inputs : (i + 1) * model.n_inputs], results, strict=True))
-    return out
+    return _results(stretches, model=model, classic=classic, settings=settings)[0]
 
 
 def _classic_part(
-    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings
+    stretches: Sequence[Stretch], *, model: TransferMatrix, classic: PmrSettings, estimate: PmrEstimate | None
 ) -> dict[str, ClassicResult | None]:
     """The classic numbers kept beside the parametric ones; None where the classic method cannot give them."""
     try:
-        estimate = classic_estimate(stretches, model=model, settings=classic)
+        if estimate is None:
+            estimate = classic_estimate(stretches, model=model, settings=classic)
+        estimate = readable(estimate, classic)
     except InsufficientData:
         # the classic method refuses an ill-conditioned record as a whole; the parametric guard judges it row by row
         return dict.fromkeys(model.element_names())
-    return dict(classic_results(estimate, model, classic))
+    results = classic_results(estimate, model, classic)
+    return {name: r if isinstance(r, ClassicResult) else None for name, r in results.items()}
 
 
 def diagnose_parametric(
@@ -150,10 +215,10 @@ def diagnose_parametric(
     models = model.element_models()
     try:
         check_stretches(stretches, model=model, welch=classic.welch)
-        results = parametric_results(stretches, model=model, classic=classic, settings=settings)
+        results, estimate = _results(stretches, model=model, classic=classic, settings=settings)
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="parametric", models=models, reason=str(exc), samples=samples)
-    classic_part = _classic_part(stretches, model=model, classic=classic)
+    classic_part = _classic_part(stretches, model=model, classic=classic, estimate=estimate)
     elements = {
         name: ElementDiagnosis(name, i, k, element, "parametric", classic=classic_part[name], parametric=results[name])
         for name, (i, k, element) in models.items()

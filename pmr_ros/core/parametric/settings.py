@@ -49,6 +49,11 @@ class ParametricSettings:
     row_time_constant_ratio_warn : float
         The paper's filtering-effect limit: a row whose model time constants
         differ by more gets a quality warning (not a verdict change).
+    lack_of_fit_max : float
+        An element whose fitted response lies further from the per-bin free
+        estimate than this, in mean squared units of that estimate's noise
+        (about 1 when the model fits), is inconclusive: the fit cannot follow
+        the data (a delay beyond the search range, another element structure).
     """
 
     segment_length: int
@@ -62,6 +67,7 @@ class ParametricSettings:
     excitation_min: float
     max_condition: float
     row_time_constant_ratio_warn: float
+    lack_of_fit_max: float
 
     def welch(self, model: TransferMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
         """The Welch settings for a record of ``samples`` on ``model``."""

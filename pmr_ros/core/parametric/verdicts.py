@@ -1,4 +1,21 @@
-"""Calibrated verdicts of one element from its row's fit: intervals, delay confidence, ok/mismatch/inconclusive."""
+"""Calibrated verdicts of one column of a fitted row: intervals, delay confidence, ok/mismatch/inconclusive.
+
+Three rules, each its own function so that each can be hardened alone:
+
+* :func:`parameter_verdict`: a parameter is ``mismatch`` when its interval
+  excludes zero and the estimate exceeds the practical tolerance,
+  ``inconclusive`` when the interval is too wide, else ``ok``;
+* :func:`trust_reasons`: numbers that cannot be trusted whatever their
+  intervals -- a delay at the edge of its search range (the true one may lie
+  beyond, and the gain and time constant then bend to mimic it), or a fit
+  that does not follow the data (lack of fit) -- make every verdict of the
+  element ``inconclusive``;
+* :func:`interaction_verdict`: an empty cell's interaction is judged by the
+  share of the row's instrument-driven output it carries, against the gain
+  tolerance, with its interval widened for the search over its delay and
+  time constant (the best of many candidates is larger than one chosen in
+  advance: a Bonferroni bound over :func:`search_candidates`).
+"""
 
 from __future__ import annotations
 
@@ -8,11 +25,24 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.stats import norm
 
+from ..delay import search_limit_reason
 from ..results import ParametricResult
 from .fit import RowFit
+from .ratio import ColumnModel
 from .settings import ParametricSettings
 
-__all__ = ["delay_confidence", "element_result", "parameter_verdict"]
+__all__ = [
+    "delay_confidence",
+    "element_result",
+    "interaction_result",
+    "interaction_verdict",
+    "parameter_verdict",
+    "search_candidates",
+    "trust_reasons",
+]
+
+TEMPLATE_SHAPES = 2
+"""Effectively independent template time constants counted per delay candidate in the Bonferroni bound."""
 
 
 def parameter_verdict(value: float, interval: tuple[float, float], *, tolerance: float, max_halfwidth: float) -> str:
@@ -56,41 +86,77 @@ def delay_confidence(profile: Mapping[int, float], chosen: int, scale: float) ->
     return float(1.0 / weights.sum())
 
 
+def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[str, ...]:
+    """Why column ``c``'s numbers cannot be trusted at all: a delay at its search limit, a lack of fit."""
+    column = fit.columns[c]
+    low, high = column.delay_bounds
+    reasons = []
+    edge = search_limit_reason(int(fit.delays[c]), low=low, high=high, low_is_limit=column.low_is_limit)
+    if edge is not None:
+        reasons.append(edge)
+    misfit = float(fit.lack_of_fit[c])
+    if not misfit <= settings.lack_of_fit_max:
+        reasons.append(
+            f"the fit does not follow the data ({misfit:.1f}x the noise > {settings.lack_of_fit_max:g}): "
+            "a delay beyond pmr.max_delay_samples, or an element of another structure"
+        )
+    return tuple(reasons)
+
+
+def _z(settings: ParametricSettings) -> float:
+    return float(norm.ppf(0.5 + settings.confidence_level / 2.0))
+
+
+def _delay(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[int, float, str]:
+    delay = int(fit.delays[c])
+    confidence = delay_confidence(fit.delay_profile[c], delay, fit.scale)
+    if confidence < settings.delay_confidence_min:
+        return delay, confidence, "inconclusive"
+    return delay, confidence, "mismatch" if delay != 0 else "ok"
+
+
+def _tau(
+    fit: RowFit, c: int, settings: ParametricSettings
+) -> tuple[float | None, tuple[float, float] | None, str | None]:
+    """``(dtau %, interval, verdict)`` of a column with a time constant, all None without one."""
+    if not fit.columns[c].has_tau:
+        return None, None, None
+    s, sd = float(fit.s[c]), float(fit.sd_s[c])
+    z = _z(settings)
+    tau = 100.0 * math.expm1(s)
+    interval = (100.0 * math.expm1(s - z * sd), 100.0 * math.expm1(s + z * sd))
+    verdict = parameter_verdict(
+        tau, interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct
+    )
+    return tau, interval, verdict
+
+
 def element_result(
     fit: RowFit,
-    k: int,
+    c: int,
     *,
     settings: ParametricSettings,
     quality: Mapping[str, float],
     warnings: tuple[str, ...],
 ) -> ParametricResult:
-    """The estimate, intervals and verdicts of element ``k`` of a fitted row."""
-    n = fit.gain_ratio.size
-    z = float(norm.ppf(0.5 + settings.confidence_level / 2.0))
-    rho, s = float(fit.gain_ratio[k]), float(fit.log_tau_ratio[k])
-    sd_rho = math.sqrt(max(fit.covariance[k, k], 0.0))
-    sd_s = math.sqrt(max(fit.covariance[n + k, n + k], 0.0))
+    """The estimate, intervals and verdicts of a modeled element, column ``c`` of a fitted row."""
+    z = _z(settings)
+    rho, sd_rho = float(fit.lin[c]), float(fit.sd_lin[c])
     gain = 100.0 * (rho - 1.0)
     gain_interval = (100.0 * (rho - z * sd_rho - 1.0), 100.0 * (rho + z * sd_rho - 1.0))
-    tau = 100.0 * math.expm1(s)
-    tau_interval = (100.0 * math.expm1(s - z * sd_s), 100.0 * math.expm1(s + z * sd_s))
-    delay = int(fit.delay_samples[k])
-    confidence = delay_confidence(fit.delay_profile[k], delay, max(1.0, fit.chi_square / fit.dof))
     gain_verdict = parameter_verdict(
         gain, gain_interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
     )
-    tau_verdict = parameter_verdict(
-        tau, tau_interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct
-    )
-    reasons = []
-    if confidence < settings.delay_confidence_min:
-        delay_verdict = "inconclusive"
-        reasons.append(f"delay uncertain (confidence {100 * confidence:.0f} %)")
-    else:
-        delay_verdict = "mismatch" if delay != 0 else "ok"
+    tau, tau_interval, tau_verdict = _tau(fit, c, settings)
+    delay, confidence, delay_verdict = _delay(fit, c, settings)
+    reasons = [] if delay_verdict != "inconclusive" else [f"delay uncertain (confidence {100 * confidence:.0f} %)"]
     for label, verdict, interval in (("gain", gain_verdict, gain_interval), ("τ", tau_verdict, tau_interval)):
-        if verdict == "inconclusive":
+        if verdict == "inconclusive" and interval is not None:
             reasons.append(f"{label} interval [{interval[0]:+.1f}, {interval[1]:+.1f}] % too wide")
+    distrust = trust_reasons(fit, c, settings)
+    if distrust:
+        gain_verdict, delay_verdict = "inconclusive", "inconclusive"
+        tau_verdict = None if tau_verdict is None else "inconclusive"
     return ParametricResult(
         gain_mismatch_pct=gain,
         gain_mismatch_pct_interval=gain_interval,
@@ -101,7 +167,70 @@ def element_result(
         gain_verdict=gain_verdict,
         tau_verdict=tau_verdict,
         delay_verdict=delay_verdict,
+        reasons=(*distrust, *reasons),
+        warnings=warnings,
+        quality={**quality, "lack_of_fit": float(fit.lack_of_fit[c])},
+    )
+
+
+def search_candidates(column: ColumnModel) -> int:
+    """Templates an interaction's search chooses among: delays, times :data:`TEMPLATE_SHAPES` with a time constant."""
+    low, high = column.delay_bounds
+    return (high - low + 1) * (TEMPLATE_SHAPES if column.has_tau else 1)
+
+
+def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, settings: ParametricSettings) -> str:
+    """The verdict on an interaction of ``share_pct`` % of the row's instrument-driven output.
+
+    The share's interval is widened to the Bonferroni level of ``candidates``
+    searched templates; then :func:`parameter_verdict` with the gain tolerance.
+    """
+    z = float(norm.ppf(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
+    interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
+    return parameter_verdict(
+        share_pct, interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
+    )
+
+
+def interaction_result(
+    fit: RowFit,
+    c: int,
+    *,
+    share_per_gain: float,
+    settings: ParametricSettings,
+    quality: Mapping[str, float],
+    warnings: tuple[str, ...],
+) -> ParametricResult:
+    """An empty cell, column ``c`` of a fitted row: the interaction's gain, interval, delay and verdict.
+
+    Parameters
+    ----------
+    share_per_gain : float
+        Root-mean-square share of the row's instrument-driven output that a
+        unit gain of the fitted template would carry.
+    """
+    z = _z(settings)
+    gamma, sd = float(fit.lin[c]), float(fit.sd_lin[c])
+    share, sd_share = 100.0 * gamma * share_per_gain, 100.0 * sd * share_per_gain
+    verdict = interaction_verdict(share, sd_share, candidates=search_candidates(fit.columns[c]), settings=settings)
+    delay, confidence, _ = _delay(fit, c, settings)
+    reasons = list(trust_reasons(fit, c, settings)) if verdict == "mismatch" else []
+    if reasons:
+        verdict = "inconclusive"
+    elif verdict == "inconclusive":
+        reasons.append(f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: too uncertain")
+    if verdict == "mismatch" and confidence < settings.delay_confidence_min:
+        warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
+    return ParametricResult(
+        delay_confidence=confidence,
+        gain_verdict=None,
+        tau_verdict=None,
+        delay_verdict=None,
+        unmodeled_gain=gamma,
+        unmodeled_gain_interval=(gamma - z * sd, gamma + z * sd),
+        unmodeled_delay_samples=delay,
+        unmodeled_verdict=verdict,
         reasons=tuple(reasons),
         warnings=warnings,
-        quality=dict(quality),
+        quality={**quality, "unmodeled_share_pct": share, "lack_of_fit": float(fit.lack_of_fit[c])},
     )

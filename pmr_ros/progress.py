@@ -1,4 +1,4 @@
-"""A small text progress bar with an ETA, on stderr."""
+"""A small text progress bar with an ETA, on stderr (the sweep's runs, the bytes of a long data file)."""
 
 from __future__ import annotations
 
@@ -26,15 +26,20 @@ class ProgressBar:
     Parameters
     ----------
     total : int
-        Units of work (closed-loop runs).
+        Units of work (closed-loop runs, bytes).
     label : str
+    unit : str
+        What is counted, shown after the counts (``runs``); ``MB`` shows a
+        count of bytes in megabytes.
     stream : text stream, default ``sys.stderr``
     width : int
         Characters of the bar.
     """
 
-    def __init__(self, total: int, label: str = "sweep", stream: TextIO | None = None, width: int = 30) -> None:
-        self.total, self.label, self.width = max(int(total), 0), label, width
+    def __init__(
+        self, total: int, label: str = "sweep", stream: TextIO | None = None, width: int = 30, *, unit: str = "runs"
+    ) -> None:
+        self.total, self.label, self.width, self.unit = max(int(total), 0), label, width, unit
         self.stream = stream if stream is not None else sys.stderr
         self.done = 0
         self.start = time.monotonic()
@@ -49,9 +54,14 @@ class ProgressBar:
         eta = elapsed / self.done * (self.total - self.done) if self.done else float("nan")
         eta_text = format_duration(eta) if self.done else "?"
         return (
-            f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} runs "
+            f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {self._count()} "
             f"{100 * frac:3.0f}% {format_duration(elapsed)} elapsed, ETA {eta_text}"
         )
+
+    def _count(self) -> str:
+        if self.unit == "MB":
+            return f"{self.done / 1e6:.1f}/{self.total / 1e6:.1f} MB"
+        return f"{self.done}/{self.total} {self.unit}"
 
     def update(self, advance: int) -> None:
         """Count ``advance`` more units done and redraw."""

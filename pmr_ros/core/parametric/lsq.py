@@ -1,0 +1,194 @@
+"""Joint weighted least squares of one row's continuous parameters for fixed whole-sample delays.
+
+The coefficient of column k is ``lin_k * shape_k(w; s_k) * z^-d_k``
+(:class:`~.ratio.ColumnModel`); with the delays held, the row's cost
+``sum_w |b - A theta|^2`` is minimized over the linear parameters ``lin`` and
+the log time constants ``s`` by a bounded Levenberg-Marquardt iteration on
+the information form (:class:`~.ratio.RowSystem`), whose Gauss-Newton matrix
+``Re sum_w dtheta^H M dtheta`` is also the information the covariance inverts.
+
+The time constant of an empty cell's interaction template is held where the
+column search (:mod:`.search`) put it: when there is no interaction its gain
+is about zero and its time constant is not identifiable at all -- a flat
+direction that would only slow the iteration down -- and when there is one
+the search has already placed it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .ratio import GAIN_RATIO_BOUND, ColumnModel, RowSystem
+
+__all__ = ["Coefficients", "RowParameters", "RowProblem"]
+
+MAX_ITERATIONS = 60
+"""Most Levenberg-Marquardt steps of one fit."""
+
+COST_TOLERANCE = 1e-7
+"""A fit has converged when a step lowers the cost (a chi-square) by less than this.
+
+Far below anything a verdict reads (delay confidences compare chi-square
+differences of order one; parameters are then within 1e-3 of their standard
+deviation of the optimum), far above rounding."""
+
+
+@dataclass(frozen=True)
+class RowParameters:
+    """One row's parameters.
+
+    Attributes
+    ----------
+    lin : ndarray, shape (n,)
+        Linear parameter per column: ``rho = K/Khat`` of an element, ``gamma`` of an interaction.
+    s : ndarray, shape (n,)
+        ``log(tau / tau_reference)`` of columns with a time constant, 0 elsewhere.
+    delays : ndarray of int, shape (n,)
+        ``dD`` of an element, ``D`` of an interaction [samples].
+    """
+
+    lin: np.ndarray
+    s: np.ndarray
+    delays: np.ndarray
+
+    def with_delay(self, k: int, delay: int) -> RowParameters:
+        """A copy with column ``k``'s delay replaced."""
+        delays = self.delays.copy()
+        delays[k] = delay
+        return RowParameters(self.lin.copy(), self.s.copy(), delays)
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """The coefficients of a row at given parameters, with their derivatives.
+
+    Attributes
+    ----------
+    theta : ndarray of complex, shape (F', n)
+    d_lin : ndarray of complex, shape (F', n)
+        ``d theta_k / d lin_k``.
+    d_s : ndarray of complex, shape (F', n)
+        ``d theta_k / d s_k`` (0 without a time constant).
+    """
+
+    theta: np.ndarray
+    d_lin: np.ndarray
+    d_s: np.ndarray
+
+
+class RowProblem:
+    """The joint fit of one row's ``lin`` and ``s`` for fixed delays.
+
+    Parameters
+    ----------
+    system : RowSystem
+        The row's whitened equations.
+    columns : sequence of ColumnModel
+        One per regressor.
+    """
+
+    def __init__(self, system: RowSystem, columns: Sequence[ColumnModel]) -> None:
+        self.system, self.columns = system, list(columns)
+        self.n = len(self.columns)
+        self.has_tau = np.array([c.has_tau for c in self.columns], dtype=bool)
+        self.tau_reference = np.array([c.tau_reference for c in self.columns])
+        self.pole_model = np.array([c.pole_model for c in self.columns])
+        bounded = np.array([not c.interaction for c in self.columns])
+        self.lin_bounds = (np.where(bounded, -GAIN_RATIO_BOUND, -np.inf), np.where(bounded, GAIN_RATIO_BOUND, np.inf))
+        self.s_bounds = (
+            np.array([c.s_bounds[0] for c in self.columns]),
+            np.array([c.s_bounds[1] for c in self.columns]),
+        )
+        self.tau_index = np.flatnonzero(self.has_tau)
+        interaction = np.array([c.interaction for c in self.columns], dtype=bool)
+        self.free_tau = np.flatnonzero(self.has_tau & ~interaction)
+        self._lowest = min((c.delay_bounds[0] for c in self.columns), default=0)
+        highest = max((c.delay_bounds[1] for c in self.columns), default=0)
+        self._turns = system.z_inv[:, None] ** np.arange(self._lowest, highest + 1)[None, :]  # z^-d per delay
+
+    def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
+        """``theta`` and its derivatives at ``params``, on the fitted bins or at ``z_inv = exp(-j w)``."""
+        if z_inv is None:
+            z_inv = self.system.z_inv[:, None]
+            delay = self._turns[:, params.delays - self._lowest]
+        else:
+            z_inv = z_inv[:, None]
+            delay = z_inv ** params.delays[None, :]
+        tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
+        a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
+        ah = self.pole_model
+        numerator = (1 - ah * z_inv) / (1 - ah)
+        denominator = 1 - a * z_inv
+        shape = np.where(self.has_tau, (1 - a) * numerator / denominator, 1.0)
+        d_shape = np.where(self.has_tau, numerator * (z_inv - 1) / denominator**2 * (a / tau), 0.0)
+        d_lin = shape * delay
+        return Coefficients(params.lin * d_lin, d_lin, params.lin * d_shape * delay)
+
+    def _pack(self, params: RowParameters) -> np.ndarray:
+        return np.concatenate([params.lin, params.s[self.free_tau]])
+
+    def _unpack(self, x: np.ndarray, start: RowParameters) -> RowParameters:
+        s = start.s.copy()
+        s[self.free_tau] = x[self.n :]
+        return RowParameters(x[: self.n].copy(), s, start.delays)
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lower = np.concatenate([self.lin_bounds[0], self.s_bounds[0][self.free_tau]])
+        upper = np.concatenate([self.lin_bounds[1], self.s_bounds[1][self.free_tau]])
+        return lower, upper
+
+    def jacobian(self, coefficients: Coefficients) -> tuple[np.ndarray, np.ndarray]:
+        """``(derivatives (F', p), column of each parameter (p,))`` of the fitted parameters.
+
+        Every ``lin``, then the ``s`` of the columns whose time constant is fitted (``free_tau``).
+        """
+        derivatives = np.concatenate([coefficients.d_lin, coefficients.d_s[:, self.free_tau]], axis=1)
+        owner = np.concatenate([np.arange(self.n), self.free_tau])
+        return derivatives, owner
+
+    def information(self, coefficients: Coefficients, *, keep: np.ndarray | None = None) -> np.ndarray:
+        """Gauss-Newton matrix ``Re sum_w D^H M D`` of the packed parameters (or of those in ``keep``)."""
+        derivatives, owner = self.jacobian(coefficients)
+        if keep is not None:
+            derivatives, owner = derivatives[:, keep], owner[keep]
+        M = self.system.M[:, owner][:, :, owner]
+        return np.einsum("fp,fpq,fq->pq", derivatives.conj(), M, derivatives).real
+
+    def _gradient(self, coefficients: Coefficients) -> np.ndarray:
+        derivatives, owner = self.jacobian(coefficients)
+        misfit = np.einsum("fkm,fm->fk", self.system.M, coefficients.theta) - self.system.v
+        return 2.0 * np.einsum("fp,fp->p", derivatives.conj(), misfit[:, owner]).real
+
+    def fit(self, start: RowParameters, *, iterations: int = MAX_ITERATIONS) -> tuple[RowParameters, float]:
+        """Fit ``lin`` and ``s`` from ``start`` with its delays held: ``(parameters, cost)``.
+
+        ``iterations`` caps the steps (a few from a good start already give
+        the cost to far below one unit of chi-square).
+        """
+        lower, upper = self._bounds()
+        x = np.clip(self._pack(start), lower, upper)
+        coefficients = self.coefficients(self._unpack(x, start))
+        cost = self.system.cost(coefficients.theta)
+        damping = 1e-3
+        for _ in range(iterations):
+            H = self.information(coefficients)
+            g = self._gradient(coefficients)
+            diagonal = np.maximum(np.diag(H), 1e-12 * max(1.0, float(np.abs(np.diag(H)).max())))
+            while damping < 1e12:
+                trial = np.clip(x + np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g), lower, upper)
+                trial_coefficients = self.coefficients(self._unpack(trial, start))
+                trial_cost = self.system.cost(trial_coefficients.theta)
+                if trial_cost <= cost:
+                    break
+                damping *= 10.0
+            else:
+                break
+            decrease = cost - trial_cost
+            x, coefficients, cost = trial, trial_coefficients, trial_cost
+            damping = max(damping / 10.0, 1e-9)
+            if decrease <= COST_TOLERANCE:
+                break
+        return self._unpack(x, start), float(cost)

@@ -1,0 +1,43 @@
+"""Complex matrix products as real ones.
+
+The diagnosis multiplies many small complex matrices (a row's spectra, one
+matrix per frequency bin).  OpenBLAS runs a complex product of that size on
+several threads, and on a machine whose cores are busy with other work those
+threads wait for each other: measured on the 2-core development machine at a
+load of 8, a 41 x 200 by 200 x 12 complex product took 8 ms by ``zgemm`` and
+27 us as four real products.  The four real products are also what a
+complex product costs in arithmetic, so nothing is lost when the machine is idle
+(the results agree to rounding, 1e-13 relative).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["hermitian_product", "product"]
+
+
+def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` (broadcast over leading axes like ``numpy.matmul``) from four real products.
+
+    Parameters
+    ----------
+    a : ndarray, shape (..., m, k)
+    b : ndarray, shape (..., k, n)
+    """
+    ar, ai = np.real(a), np.imag(a)
+    br, bi = np.real(b), np.imag(b)
+    return (ar @ br - ai @ bi) + 1j * (ar @ bi + ai @ br)
+
+
+def hermitian_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``conj(a).T @ b`` over the last two axes (leading axes broadcast), from four real products.
+
+    Parameters
+    ----------
+    a : ndarray, shape (..., k, m)
+    b : ndarray, shape (..., k, n)
+    """
+    ar, ai = np.swapaxes(np.real(a), -1, -2), np.swapaxes(np.imag(a), -1, -2)
+    br, bi = np.real(b), np.imag(b)
+    return (ar @ br + ai @ bi) + 1j * (ar @ bi - ai @ br)

@@ -1,0 +1,129 @@
+"""From a historian export to clean plant data: read, place on the grid, clean, count every step."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..config import PmrConfig
+from .clean import CleaningStep, PlantData, at_limit, frozen, mode_on, runs
+from .columns import ColumnMap, column_map
+from .read import Progress, RawTable, read_table
+from .timebase import Grid, GridSpec, parse_time, place_on_grid
+
+__all__ = ["load_plant_data"]
+
+
+def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress | None = None) -> PlantData:
+    """Read and clean a CSV or Parquet export of r, u, y for the model of ``config``.
+
+    Parameters
+    ----------
+    path : str or Path
+    config : PmrConfig
+        The model (channel names, sample time) and the ``data`` block.
+    progress : callable, optional
+        Called while reading (see :data:`pmr_ros.data.read.Progress`).
+
+    Raises
+    ------
+    DataError
+        One line naming the file, the column (and row) and the value.
+    """
+    settings = config.data
+    columns = column_map(settings, config.model)
+    raw = read_table(path, columns, settings.bad_values, progress=progress)
+    parsed = parse_time(raw.time, settings.time_format, path=path, column=columns.time)
+    spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
+    table = np.column_stack([raw.values[c] for c in columns.value_columns])
+    grid = place_on_grid(parsed.seconds, table, spec)
+    on_grid = np.full((grid.samples, table.shape[1]), np.nan)
+    on_grid[grid.index] = table[grid.rows]
+    signals = _split(on_grid, columns)
+    limited = np.column_stack([at_limit(u) for u in signals["u"].T])
+    stuck = _frozen(signals, limited, settings.frozen_samples)
+    on = np.ones(grid.samples, dtype=bool)
+    if raw.mode is not None:
+        on[:] = False
+        on[grid.index] = mode_on(raw.mode[grid.rows], settings.mode_on_values)
+    missing = ~np.all(np.isfinite(on_grid), axis=1)
+    excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
+    steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
+    data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
+    return _with_usable_step(data)
+
+
+def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:
+    out, first = {}, 0
+    for signal, names in columns.signals.items():
+        out[signal] = on_grid[:, first : first + len(names)]
+        first += len(names)
+    return out
+
+
+def _frozen(signals: dict[str, np.ndarray], limited: np.ndarray, limit: int) -> np.ndarray:
+    """Frozen cells of the outputs and inputs, shape (samples, n_out + n_in); an input at a limit is not frozen."""
+    y = [frozen(column, limit) for column in signals["y"].T]
+    u = [frozen(column, limit, keep=limited[:, k]) for k, column in enumerate(signals["u"].T)]
+    return np.column_stack([*y, *u])
+
+
+def _per_column(counts: dict[str, int]) -> str:
+    return ", ".join(f"{column} {n}" for column, n in counts.items() if n)
+
+
+def _steps(
+    raw: RawTable, grid: Grid, columns: ColumnMap, *, stuck: np.ndarray, limited: np.ndarray, off: np.ndarray
+) -> tuple[CleaningStep, ...]:
+    watched = [*columns.signals["y"], *columns.signals["u"]]
+    off_runs = runs(off)
+    grid_detail = f"largest offset {grid.largest_offset:.3f} samples" if grid.moved else ""
+    return (
+        CleaningStep("rows read", raw.rows, "rows", f"{len(columns.all)} columns"),
+        CleaningStep("time stamps moved onto the sample grid", grid.moved, "rows", grid_detail),
+        CleaningStep("duplicated rows dropped", grid.duplicates, "rows"),
+        CleaningStep("time gaps (grid points without a row) -> missing", grid.gaps, "samples"),
+        CleaningStep(
+            "bad values (sentinels, bad strings, empty cells) -> missing",
+            sum(raw.bad.values()),
+            "cells",
+            _per_column(raw.bad),
+        ),
+        CleaningStep(
+            "non-finite values -> missing", sum(raw.non_finite.values()), "cells", _per_column(raw.non_finite)
+        ),
+        CleaningStep(
+            "frozen values (a noisy tag stuck) -> missing",
+            int(stuck.sum()),
+            "cells",
+            _per_column({c: int(n) for c, n in zip(watched, stuck.sum(axis=0), strict=True)}),
+        ),
+        CleaningStep(
+            "controller off -> excluded", int(off.sum()), "samples", f"{len(off_runs)} period(s)" if off_runs else ""
+        ),
+        CleaningStep(
+            "MV at a limit (flagged, kept)",
+            int(limited.sum()),
+            "samples",
+            _per_column({c: int(n) for c, n in zip(columns.signals["u"], limited.sum(axis=0), strict=True)}),
+        ),
+    )
+
+
+def _with_usable_step(data: PlantData) -> PlantData:
+    bounds = data.stretch_bounds()
+    longest = max((b - a for a, b in bounds), default=0)
+    step = CleaningStep(
+        "usable samples", int(data.usable.sum()), "samples", f"{len(bounds)} unbroken stretch(es), longest {longest}"
+    )
+    return PlantData(
+        data.source,
+        data.start,
+        data.sample_time_s,
+        data.signals,
+        data.columns,
+        data.excluded,
+        data.limited,
+        (*data.steps, step),
+    )

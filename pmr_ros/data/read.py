@@ -1,0 +1,261 @@
+"""Reading a historian export (CSV or Parquet) with pandas / pyarrow: the wanted columns as numbers.
+
+Only the columns the configuration names are read.  Cells equal to one of
+``data.bad_values`` (a sentinel such as -9999, a string such as ``Bad``, an
+empty cell) and non-finite numbers become missing (NaN) and are counted per
+column; any other text in a signal column is refused with its row, since
+guessing what it means could make a wrong verdict.  Large files are read in
+chunks, with a progress callback.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .columns import ColumnMap
+from .errors import DataError
+
+__all__ = ["FORMATS", "Progress", "RawTable", "read_table", "table_format"]
+
+FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+"""File suffix to the format read."""
+
+CHUNK_ROWS = 200_000
+"""Rows per chunk (CSV) or batch (Parquet): progress steps and bounded memory."""
+
+NAN_TEXT = {"nan", "+nan", "-nan"}
+"""Text that spells a non-finite number (``inf`` parses as a number and is caught as non-finite)."""
+
+Progress = Callable[[int, int], None]
+"""``progress(done, total)``: bytes (CSV) or rows (Parquet) read so far and in all."""
+
+
+@dataclass
+class RawTable:
+    """The wanted columns of a file, values as floats (NaN missing).
+
+    Attributes
+    ----------
+    path : str
+    rows : int
+        Data rows read.
+    time : pandas.Series
+        The time column as read (numbers, text or date-times).
+    values : dict
+        Signal column to its float values, shape (rows,).
+    mode : ndarray of object or None
+        The controller-mode column as read.
+    bad : dict
+        Column to cells that were a bad value (sentinel, bad string, empty cell, null).
+    non_finite : dict
+        Column to cells that were NaN or +-inf.
+    """
+
+    path: str
+    rows: int
+    time: Any
+    values: dict[str, np.ndarray]
+    mode: np.ndarray | None = None
+    bad: dict[str, int] = field(default_factory=dict)
+    non_finite: dict[str, int] = field(default_factory=dict)
+
+
+def table_format(path: str | Path) -> str | None:
+    """``csv`` or ``parquet`` for a file with a suffix of :data:`FORMATS`, else None."""
+    return FORMATS.get(Path(path).suffix.lower())
+
+
+def _pandas(path: str | Path) -> Any:
+    try:
+        import pandas
+    except ImportError:
+        raise DataError(
+            path, "", "reading CSV or Parquet needs pandas and pyarrow: pip install 'pmr_ros[data]'"
+        ) from None
+    return pandas
+
+
+def read_table(
+    path: str | Path, columns: ColumnMap, bad_values: Sequence[float | str], *, progress: Progress | None = None
+) -> RawTable:
+    """Read the columns of ``columns`` from a CSV or Parquet file.
+
+    Parameters
+    ----------
+    path : str or Path
+    columns : ColumnMap
+        What to read; every column must be in the file.
+    bad_values : sequence of float or str
+        Cells equal to one of these are missing.
+    progress : callable, optional
+        Called after each chunk (see :data:`Progress`).
+
+    Raises
+    ------
+    DataError
+        Not a readable CSV/Parquet file, a column missing, text that is no
+        number nor a bad value, no data rows, a signal column without one valid value.
+    """
+    path = Path(path)
+    kind = table_format(path)
+    if kind is None:
+        raise DataError(path, "", f"not a CSV or Parquet file (suffix {path.suffix or 'none'!r}; use .csv or .parquet)")
+    if not path.is_file():
+        raise DataError(path, "", "no such file")
+    cells = _BadCells(bad_values)
+    reader = _read_csv if kind == "csv" else _read_parquet
+    table = reader(path, columns, cells, progress)
+    if table.rows == 0:
+        raise DataError(path, "", "holds no data rows")
+    for column, values in table.values.items():
+        if not np.isfinite(values).any():
+            raise DataError(
+                path,
+                f"column {column!r} ({columns.origin(column)})",
+                f"holds no valid value: all {table.rows} rows are missing, bad or non-finite",
+            )
+    return table
+
+
+@dataclass(frozen=True)
+class _BadCells:
+    """The bad values split into numbers and strings."""
+
+    values: Sequence[float | str]
+
+    @property
+    def numbers(self) -> list[float]:
+        return [float(v) for v in self.values if not isinstance(v, str)]
+
+    @property
+    def strings(self) -> list[str]:
+        return [v for v in self.values if isinstance(v, str)]
+
+
+class _Columns:
+    """Accumulates the float values and counts of the signal columns, chunk by chunk."""
+
+    def __init__(self, path: Path, columns: ColumnMap, cells: _BadCells) -> None:
+        self.path, self.columns, self.cells = path, columns, cells
+        self.parts: dict[str, list[np.ndarray]] = {c: [] for c in columns.value_columns}
+        self.bad = dict.fromkeys(columns.value_columns, 0)
+        self.non_finite = dict.fromkeys(columns.value_columns, 0)
+        self.times: list[Any] = []
+        self.modes: list[np.ndarray] = []
+        self.rows = 0
+
+    def take(self, frame: Any) -> None:
+        """One chunk (a pandas DataFrame of the wanted columns)."""
+        for column in self.columns.value_columns:
+            self.parts[column].append(self._numbers(frame[column], column))
+        self.times.append(frame[self.columns.time])
+        if self.columns.mode:
+            self.modes.append(frame[self.columns.mode].to_numpy(dtype=object))
+        self.rows += len(frame)
+
+    def _numbers(self, series: Any, column: str) -> np.ndarray:
+        pd = _pandas(self.path)
+        if pd.api.types.is_bool_dtype(series.dtype) or pd.api.types.is_numeric_dtype(series.dtype):
+            x = series.to_numpy(dtype=float, na_value=np.nan)
+            bad = np.isnan(x) | np.isin(x, self.cells.numbers)
+        elif pd.api.types.is_object_dtype(series.dtype) or pd.api.types.is_string_dtype(series.dtype):
+            x, bad = self._text(series, column)
+        else:
+            raise DataError(self.path, f"column {column!r}", f"holds {series.dtype} values, not numbers")
+        non_finite = ~bad & ~np.isfinite(x)
+        self.bad[column] += int(bad.sum())
+        self.non_finite[column] += int(non_finite.sum())
+        x[bad | non_finite] = np.nan
+        return x
+
+    def _text(self, series: Any, column: str) -> tuple[np.ndarray, np.ndarray]:
+        """Numbers from a column with text in it; text that is no number nor a bad value is refused."""
+        pd = _pandas(self.path)
+        null = series.isna().to_numpy()
+        text = series.astype(str).str.strip()
+        bad = null | text.isin(self.cells.strings).to_numpy()
+        x = pd.to_numeric(text.where(~bad, "nan"), errors="coerce").to_numpy(dtype=float)
+        bad |= np.isin(x, self.cells.numbers)
+        unparsed = np.isnan(x) & ~bad & ~text.str.lower().isin(NAN_TEXT).to_numpy()
+        if unparsed.any():
+            j = int(np.flatnonzero(unparsed)[0])
+            raise DataError(
+                self.path,
+                f"column {column!r} ({self.columns.origin(column)}), row {self.rows + j + 1}",
+                "is not a number nor one of data.bad_values (add it there to read it as missing)",
+                text.iloc[j],
+            )
+        return x, bad
+
+    def table(self) -> RawTable:
+        pd = _pandas(self.path)
+        values = {c: np.concatenate(p) if p else np.empty(0) for c, p in self.parts.items()}
+        time = pd.concat(self.times, ignore_index=True) if self.times else pd.Series([], dtype=object)
+        mode = np.concatenate(self.modes) if self.modes else None
+        return RawTable(str(self.path), self.rows, time, values, mode, self.bad, self.non_finite)
+
+
+def _separator(path: Path) -> str:
+    """The CSV field separator: the most frequent of , ; and tab in the header line."""
+    with path.open("rb") as handle:
+        head = handle.read(65536)
+    if b"\0" in head:
+        raise DataError(path, "", "not a CSV file: it holds binary data")
+    first = head.split(b"\n", 1)[0]
+    counts = {sep: first.count(sep.encode()) for sep in (",", ";", "\t")}
+    return max(counts, key=lambda sep: counts[sep])
+
+
+def _read_csv(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progress | None) -> RawTable:
+    pd = _pandas(path)
+    sep = _separator(path)
+    options = {"sep": sep, "encoding": "utf-8-sig", "keep_default_na": False, "na_values": cells.strings}
+    try:
+        header = list(pd.read_csv(path, nrows=0, **options).columns)
+        columns.check(header, path)
+        total = path.stat().st_size
+        out = _Columns(path, columns, cells)
+        with path.open("rb") as handle:
+            for chunk in pd.read_csv(handle, usecols=columns.all, chunksize=CHUNK_ROWS, **options):
+                out.take(chunk)
+                if progress is not None:
+                    progress(min(handle.tell(), total), total)
+    except UnicodeDecodeError as exc:
+        raise DataError(
+            path, "", f"not UTF-8 text ({exc.reason} at byte {exc.start}); save the export as UTF-8"
+        ) from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
+        if isinstance(exc, DataError):
+            raise
+        raise DataError(path, "", f"not a readable CSV file: {' '.join(str(exc).split())}") from None
+    return out.table()
+
+
+def _read_parquet(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progress | None) -> RawTable:
+    _pandas(path)
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise DataError(path, "", "reading Parquet needs pyarrow: pip install 'pmr_ros[data]'") from None
+    with path.open("rb") as handle:
+        if handle.read(4) != b"PAR1":
+            raise DataError(path, "", "not a Parquet file (it does not start with PAR1)")
+    try:
+        parquet = pq.ParquetFile(path)
+        columns.check(parquet.schema_arrow.names, path)
+        total = parquet.metadata.num_rows
+        out = _Columns(path, columns, cells)
+        for batch in parquet.iter_batches(batch_size=CHUNK_ROWS, columns=columns.all):
+            out.take(batch.to_pandas())
+            if progress is not None:
+                progress(out.rows, total)
+    except DataError:
+        raise
+    except Exception as exc:  # pyarrow's errors (ArrowInvalid, OSError ...) share no base class worth naming
+        raise DataError(path, "", f"not a readable Parquet file: {' '.join(str(exc).split())}") from None
+    return out.table()

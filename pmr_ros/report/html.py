@@ -1,0 +1,163 @@
+"""The HTML report of a diagnosis: one self-contained page (figures embedded) and the same figures as PNG.
+
+``write_html_report(directory, ...)`` writes ``index.html`` and
+``figures/*.png``: the matrix overview coloured by verdict, per element the
+PMR magnitude and phase with the confidence band, the fitted curve, the
+coherence and the informative band with the verdict and its reasons, and the
+data-cleaning summary with the time plot of r, u, y and the excluded
+stretches.  The page is rendered with Jinja2 (autoescaped) from
+:data:`pmr_ros.report.page.TEMPLATE`.
+"""
+
+from __future__ import annotations
+
+import base64
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..config import PmrConfig
+from ..core.results import Diagnosis, ElementDiagnosis
+from ..core.stretch import Stretch
+from ..data import PlantData
+from .curves import pmr_curves
+from .figures import COLOURS, element_figure, matrix_figure, time_figure
+from .page import TEMPLATE
+
+__all__ = ["Figure", "ReportInput", "element_notes", "render_page", "write_html_report"]
+
+
+@dataclass(frozen=True)
+class ReportInput:
+    """What the report shows.
+
+    Attributes
+    ----------
+    report : dict
+        The JSON report (:func:`pmr_ros.report.build_report`): system, method, settings, elements.
+    diagnosis : Diagnosis
+    stretches : sequence of Stretch
+        The data the diagnosis read (for the spectral estimate and its band).
+    data : PlantData
+        The data on the sample grid with what was excluded and why.
+    config : PmrConfig
+    """
+
+    report: dict[str, Any]
+    diagnosis: Diagnosis
+    stretches: Sequence[Stretch]
+    data: PlantData
+    config: PmrConfig
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure of the page: its file name, PNG bytes and caption."""
+
+    name: str
+    png: bytes
+    caption: str
+
+    @property
+    def data_uri(self) -> str:
+        """The PNG as a ``data:`` URI (the page needs no other file)."""
+        return "data:image/png;base64," + base64.b64encode(self.png).decode("ascii")
+
+
+def element_notes(element: ElementDiagnosis) -> dict[str, Any]:
+    """An element's verdict, one-line summary, reasons and warnings for the page."""
+    result = element.result
+    warnings = list(getattr(result, "warnings", ()) or ()) if result is not None else []
+    return {
+        "name": element.name,
+        "verdict": element.verdict,
+        "colour": COLOURS[element.verdict],
+        "summary": element.summary(),
+        "reasons": list(element.all_reasons),
+        "warnings": warnings,
+        "mismatches": list(element.mismatches),
+        "impact": None if element.impact is None else element.impact,
+    }
+
+
+def impact_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
+    """The mismatched elements by what they do to control (rank 1 first), for the page's impact table."""
+    rows = [
+        {"name": e.name, "ise": e.impact.ise_ratio, "moves": e.impact.input_movement_ratio, "rank": e.impact.rank}
+        for e in diagnosis
+        if e.impact is not None
+    ]
+    return sorted(rows, key=lambda row: row["rank"])
+
+
+def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, Any], Figure | None]]]:
+    model = page.config.model
+    matrix = Figure(
+        "matrix.png", matrix_figure(page.diagnosis, model.output_names, model.input_names), "Verdict per element"
+    )
+    timeline = Figure(
+        "time.png",
+        time_figure(page.data, model.output_names, model.input_names),
+        "Setpoints r and outputs y per CV, inputs u per MV; shaded: samples excluded from the diagnosis",
+    )
+    curves = pmr_curves(page.stretches, page.diagnosis, page.config)
+    elements = []
+    for element in page.diagnosis:
+        if element.model.kind == "none":
+            continue
+        figure = None
+        if element.name in curves:
+            caption = f"{element.name}: plant-model ratio against frequency"
+            figure = Figure(f"{element.name}.png", element_figure(curves[element.name], element), caption)
+        elements.append((element_notes(element), figure))
+    return matrix, timeline, elements
+
+
+def _counts(diagnosis: Diagnosis) -> dict[str, int]:
+    counts = {"ok": 0, "mismatch": 0, "inconclusive": 0}
+    for element in diagnosis:
+        if element.model.kind != "none":
+            counts[element.verdict] += 1
+    return counts
+
+
+def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: list) -> str:
+    """The HTML text of the report."""
+    import jinja2
+
+    environment = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined)
+    report = page.report
+    return environment.from_string(TEMPLATE).render(
+        title=f"PMR diagnosis: {report.get('system') or 'system'}",
+        report=report,
+        counts=_counts(page.diagnosis),
+        colours=COLOURS,
+        matrix=matrix,
+        timeline=timeline,
+        elements=elements,
+        steps=page.data.steps,
+        data=page.data,
+        level=100 * page.config.parametric.confidence_level,
+        stretches=len(page.data.stretch_bounds()),
+        impact=impact_rows(page.diagnosis),
+        impact_all=page.diagnosis.impact,
+    )
+
+
+def write_html_report(directory: str | Path, page: ReportInput) -> Path:
+    """Write ``index.html`` and ``figures/*.png`` into ``directory``; the page's path.
+
+    Raises
+    ------
+    OSError
+        The directory cannot be written.
+    """
+    directory = Path(directory)
+    (directory / "figures").mkdir(parents=True, exist_ok=True)
+    matrix, timeline, elements = _figures(page)
+    for figure in [matrix, timeline, *(f for _, f in elements if f is not None)]:
+        (directory / "figures" / figure.name).write_bytes(figure.png)
+    index = directory / "index.html"
+    index.write_text(render_page(page, matrix, timeline, elements), encoding="utf-8")
+    return index

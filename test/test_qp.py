@@ -1,0 +1,110 @@
+"""The dense dual active-set QP solver against the optimality conditions and against OSQP."""
+
+from __future__ import annotations
+
+import numpy as np
+import osqp
+import pytest
+import scipy.sparse as sp
+
+from pmr_ros.config import config_dir, load_config
+from pmr_ros.core.mpc import LinearMpc
+from pmr_ros.core.qp import DenseQp
+
+
+def _problem(rng, n=12, m=20):
+    M = rng.normal(size=(n, n))
+    H = M @ M.T + 0.1 * np.eye(n)
+    A = rng.normal(size=(m, n))
+    centre = A @ rng.normal(scale=0.2, size=n)  # a feasible point inside every box
+    lower, upper = centre - rng.uniform(0.05, 1.0, m), centre + rng.uniform(0.05, 1.0, m)
+    lower[rng.random(m) < 0.2] = -np.inf  # some one-sided rows
+    return H, A, rng.normal(scale=5.0, size=n), lower, upper
+
+
+def _kkt_residual(H, A, q, lower, upper, x, tol=1e-8):
+    """Largest violation of the KKT conditions at x (multipliers fitted on the rows at a bound)."""
+    ax = A @ x
+    at_lower, at_upper = np.abs(ax - lower) < tol, np.abs(ax - upper) < tol
+    rows = np.flatnonzero(at_lower | at_upper)
+    sign = np.where(at_lower[rows], 1.0, -1.0)
+    normals = A[rows] * sign[:, None]
+    mult = np.linalg.lstsq(normals.T, H @ x + q, rcond=None)[0] if rows.size else np.zeros(0)
+    stationarity = np.abs(H @ x + q - normals.T @ mult).max()
+    primal = max(np.max(lower - ax), np.max(ax - upper), 0.0)
+    dual = max(-mult.min(initial=0.0), 0.0)
+    return max(stationarity, primal, dual)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_random_qps_meet_the_optimality_conditions_and_equal_osqp(seed):
+    rng = np.random.default_rng(seed)
+    H, A, q, lower, upper = _problem(rng)
+    solution = DenseQp(H, A).solve(q, lower=lower, upper=upper)
+    assert solution.solved
+    assert _kkt_residual(H, A, q, lower, upper, solution.x) < 1e-8
+    reference = osqp.OSQP()
+    reference.setup(
+        sp.triu(sp.csc_matrix(H), format="csc"),
+        q,
+        sp.csc_matrix(A),
+        lower,
+        upper,
+        verbose=False,
+        eps_abs=1e-11,
+        eps_rel=1e-11,
+        max_iter=200000,
+        polishing=True,
+    )
+    np.testing.assert_allclose(solution.x, reference.solve(raise_error=False).x, atol=1e-6)
+    active = {abs(s) - 1 for s in solution.active}
+    ax = A @ solution.x
+    assert all(min(abs(ax[i] - lower[i]), abs(ax[i] - upper[i])) < 1e-9 for i in active)
+
+
+def test_unconstrained_optimum_is_returned_when_nothing_binds():
+    H = np.diag([2.0, 4.0])
+    solution = DenseQp(H, np.eye(2)).solve(np.array([-2.0, 4.0]), lower=np.full(2, -5.0), upper=np.full(2, 5.0))
+    np.testing.assert_allclose(solution.x, [1.0, -1.0])
+    assert solution.solved and solution.active == () and solution.iterations == 0
+
+
+def test_a_constraint_added_early_is_dropped_when_another_makes_it_slack():
+    # min (x1 - 2)^2 + (x2 - 2)^2: the most violated row, 2 x1 + x2 <= 1.6, is added first; once x1 + x2 <= 1
+    # binds too, it goes slack again at the optimum (0.5, 0.5) and must be dropped.
+    H, q = 2 * np.eye(2), np.array([-4.0, -4.0])
+    A = np.array([[1.0, 0.0], [1.0, 1.0], [2.0, 1.0]])
+    solution = DenseQp(H, A).solve(q, lower=np.full(3, -np.inf), upper=np.array([0.9, 1.0, 1.6]))
+    np.testing.assert_allclose(solution.x, [0.5, 0.5], atol=1e-12)
+    assert solution.solved and {abs(s) - 1 for s in solution.active} == {1}
+    assert solution.iterations == 3  # add, add, drop
+
+
+def test_an_iteration_limit_is_reported_not_hidden():
+    rng = np.random.default_rng(3)
+    H, A, q, lower, upper = _problem(rng)
+    full = DenseQp(H, A).solve(q, lower=lower, upper=upper)
+    assert full.iterations >= 2
+    cut = DenseQp(H, A, max_iterations=1).solve(q, lower=lower, upper=upper)
+    assert not cut.solved
+
+
+def test_the_mpc_falls_back_to_osqp_when_the_active_set_method_fails(wood_berry):
+    r = np.tile([3.0, -3.0], (60, 1))  # far beyond the limits: every step binds
+    exact = LinearMpc(wood_berry.model, wood_berry.mpc)
+    forced = LinearMpc(wood_berry.model, wood_berry.mpc)
+    forced._qp = DenseQp(forced._hessian, forced._constraints, max_iterations=1)  # breaks down on purpose
+    y = np.zeros(2)
+    for setpoint in r:
+        np.testing.assert_allclose(forced.step(y, setpoint), exact.step(y, setpoint), atol=1e-6)
+    assert exact.statistics.fallbacks == 0 and exact.statistics.solves > 0
+    assert forced.statistics.fallbacks > 0 and forced.statistics.failures == 0
+
+
+def test_industrial_mpc_problems_are_solved_exactly():
+    config = load_config(config_dir() / "industrial_column.yaml")
+    mpc = LinearMpc(config.model, config.mpc, always_solve_qp=True)
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        mpc.step(rng.normal(scale=[0.5, 0.5, 3.0, 2.0]), rng.normal(scale=[0.5, 0.5, 3.0, 2.0]))
+    assert mpc.statistics.solves == 30 and mpc.statistics.fallbacks == 0
