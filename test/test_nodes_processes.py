@@ -166,7 +166,9 @@ def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
     resumed = re.search(r"resuming the run after sample (\d+)", text)
     assert resumed, text
     diagnosis, info = watcher.final
-    assert diagnosis.status == "ok" and info["first_sample"] == int(resumed.group(1)) + 2, info
+    # the window (default 16384) holds both stretches around the break, less the sample left out
+    assert int(resumed.group(1)) >= 1500, text
+    assert diagnosis.status == "ok" and info["first_sample"] == 0 and info["window_samples"] == samples - 1, info
     assert again.poll() is None and "Traceback" not in text
 
 
@@ -197,7 +199,13 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         expected = diagnose(
             batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric
         ).to_dict()["elements"]
-        assert compare_diagnoses(report["elements"], expected) == [], name
+        # the run adds the control impact of its mismatch verdicts; the batch diagnosis has none
+        assert all(e["impact"] is not None for e in report["elements"].values() if e["verdict"] == "mismatch")
+        reported = {n: {k: v for k, v in e.items() if k != "impact"} for n, e in report["elements"].items()}
+        assert (
+            compare_diagnoses(reported, {n: {k: v for k, v in e.items() if k != "impact"} for n, e in expected.items()})
+            == []
+        ), name
         assert report["node_set"]["diagnostician_warnings"] == []
     # the recorder of column_a took that set alone, every sample of it
     assert _stop(ros, recorder, signal.SIGINT) == 0

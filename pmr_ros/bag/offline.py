@@ -133,6 +133,8 @@ class OfflineResult:
         Times the data broke into a new stretch.
     notes : list of str
         What the console should say about how the bag was judged.
+    namespace : str
+        The node set whose topics were read.
     """
 
     config: PmrConfig
@@ -146,6 +148,7 @@ class OfflineResult:
     drops: DropCounts = field(default_factory=DropCounts)
     gaps: int = 0
     notes: list[str] = field(default_factory=list)
+    namespace: str = "/"
 
     @property
     def final(self) -> WindowOutcome | None:
@@ -417,6 +420,7 @@ def diagnose_bag(
         drops=replay.drops,
         gaps=replay.aligner.gaps,
         notes=[note] if note else [],
+        namespace=namespace,
     )
     result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
