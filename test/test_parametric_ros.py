@@ -79,25 +79,21 @@ def test_node_set_with_method_parametric_matches_batch(tmp_path, ros_domain, cap
     assert "interval" in capsys.readouterr().out
 
 
-def test_diagnostician_method_parameter_is_described_and_checked(ros_context):
+def test_diagnostician_method_parameter_is_described_and_checked(ros):
     from rclpy.parameter import Parameter
 
     from pmr_ros.config import flatten_parameters
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
     from pmr_ros.ros.parameters import parameter_overrides
 
-    node = PmrDiagnosticianNode(
-        context=ros_context, parameter_overrides=parameter_overrides(flatten_parameters(load_config().parameters))
-    )
-    try:
-        assert "parametric" in node.describe_parameter("pmr.method").description
-        assert node.describe_parameter("parametric.gain_tolerance_pct").description
-        assert node.config.pmr.method == "parametric"
-        refused = node.set_parameters([Parameter("pmr.method", value="bogus")])[0]
-        assert not refused.successful and "pmr.method" in refused.reason and "classic, parametric" in refused.reason
-        refused = node.set_parameters([Parameter("parametric.confidence_level", value=1.5)])[0]
-        assert not refused.successful and "must be > 0 and < 1" in refused.reason
-        ok = node.set_parameters([Parameter("pmr.method", value="classic")])[0]
-        assert ok.successful and node.config.pmr.method == "classic"
-    finally:
-        node.destroy_node()
+    params = parameter_overrides(flatten_parameters(load_config().parameters))
+    node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=params))
+    assert "parametric" in node.describe_parameter("pmr.method").description
+    assert node.describe_parameter("parametric.gain_tolerance_pct").description
+    assert node.config.pmr.method == "parametric"
+    refused = node.set_parameters([Parameter("pmr.method", value="bogus")])[0]
+    assert not refused.successful and "pmr.method" in refused.reason and "classic, parametric" in refused.reason
+    refused = node.set_parameters([Parameter("parametric.confidence_level", value=1.5)])[0]
+    assert not refused.successful and "must be > 0 and < 1" in refused.reason
+    ok = node.set_parameters([Parameter("pmr.method", value="classic")])[0]
+    assert ok.successful and node.config.pmr.method == "classic"

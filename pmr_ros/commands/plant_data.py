@@ -171,7 +171,7 @@ def _bag_window(bag: Any, result: Any) -> tuple[dict[str, np.ndarray], int] | No
     first, samples = int(window["first_sample"]), int(window["window_samples"])
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
     signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
-    by_topic = {topic(SIGNAL_TOPICS[s]).name: s for s in names}
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
         stamp, channels, values = read_signal(bag.decode(message))

@@ -15,6 +15,7 @@ from . import (
     EXIT_INSUFFICIENT,
     CommandError,
     add_method_argument,
+    add_namespace_argument,
     add_system_arguments,
     check_memory,
     load_checked_config,
@@ -52,6 +53,11 @@ def register(sub) -> None:
         help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
     )
     add_storage_arguments(p)
+    add_namespace_argument(
+        p,
+        "run the node set in this namespace (its topics become /NS/pmr/...), so several sets share a ROS domain "
+        "(with --visible); default: the root namespace",
+    )
     add_model_arguments(p)
     p.set_defaults(handler=handle)
 
@@ -115,7 +121,11 @@ def handle(args: argparse.Namespace) -> int:
         run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
         recording = start_recording(args, config) if args.bag else None
         try:
-            options = NodeSetOptions(private=not args.visible, extra_nodes=recording.nodes if recording else None)
+            options = NodeSetOptions(
+                private=not args.visible,
+                extra_nodes=recording.nodes if recording else None,
+                namespace=args.namespace or "/",
+            )
             result = run_node_set(config, options)
         except NodeSetError as exc:
             raise CommandError(str(exc), code=1) from None

@@ -59,11 +59,15 @@ class SimulationSettings:
         Subscribers of y the plant waits for before sample 0.
     startup_timeout_s : float
         Longest wait for them [s].
+    max_samples_ahead : int
+        Lockstep flow control: how far the plant may run ahead of its slowest
+        consumer's reported progress [samples].
     """
 
     real_time_rate_hz: float
     wait_for_subscribers: int
     startup_timeout_s: float
+    max_samples_ahead: int
 
     @property
     def lockstep(self) -> bool:
@@ -82,6 +86,8 @@ class DiagnosticianSettings:
         which a signal counts as stopped [samples].
     stale_timeout_s : float
         Silence of a signal after which the verdicts turn STALE [s, wall time].
+    publish_period_s : float
+        The latest statuses are republished this often [s, wall time].
     """
 
     window_samples: int
@@ -89,6 +95,7 @@ class DiagnosticianSettings:
     min_samples: int
     max_lag_samples: int
     stale_timeout_s: float
+    publish_period_s: float
 
 
 @dataclass(frozen=True)
@@ -418,6 +425,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
             real_time_rate_hz=v["simulation.real_time_rate_hz"],
             wait_for_subscribers=v["simulation.wait_for_subscribers"],
             startup_timeout_s=v["simulation.startup_timeout_s"],
+            max_samples_ahead=v["simulation.max_samples_ahead"],
         ),
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
