@@ -225,7 +225,8 @@ def _search_delays(
 ) -> tuple[RowParameters, float]:
     """The best delays: each column's neighbours, then the coupled pairs' joint grids, until neither improves."""
     for _ in range(JOINT_ROUNDS):
-        fit = _profile(trials, fit, scale=max(1.0, fit[1] / dof))
+        scale = max(1.0, fit[1] / dof)
+        fit = _profile(trials, fit, scale=scale)
         pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, joint_correlation)
         if not joint_search(trials, fit, pairs[: trials.problem.n]):
             break
