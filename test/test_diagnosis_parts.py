@@ -53,6 +53,8 @@ def _settings() -> dict:
         "max_condition": 1e4,
         "row_time_constant_ratio_warn": 1.8,
         "lack_of_fit_max": 3.0,
+        "max_collinearity": 0.9,
+        "joint_delay_correlation": 0.6,
     }
 
 
@@ -264,6 +266,9 @@ def test_fitted_bins_skip_leading_bins_without_coherence_and_the_zero_bin_of_a_d
 # -- verdicts --------------------------------------------------------------------------------------
 
 
+LABELS = [("G11", "u1")]
+
+
 def _fit(columns, *, lin, s, delays, sd_lin, lack=1.0) -> RowFit:
     n = len(columns)
     profiles = tuple({int(d): 0.0, int(d) + 1: 50.0} for d in delays)
@@ -287,12 +292,17 @@ def test_an_element_at_its_search_limit_or_misfitted_is_inconclusive_with_its_nu
     settings = ParametricSettings(**_settings())
     column = _ratio_column()
     good = element_result(
-        _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005]), 0, settings=settings, quality={}, warnings=()
+        _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005]),
+        0,
+        settings=settings,
+        quality={},
+        warnings=(),
+        labels=LABELS,
     )
     assert good.verdict == "mismatch" and good.gain_verdict == "mismatch" and good.tau_verdict == "ok"
     edge = _fit([column], lin=[1.12], s=[0.3], delays=[6], sd_lin=[0.005])
     assert trust_reasons(edge, 0, settings)[0].startswith("delay at the search limit")
-    result = element_result(edge, 0, settings=settings, quality={}, warnings=())
+    result = element_result(edge, 0, settings=settings, quality={}, warnings=(), labels=LABELS)
     assert result.verdicts[:3] == ("inconclusive",) * 3 and result.gain_mismatch_pct == pytest.approx(12.0)
     misfit = _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005], lack=40.0)
     assert "fit does not follow the data (40.0x" in trust_reasons(misfit, 0, settings)[0]
@@ -303,6 +313,7 @@ def test_an_element_at_its_search_limit_or_misfitted_is_inconclusive_with_its_nu
         settings=settings,
         quality={},
         warnings=(),
+        labels=LABELS,
     )
     assert level.tau_mismatch_pct is None and level.tau_verdict is None and level.verdict == "mismatch"
 
