@@ -20,6 +20,7 @@ from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
+from ..core.plant import OutputDisturbance
 from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from .data import DataSettings, data_settings
 from .errors import ConfigError
@@ -112,6 +113,7 @@ class PmrConfig:
     model: TransferMatrix
     mismatch: Mismatch
     noise_std: np.ndarray
+    disturbance: OutputDisturbance
     prbs: PrbsSettings
     excitation: ExcitationSettings
     mpc: MpcTuning
@@ -404,13 +406,15 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     _check_prbs_channels(v, model, excitation)
+    mpc = _mpc(v, model)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
+        disturbance=OutputDisturbance(v["noise.disturbance_std"], v["noise.disturbance_pole"]),
         prbs=_prbs(v),
         excitation=excitation,
-        mpc=_mpc(v, model),
+        mpc=mpc,
         pmr=_pmr(v),
         parametric=_parametric(v),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
