@@ -141,7 +141,9 @@ def diagnose_table(args: argparse.Namespace) -> int:
     finally:
         close()
     stretches = data.stretches()
-    diagnosis = diagnose_stretches(stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    diagnosis = diagnose_stretches(
+        stretches, model=config.model, pmr=config.pmr, parametric=config.parametric, quality=config.quality
+    )
     if diagnosis.status == "ok":
         diagnosis = close_the_loop(args, config, diagnosis)
     report = _data_report(config, diagnosis, data, str(args.bag))

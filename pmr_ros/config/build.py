@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
+from ..core.data_quality import QualitySettings
 from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
@@ -119,6 +120,7 @@ class PmrConfig:
     mpc: MpcTuning
     pmr: PmrSettings
     parametric: ParametricSettings
+    quality: QualitySettings
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
@@ -371,6 +373,11 @@ def _parametric(v: _Values) -> ParametricSettings:
     return settings
 
 
+def _quality(v: _Values, mpc: MpcTuning) -> QualitySettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("quality.")]
+    return QualitySettings(u_min=mpc.u_min, u_max=mpc.u_max, **{key: v[f"quality.{key}"] for key in keys})
+
+
 def _diagnostician(v: _Values) -> DiagnosticianSettings:
     keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("diagnostician.")]
     settings = DiagnosticianSettings(**{key: v[f"diagnostician.{key}"] for key in keys})
@@ -417,6 +424,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         mpc=mpc,
         pmr=_pmr(v),
         parametric=_parametric(v),
+        quality=_quality(v, mpc),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
         simulation=SimulationSettings(
             real_time_rate_hz=v["simulation.real_time_rate_hz"],

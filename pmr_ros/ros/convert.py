@@ -107,7 +107,7 @@ def diagnosis_statuses(
     statuses = []
     for name, element in diagnosis.elements.items():
         if state == "ok":
-            level, message = element_level(element), element.summary()
+            level, message = element_level(element), element.message()
         else:
             level = DiagnosticStatus.STALE if state == STALE else DiagnosticStatus.WARN
             message = f"{'stale' if state == STALE else 'insufficient data'}: {diagnosis.reason}"
