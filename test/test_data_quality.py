@@ -238,3 +238,12 @@ def test_the_verdict_table_lists_the_data_warnings_for_either_method(disturbed, 
         table = format_table(build_report(config, diagnosis, command="run", scenario="full", seed=3))
         notes = [line for line in table.splitlines() if "low-frequency disturbance on x_D" in line]
         assert [line.split(":")[0] for line in notes] == ["G11", "G12"], method
+
+
+def test_the_html_reports_notes_list_the_data_warnings(diagnosed):
+    from pmr_ros.report.html import element_notes
+
+    _, diagnosis = diagnosed
+    notes = element_notes(diagnosis.elements["G12"])
+    assert notes["warnings"][-1] == diagnosis.elements["G12"].warnings[0]
+    assert element_notes(diagnosis.elements["G22"])["warnings"] == list(diagnosis.elements["G22"].parametric.warnings)
