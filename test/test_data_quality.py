@@ -247,3 +247,63 @@ def test_the_html_reports_notes_list_the_data_warnings(diagnosed):
     notes = element_notes(diagnosis.elements["G12"])
     assert notes["warnings"][-1] == diagnosis.elements["G12"].warnings[0]
     assert element_notes(diagnosis.elements["G22"])["warnings"] == list(diagnosis.elements["G22"].parametric.warnings)
+
+
+# -- plant data: limits only where the params file gives them ------------------------------------
+
+SYSTEM = """/**:
+  ros__parameters:
+    system:
+      name: wood_berry
+      sample_time: 1.0
+      output_names: [x_D, x_B]
+      input_names: [reflux, steam]
+      gain: [12.8, -18.9, 6.6, -19.4]
+      time_constant: [16.7, 21.0, 10.9, 14.4]
+      delay: [1.0, 3.0, 7.0, 3.0]
+"""
+
+
+def test_an_export_is_judged_for_saturation_against_the_limits_its_params_file_gives(wood_berry, tmp_path, capsys):
+    import pandas as pd
+
+    from pmr_ros.cli import main
+
+    limits = {"u_min": np.array([-0.45, -2.0]), "u_max": np.array([0.45, 2.0])}
+    config = replace(wood_berry, mpc=replace(wood_berry.mpc, **limits))
+    record = simulate(config, samples=SAMPLES, seed=2)
+    frame = pd.DataFrame({"time": np.arange(SAMPLES, dtype=float)})
+    for signal, names in (("r", ("x_D", "x_B")), ("u", ("reflux", "steam")), ("y", ("x_D", "x_B"))):
+        for j, name in enumerate(names):
+            frame[f"{signal}_{name}"] = getattr(record, signal)[:, j]
+    frame.to_csv(tmp_path / "export.csv", index=False)
+    truth = np.mean(np.abs(np.abs(record.u[:, 0]) - 0.45) <= 1e-9)
+    given = SYSTEM + "    mpc:\n      u_min: [-0.45, -2.0]\n      u_max: [0.45, 2.0]\n"
+    for name, text in (("none.yaml", SYSTEM), ("limits.yaml", given)):
+        (tmp_path / name).write_text(text)
+        code = main(["diagnose", str(tmp_path / "export.csv"), "--config", str(tmp_path / name),
+                     "--json", str(tmp_path / f"{name}.json")])  # fmt: skip
+        out = capsys.readouterr().out
+        assert code == 0
+        figures = json.loads((tmp_path / f"{name}.json").read_text())["elements"]["G21"]["data_quality"]
+        if name == "none.yaml":  # the default limits are the simulation's, not the data's units: not judged
+            assert figures["saturated_share"] is None and figures["outside_share"] is None
+            assert "reflux at a limit in" not in out and figures["low_frequency_ratio"] < 3
+            assert "MV at a limit (flagged, kept)" in out  # the cleaning still flags it at the record's extremes
+        else:
+            assert figures["saturated_share"] == pytest.approx(truth, abs=0.005) and figures["outside_share"] == 0.0
+            assert "G21: reflux at a limit in" in out
+
+
+def test_saturation_is_not_judged_without_known_limits(wood_berry):
+    settings = wood_berry.quality.without_limits()
+    assert np.all(np.isinf(settings.u_min)) and settings.saturation_warn == wood_berry.quality.saturation_warn
+    at, beyond = saturation(
+        [_stretch(np.array([[1e9, 0.0], [-1e9, 1.0]]))],
+        u_min=np.array([-np.inf, 0.0]),
+        u_max=np.array([np.inf, 1.0]),
+        tolerance=1e-3,
+    )
+    assert np.isnan(at[0]) and np.isnan(beyond[0]) and at[1] == 1.0 and beyond[1] == 0.0
+    quality = RecordQuality(at, beyond, np.array([1.0, 1.0]), 0.037)
+    assert element_warnings(quality, 0, 0, model=wood_berry.model, settings=settings) == ()

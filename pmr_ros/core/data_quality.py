@@ -29,7 +29,7 @@ thresholds do not, so the warning tells a classic user not to trust M(0).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -56,7 +56,8 @@ class QualitySettings:
     Attributes
     ----------
     u_min, u_max : ndarray, shape (n_inputs,)
-        The input limits (``mpc.u_min``, ``mpc.u_max``) [input unit].
+        The input limits (``mpc.u_min``, ``mpc.u_max``) [input unit]; both infinite: not
+        known (plant data whose params file gives none), saturation not judged.
     limit_tolerance : float
         An input within this fraction of ``u_max - u_min`` of a limit sits at it [-].
     saturation_warn : float
@@ -74,6 +75,10 @@ class QualitySettings:
     low_frequency_warn: float
     low_frequency_bins: int
 
+    def without_limits(self) -> QualitySettings:
+        """These settings with the input limits unknown (both infinite): saturation is not judged."""
+        return replace(self, u_min=np.full(np.shape(self.u_min), -np.inf), u_max=np.full(np.shape(self.u_max), np.inf))
+
 
 @dataclass(frozen=True)
 class RecordQuality:
@@ -82,9 +87,9 @@ class RecordQuality:
     Attributes
     ----------
     saturated : ndarray, shape (n_inputs,)
-        Share of the samples where each input sits at a limit [-].
+        Share of the samples where each input sits at a limit [-]; NaN where its limits are not known.
     outside : ndarray, shape (n_inputs,)
-        Share of the samples where it lies beyond them [-].
+        Share of the samples where it lies beyond them [-]; likewise.
     low_frequency : ndarray, shape (n_outputs,)
         Each row's residual spectrum at its lowest bins over its median [-]; NaN
         where the row has no regression (not identifiable).
@@ -114,7 +119,8 @@ def saturation(
     Returns
     -------
     at_limit, beyond : ndarray, shape (n_inputs,)
-        Shares of the samples [-] (0 without samples).
+        Shares of the samples [-] (0 without samples); NaN for an input whose
+        limits are both infinite (not known: not judged).
 
     Examples
     --------
@@ -123,7 +129,8 @@ def saturation(
     (array([0.5]), array([0.25]))
     """
     u_min, u_max = np.asarray(u_min, dtype=float), np.asarray(u_max, dtype=float)
-    slack = tolerance * (u_max - u_min)
+    span = u_max - u_min
+    slack = tolerance * np.where(np.isfinite(span), span, 0.0)
     at = np.zeros(u_min.shape)
     beyond = np.zeros(u_min.shape)
     samples = 0
@@ -132,7 +139,8 @@ def saturation(
         at += np.sum((np.abs(u - u_min) <= slack) | (np.abs(u - u_max) <= slack), axis=0)
         beyond += np.sum((u < u_min - slack) | (u > u_max + slack), axis=0)
         samples += u.shape[0]
-    return at / max(samples, 1), beyond / max(samples, 1)
+    unknown = np.isinf(u_min) & np.isinf(u_max)
+    return np.where(unknown, np.nan, at / max(samples, 1)), np.where(unknown, np.nan, beyond / max(samples, 1))
 
 
 def _residual(row: RowSpectra, columns: np.ndarray, theta: np.ndarray) -> np.ndarray:

@@ -103,6 +103,11 @@ def useful_stretches(
     return [s for s in stretches if s.samples >= shortest]
 
 
+def _known(value: float) -> float | None:
+    """A figure, or None where it could not be computed (NaN)."""
+    return float(value) if np.isfinite(value) else None
+
+
 def with_data_quality(
     diagnosis: Diagnosis, quality: RecordQuality, *, model: TransferMatrix, settings: QualitySettings
 ) -> Diagnosis:
@@ -120,11 +125,10 @@ def with_data_quality(
     """
     elements = {}
     for name, e in diagnosis.elements.items():
-        ratio = float(quality.low_frequency[e.row])
         figures = DataQuality(
-            saturated_share=float(quality.saturated[e.column]),
-            outside_share=float(quality.outside[e.column]),
-            low_frequency_ratio=ratio if np.isfinite(ratio) else None,
+            saturated_share=_known(quality.saturated[e.column]),
+            outside_share=_known(quality.outside[e.column]),
+            low_frequency_ratio=_known(quality.low_frequency[e.row]),
             warnings=element_warnings(quality, e.row, e.column, model=model, settings=settings),
         )
         elements[name] = replace(e, data_quality=figures)

@@ -306,11 +306,12 @@ class DataQuality:
 
     Attributes
     ----------
-    saturated_share : float
+    saturated_share : float or None
         Share of the diagnosed samples where the element's input sits at one of
         its limits (``mpc.u_min``, ``mpc.u_max``): samples that carry no
-        excitation of it from the controller [-].
-    outside_share : float
+        excitation of it from the controller [-]; None when the limits are not
+        known (plant data whose params file gives none).
+    outside_share : float or None
         Share where it lies beyond them (the limits do not describe the data) [-].
     low_frequency_ratio : float or None
         The element's row: its residual spectrum at the lowest bins over its
@@ -321,8 +322,8 @@ class DataQuality:
         The figures above their thresholds (``quality.*``), in words.
     """
 
-    saturated_share: float
-    outside_share: float
+    saturated_share: float | None
+    outside_share: float | None
     low_frequency_ratio: float | None
     warnings: tuple[str, ...] = ()
 
