@@ -36,6 +36,8 @@ setup(
         # Reading an MCAP bag whose recorder was killed (no summary, no metadata.yaml).
         "mcap>=1.1,<2",
         "PyYAML>=6,<7",
+        # One BLAS thread even when numpy was imported first (pmr_ros._blas).
+        "threadpoolctl>=3,<4",
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels; not needed by the batch core.

@@ -18,6 +18,7 @@ LAYERS: dict[str, set[str]] = {
     # layer -> the layers it may import (itself always)
     "resources": set(),
     "_version": {"resources"},
+    "_blas": set(),
     "core": set(),
     "progress": set(),
     "config": {"core", "resources"},
@@ -44,7 +45,7 @@ LAYERS: dict[str, set[str]] = {
         "progress",
     },
     "cli": {"commands", "config", "ros"},
-    "__init__": {"_version"},
+    "__init__": {"_version", "_blas"},
 }
 """Each top-level part of pmr_ros and the parts it may import."""
 

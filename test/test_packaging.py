@@ -220,6 +220,7 @@ ROSDEP_KEYS: dict[str, str | None] = {
     "osqp": None,
     "mcap": None,
     "pyarrow": None,
+    "threadpoolctl": None,
     "distributed": None,
     # tests only
     "pytest": "python3-pytest",

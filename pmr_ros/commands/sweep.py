@@ -286,17 +286,31 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     store.write_manifest(out, manifest)
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
-        where = (
-            f"the Dask cluster at {args.scheduler}"
-            if args.scheduler
-            else f"{min(args.jobs, max(len(tasks), 1))} process(es)"
-        )
-        print(
-            f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
-            f"{len(plan.seeds)} seeds "
-            f"= {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {where}",
-            file=sys.stderr,
-        )
+        _announce(args, plan, tasks, todo)
+    _timed_execution(args, config, tasks, results, out=out, manifest=manifest)
+    return manifest
+
+
+def _announce(args: argparse.Namespace, plan, tasks: list, todo: int) -> None:
+    """What the sweep is about to do, and where, on stderr."""
+    where = (
+        f"the Dask cluster at {args.scheduler}"
+        if args.scheduler
+        else f"{min(args.jobs, max(len(tasks), 1))} process(es)"
+    )
+    print(
+        f"pmr-ros sweep: {len(plan.elements)} sweep(s) x {len(plan.nu)} nu x {len(plan.scenarios)} scenarios x "
+        f"{len(plan.seeds)} seeds = {plan.total_runs} runs of {plan.samples} samples; {todo} to do on {where}",
+        file=sys.stderr,
+    )
+
+
+def _timed_execution(
+    args: argparse.Namespace, config, tasks: list, results: Path, *, out: Path, manifest: dict
+) -> None:
+    """Execute the tasks; the wall and CPU time go into the manifest (written even if the sweep is stopped)."""
+    from ..sweep import store
+
     t0 = time.perf_counter()
     outcome = None
     try:
@@ -307,8 +321,8 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
             manifest["cpu_time_s"] = round(manifest["cpu_time_s"] + outcome.cpu_time_s, 2)
         store.write_manifest(out, manifest)
     if not args.quiet:
+        todo = sum(len(t.runs) for t in tasks)
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
-    return manifest
 
 
 def _execute(args: argparse.Namespace, config, tasks: list, results: Path):

@@ -117,48 +117,47 @@ def summarize(rows: list[dict], tau_threshold: float) -> list[PointSummary]:
         groups[
             (row["method"], row["sweep"], row["element_swept"], round(row["nu"], 9), row["scenario"], row["element"])
         ].append(row)
-    out = []
-    for key in sorted(groups):
-        g = groups[key]
-        right = [run_correctness(r, tau_threshold) for r in g]
-        first = g[0]
-        gm, gl, gh = _stats([r["gain_ratio"] for r in g])
-        tm, tl, th = _stats([tau_value(r) for r in g])
-        dm, dl, dh = _stats([r["delay_mismatch_samples"] for r in g])
-        out.append(
-            PointSummary(
-                method=key[0],
-                sweep=key[1],
-                element_swept=key[2],
-                nu=key[3],
-                scenario=key[4],
-                element=key[5],
-                seeds=len(g),
-                row_time_constant_ratio=first["row_time_constant_ratio"],
-                prediction_horizon=first["prediction_horizon"],
-                loop_spectral_radius=first["loop_spectral_radius"],
-                true_gain_ratio=first["true_gain_ratio"],
-                true_time_constant_pct=first["true_time_constant_pct"],
-                true_delay_samples=first["true_delay_samples"],
-                gain_median=gm,
-                gain_low=gl,
-                gain_high=gh,
-                tau_median=tm,
-                tau_low=tl,
-                tau_high=th,
-                delay_median=dm,
-                delay_low=dl,
-                delay_high=dh,
-                gain_wrong=sum(not c["gain"] for c in right),
-                tau_wrong=sum(not c["tau"] for c in right),
-                delay_wrong=sum(not c["delay"] for c in right),
-                insufficient=sum(r["status"] != "ok" for r in g),
-                solve_fraction=float(np.mean([r["mpc_solves"] / r["samples"] for r in g])),
-                mpc_failures=int(sum(r["mpc_failures"] for r in g)),
-                tracking_rms=float(np.median([r["tracking_rms"] for r in g])),
-            )
-        )
-    return out
+    return [_point_summary(key, groups[key], tau_threshold) for key in sorted(groups)]
+
+
+def _point_summary(key: tuple, g: list[dict], tau_threshold: float) -> PointSummary:
+    """The summary of one group's runs (the seeds of one point, scenario and element)."""
+    right = [run_correctness(r, tau_threshold) for r in g]
+    first = g[0]
+    gm, gl, gh = _stats([r["gain_ratio"] for r in g])
+    tm, tl, th = _stats([tau_value(r) for r in g])
+    dm, dl, dh = _stats([r["delay_mismatch_samples"] for r in g])
+    return PointSummary(
+        method=key[0],
+        sweep=key[1],
+        element_swept=key[2],
+        nu=key[3],
+        scenario=key[4],
+        element=key[5],
+        seeds=len(g),
+        row_time_constant_ratio=first["row_time_constant_ratio"],
+        prediction_horizon=first["prediction_horizon"],
+        loop_spectral_radius=first["loop_spectral_radius"],
+        true_gain_ratio=first["true_gain_ratio"],
+        true_time_constant_pct=first["true_time_constant_pct"],
+        true_delay_samples=first["true_delay_samples"],
+        gain_median=gm,
+        gain_low=gl,
+        gain_high=gh,
+        tau_median=tm,
+        tau_low=tl,
+        tau_high=th,
+        delay_median=dm,
+        delay_low=dl,
+        delay_high=dh,
+        gain_wrong=sum(not c["gain"] for c in right),
+        tau_wrong=sum(not c["tau"] for c in right),
+        delay_wrong=sum(not c["delay"] for c in right),
+        insufficient=sum(r["status"] != "ok" for r in g),
+        solve_fraction=float(np.mean([r["mpc_solves"] / r["samples"] for r in g])),
+        mpc_failures=int(sum(r["mpc_failures"] for r in g)),
+        tracking_rms=float(np.median([r["tracking_rms"] for r in g])),
+    )
 
 
 @dataclass(frozen=True)
