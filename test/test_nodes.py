@@ -21,7 +21,8 @@ from pmr_ros.config import ConfigError, config_dir, flatten_parameters, load_con
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose  # noqa: E402
+from pmr_ros.core.diagnosis import diagnose_stretches  # noqa: E402
+from pmr_ros.core.stretch import Stretch  # noqa: E402
 from pmr_ros.node_set import NodeSetOptions, run_node_set  # noqa: E402
 from pmr_ros.nodes.plant import PlantNode  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
@@ -66,6 +67,14 @@ def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run
     assert full_run.samples_per_second > 100
 
 
+def _batch_diagnosis(config, r, u, y, dither=None):
+    """What the diagnostician computes from these samples: verdicts and data-quality figures."""
+    return diagnose_stretches(
+        [Stretch(r, u, y, dither)], model=config.model, pmr=config.pmr, parametric=config.parametric,
+        quality=config.quality,
+    )  # fmt: skip
+
+
 def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
     batch = simulate(full_run.config)
     node = full_run.record
@@ -73,7 +82,8 @@ def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
     assert np.array_equal(node.u, batch.u)
     assert np.array_equal(node.y, batch.y)
     config = full_run.config
-    expected = diagnose(batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    expected = _batch_diagnosis(config, batch.r, batch.u, batch.y)
+    assert all(e.data_quality is not None for e in expected)
     # one process, one machine: the verdicts read back from /diagnostics are bit-identical to the batch's
     assert full_run.diagnosis.elements == expected.elements
 
@@ -317,9 +327,7 @@ def test_duplicated_and_out_of_order_stamps_are_dropped_and_change_nothing(harne
     r, u, y, first = h.diag.aligner.window(600)
     assert first == 400 and np.array_equal(y, rec.y[400:]) and np.array_equal(u, rec.u[400:])
     final, info = h.statuses()[-1]
-    expected = diagnose(
-        rec.r[400:], rec.u[400:], rec.y[400:], model=h.config.model, pmr=h.config.pmr, parametric=h.config.parametric
-    )
+    expected = _batch_diagnosis(h.config, rec.r[400:], rec.u[400:], rec.y[400:])
     assert final.elements == expected.elements
 
 
@@ -378,9 +386,7 @@ def test_mv_dither_in_the_node_set_equals_the_batch(ros_domain):
     batch = simulate(config)
     assert batch.dither is not None
     assert np.array_equal(result.record.u, batch.u) and np.array_equal(result.record.y, batch.y)
-    expected = diagnose(
-        batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric, dither=batch.dither
-    )
+    expected = _batch_diagnosis(config, batch.r, batch.u, batch.y, batch.dither)
     assert result.diagnosis.elements == expected.elements  # the diagnostician used the same instruments
 
 

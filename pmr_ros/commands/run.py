@@ -102,17 +102,16 @@ def handle(args: argparse.Namespace) -> int:
     _check_before_running(args, config)
     if args.batch:
         from ..core.closed_loop import simulate
-        from ..core.diagnosis import diagnose
+        from ..core.diagnosis import diagnose_stretches
+        from ..core.stretch import Stretch
 
         record = simulate(config)
-        diagnosis = diagnose(
-            record.r,
-            record.u,
-            record.y,
+        diagnosis = diagnose_stretches(
+            [Stretch(record.r, record.u, record.y, record.dither)],
             model=config.model,
             pmr=config.pmr,
             parametric=config.parametric,
-            dither=record.dither,
+            quality=config.quality,
         )
         diagnosis = close_the_loop(args, config, diagnosis)
         report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)

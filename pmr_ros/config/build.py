@@ -16,10 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..core.classic import PmrSettings
+from ..core.data_quality import QualitySettings
 from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
+from ..core.plant import OutputDisturbance
 from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from .data import DataSettings, data_settings
 from .errors import ConfigError
@@ -119,11 +121,13 @@ class PmrConfig:
     model: TransferMatrix
     mismatch: Mismatch
     noise_std: np.ndarray
+    disturbance: OutputDisturbance
     prbs: PrbsSettings
     excitation: ExcitationSettings
     mpc: MpcTuning
     pmr: PmrSettings
     parametric: ParametricSettings
+    quality: QualitySettings
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
@@ -376,6 +380,11 @@ def _parametric(v: _Values) -> ParametricSettings:
     return settings
 
 
+def _quality(v: _Values, mpc: MpcTuning) -> QualitySettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("quality.")]
+    return QualitySettings(u_min=mpc.u_min, u_max=mpc.u_max, **{key: v[f"quality.{key}"] for key in keys})
+
+
 def _diagnostician(v: _Values) -> DiagnosticianSettings:
     keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("diagnostician.")]
     settings = DiagnosticianSettings(**{key: v[f"diagnostician.{key}"] for key in keys})
@@ -411,15 +420,18 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     _check_prbs_channels(v, model, excitation)
+    mpc = _mpc(v, model)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
+        disturbance=OutputDisturbance(v["noise.disturbance_std"], v["noise.disturbance_pole"]),
         prbs=_prbs(v),
         excitation=excitation,
-        mpc=_mpc(v, model),
+        mpc=mpc,
         pmr=_pmr(v),
         parametric=_parametric(v),
+        quality=_quality(v, mpc),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
         simulation=SimulationSettings(
             real_time_rate_hz=v["simulation.real_time_rate_hz"],

@@ -248,7 +248,9 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
             data.all_stretches, model=config.model, pmr=config.pmr, parametric=config.parametric
         )
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window_info(aligner, window_samples), stamp)
-    diagnosis = diagnose_stretches(data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    diagnosis = diagnose_stretches(
+        data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric, quality=config.quality
+    )
     window = window_info(aligner, window_samples, data.samples, data.pieces[0].first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)

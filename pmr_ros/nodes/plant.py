@@ -74,7 +74,7 @@ class PlantNode(ConfiguredNode):
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=EXECUTABLE, sim_time=True, **kwargs)
         cfg = self.config
         self.model = cfg.plant()
-        self.plant = FoptdPlant(self.model, cfg.noise_std, cfg.run.seed)
+        self.plant = FoptdPlant(self.model, cfg.noise_std, cfg.run.seed, disturbance=cfg.disturbance)
         self.samples = cfg.run.samples
         self.sample_time = cfg.model.sample_time
         self.sample = -1

@@ -113,7 +113,7 @@ def diagnosis_statuses(
     statuses = []
     for name, element in diagnosis.elements.items():
         if state == "ok":
-            level, message = element_level(element), element.summary()
+            level, message = element_level(element), element.message()
         else:
             level = _NO_VERDICT_LEVELS.get(state, DiagnosticStatus.WARN)
             message = f"{_NO_VERDICT_WORDS.get(state, 'insufficient data')}: {diagnosis.reason}"
