@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from simulated import diagnose_record
 
 from pmr_ros.config import PmrConfig, load_config
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
 from pmr_ros.core.results import Diagnosis
 
 WIDE_LIMITS = {"u_min": -20.0, "u_max": 20.0, "du_max": 5.0}
@@ -147,16 +147,7 @@ def run(case: HardCase, seed: int, *, mismatch: bool, config: PmrConfig | None =
     """The parametric diagnosis of one closed-loop run of ``case`` (``full`` or ``none`` scenario)."""
     config = config or case.config()
     record = simulate(config, samples=case.samples, seed=seed, scenario="full" if mismatch else "none")
-    return diagnose(
-        record.r,
-        record.u,
-        record.y,
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        method="parametric",
-        dither=record.dither,
-    )
+    return diagnose_record(record, config, method="parametric", with_dither=True)
 
 
 @dataclass

@@ -5,12 +5,12 @@ import json
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+from simulated import diagnose_record
 
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array, read_estimates  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose  # noqa: E402
 from pmr_ros.core.results import ElementDiagnosis, ParametricResult  # noqa: E402
 from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_level, estimates_message  # noqa: E402
 
@@ -19,15 +19,7 @@ from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_le
 def parametric_diagnosis():
     config = load_config()
     record = simulate(config, samples=8192)
-    return diagnose(
-        record.r,
-        record.u,
-        record.y,
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        method="parametric",
-    )
+    return diagnose_record(record, config, method="parametric")
 
 
 def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
