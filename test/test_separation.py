@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.stats import norm
 
+from pmr_ros.config import load_config
 from pmr_ros.core.model import TransferMatrix
 from pmr_ros.core.parametric import ParametricSettings
 from pmr_ros.core.parametric.fit import RowFit
@@ -92,23 +94,8 @@ def test_a_model_gain_of_about_zero_is_negligible_and_a_small_one_is_not():
 
 
 def _settings(**changes) -> ParametricSettings:
-    values = {
-        "segment_length": 0,
-        "resolution": 4.0,
-        "confidence_level": 0.95,
-        "gain_tolerance_pct": 3.0,
-        "tau_tolerance_pct": 5.0,
-        "max_interval_pct": 15.0,
-        "delay_confidence_min": 0.95,
-        "coherence_min": 0.3,
-        "excitation_min": 0.02,
-        "max_condition": 1e4,
-        "row_time_constant_ratio_warn": 1.8,
-        "lack_of_fit_max": 3.0,
-        "max_collinearity": 0.9,
-        "joint_delay_correlation": 0.6,
-    }
-    return ParametricSettings(**{**values, **changes})
+    """The declared defaults (config/parameters.yaml) with ``changes``."""
+    return replace(load_config().parametric, **changes)
 
 
 def _fit(rho: float) -> RowFit:
