@@ -95,66 +95,83 @@ def _check_before_running(args: argparse.Namespace, config) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
-    from ..report import build_report, format_table
+    from ..report import format_table
 
     config = load_checked_config(args.config, run_overrides(args))
     check_model_output(args)
     _check_before_running(args, config)
-    if args.batch:
-        from ..core.closed_loop import simulate
-        from ..core.diagnosis import diagnose_stretches
-        from ..core.stretch import Stretch
-
-        record = simulate(config)
-        diagnosis = diagnose_stretches(
-            [Stretch(record.r, record.u, record.y, record.dither)],
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            quality=config.quality,
-        )
-        diagnosis = close_the_loop(args, config, diagnosis)
-        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
-        report["path"] = "batch"
-    else:
-        run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
-        recording = start_recording(args, config) if args.bag else None
-        try:
-            options = NodeSetOptions(
-                private=not args.visible,
-                extra_nodes=recording.nodes if recording else None,
-                namespace=args.namespace or "/",
-            )
-            result = run_node_set(config, options)
-        except NodeSetError as exc:
-            raise CommandError(str(exc), code=1) from None
-        finally:
-            if recording is not None:
-                recording.close()
-        diagnosis = close_the_loop(args, config, result.diagnosis)
-        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
-        report["path"] = "nodes"
-        report["node_set"] = {
-            "levels": result.info["levels"],
-            "messages": result.info["messages"],
-            "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
-            "estimates": result.estimates,
-            "wall_time_s": result.wall_time_s,
-            "samples_per_second": result.samples_per_second,
-            "diagnostician_warnings": result.warnings,
-        }
-        if recording is not None:
-            report["bag"] = {
-                "path": str(recording.writer.path),
-                "storage": recording.writer.storage,
-                "messages": recording.writer.counts,
-            }
+    diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
     sys.stdout.write(format_table(report))
     if args.json:
-        try:
-            from ..report import write_json
-
-            write_json(report, args.json)
-        except OSError as exc:
-            raise CommandError(f"--json {args.json}: cannot write: {exc.strerror or exc}") from None
+        _write_json(report, args.json)
     return 0 if diagnosis.status == "ok" else EXIT_INSUFFICIENT
+
+
+def _batch_run(args: argparse.Namespace, config) -> tuple:
+    """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
+    from ..core.closed_loop import simulate
+    from ..core.diagnosis import diagnose_stretches
+    from ..core.stretch import Stretch
+    from ..report import build_report
+
+    record = simulate(config)
+    diagnosis = diagnose_stretches(
+        [Stretch(record.r, record.u, record.y, record.dither)],
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        quality=config.quality,
+    )
+    diagnosis = close_the_loop(args, config, diagnosis)
+    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    report["path"] = "batch"
+    return diagnosis, report
+
+
+def _node_set_run(args: argparse.Namespace, config) -> tuple:
+    """The node set's run (and its recording with ``--bag``); the diagnosis and the report."""
+    from ..report import build_report
+
+    run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
+    recording = start_recording(args, config) if args.bag else None
+    try:
+        options = NodeSetOptions(
+            private=not args.visible,
+            extra_nodes=recording.nodes if recording else None,
+            namespace=args.namespace or "/",
+        )
+        result = run_node_set(config, options)
+    except NodeSetError as exc:
+        raise CommandError(str(exc), code=1) from None
+    finally:
+        if recording is not None:
+            recording.close()
+    diagnosis = close_the_loop(args, config, result.diagnosis)
+    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    report["path"] = "nodes"
+    report["node_set"] = {
+        "levels": result.info["levels"],
+        "messages": result.info["messages"],
+        "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
+        "estimates": result.estimates,
+        "wall_time_s": result.wall_time_s,
+        "samples_per_second": result.samples_per_second,
+        "diagnostician_warnings": result.warnings,
+    }
+    if recording is not None:
+        report["bag"] = {
+            "path": str(recording.writer.path),
+            "storage": recording.writer.storage,
+            "messages": recording.writer.counts,
+        }
+    return diagnosis, report
+
+
+def _write_json(report: dict, path: str) -> None:
+    """``--json``: the report, or one line saying why it cannot be written."""
+    from ..report import write_json
+
+    try:
+        write_json(report, path)
+    except OSError as exc:
+        raise CommandError(f"--json {path}: cannot write: {exc.strerror or exc}") from None
