@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh)
 from rclpy.serialization import serialize_message
+from shipped import system_only_params
 
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.bag.writer import BagWriter
@@ -251,17 +252,7 @@ def test_the_html_reports_notes_list_the_data_warnings(diagnosed):
 
 # -- plant data: limits only where the params file gives them ------------------------------------
 
-SYSTEM = """/**:
-  ros__parameters:
-    system:
-      name: wood_berry
-      sample_time: 1.0
-      output_names: [x_D, x_B]
-      input_names: [reflux, steam]
-      gain: [12.8, -18.9, 6.6, -19.4]
-      time_constant: [16.7, 21.0, 10.9, 14.4]
-      delay: [1.0, 3.0, 7.0, 3.0]
-"""
+SYSTEM = system_only_params()  # the shipped Wood-Berry system block (config/wood_berry.yaml)
 
 
 def test_an_export_is_judged_for_saturation_against_the_limits_its_params_file_gives(wood_berry, tmp_path, capsys):
