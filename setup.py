@@ -75,12 +75,13 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "pmr-ros = pmr_ros.cli:main",
+            # pmr_ros.entry: Ctrl-C is taken from the first instant, while the modules are still importing.
+            "pmr-ros = pmr_ros.entry:pmr_ros",
             # The ROS 2 node set (--ros-args --params-file config/wood_berry.yaml).
-            "wood_berry_plant = pmr_ros.nodes.plant:main",
-            "prbs_setpoint = pmr_ros.nodes.prbs_setpoint:main",
-            "mpc_controller = pmr_ros.nodes.mpc_controller:main",
-            "pmr_diagnostician = pmr_ros.nodes.pmr_diagnostician:main",
+            "wood_berry_plant = pmr_ros.entry:wood_berry_plant",
+            "prbs_setpoint = pmr_ros.entry:prbs_setpoint",
+            "mpc_controller = pmr_ros.entry:mpc_controller",
+            "pmr_diagnostician = pmr_ros.entry:pmr_diagnostician",
         ],
     },
 )

@@ -23,10 +23,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from .config import PmrConfig, flatten_parameters, load_config
-from .contract.layout import diagnosis_from_array, read_estimates, read_signal
+from .contract.layout import CONFLICT, diagnosis_from_array, read_estimates, read_signal
 from .contract.topics import SIGNAL_TOPICS, topic
 from .core.closed_loop import RunRecord
 from .core.results import Diagnosis
+from .ros.flow import ProgressReporter, stamp_ns
 from .ros.parameters import parameter_overrides
 from .ros.signals import stop_requests
 from .ros.topics import message_class, qos_profile
@@ -77,21 +78,25 @@ class NodeSetRun:
 
 
 class _Listener(Node):
-    """Reads /diagnostics and /pmr/estimates; records r, u, y by sample on request."""
+    """Reads /diagnostics and pmr/estimates of its namespace's set; records r, u, y by sample on request."""
 
-    def __init__(self, context: Context, config: PmrConfig, record: bool) -> None:
-        super().__init__("pmr_run_listener", context=context, start_parameter_services=False)
+    def __init__(self, context: Context, config: PmrConfig, record: bool, namespace: str = "/") -> None:
+        super().__init__("pmr_run_listener", context=context, start_parameter_services=False, namespace=namespace)
         self.sample_time = config.model.sample_time
         self.final_sample = config.run.samples - 1
         self.final = None
         self.final_has_verdict = False
+        self.conflict: str | None = None
         self.estimates = None
         self.arrays: dict[str, np.ndarray] = {}
         self.counts: dict[str, int] = {}
         for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
             t = topic(key)
             self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
+        self.progress: ProgressReporter | None = None
         if record:
+            # a consumer like the diagnostician: the plant never runs more than max_samples_ahead ahead of it
+            self.progress = ProgressReporter(self, SIGNAL_TOPICS)
             n = config.run.samples
             widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
             for signal, key in SIGNAL_TOPICS.items():
@@ -103,6 +108,8 @@ class _Listener(Node):
     def _recorder(self, signal: str):
         def on_message(msg) -> None:
             stamp, _, values = read_signal(msg)
+            if self.progress is not None:
+                self.progress.took(signal, stamp_ns(msg.header.stamp))
             k = int(round(stamp / self.sample_time))
             if 0 <= k < self.arrays[signal].shape[0]:
                 self.arrays[signal][k] = values
@@ -112,7 +119,9 @@ class _Listener(Node):
 
     def _on_diagnostics(self, msg) -> None:
         diagnosis, info = diagnosis_from_array(msg)
-        if info.get("last_sample") == self.final_sample:
+        if info.get("status") == CONFLICT:
+            self.conflict = diagnosis.reason
+        if info.get("last_sample") == self.final_sample and info.get("status") != CONFLICT:
             self.final = msg
             self.final_has_verdict = diagnosis.status == "ok"
 
@@ -140,8 +149,8 @@ def node_parameter_values(config: PmrConfig) -> dict[str, Any]:
     return flat
 
 
-def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) -> list[Node]:
-    """The four nodes on ``context``, all with the full parameter set of ``config``.
+def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None, namespace: str = "/") -> list[Node]:
+    """The four nodes on ``context`` in ``namespace``, all with the full parameter set of ``config``.
 
     ``extra`` holds dotted parameter values laid over the configuration.
     """
@@ -156,7 +165,7 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None) 
     nodes: list[Node] = []
     try:
         for cls in (PmrDiagnosticianNode, MpcControllerNode, PrbsSetpointNode, PlantNode):
-            nodes.append(cls(context=context, parameter_overrides=params))
+            nodes.append(cls(context=context, parameter_overrides=params, namespace=namespace))
     except Exception:
         for node in nodes:
             node.destroy_node()
@@ -190,6 +199,9 @@ class NodeSetOptions:
         ``extra_nodes(context, parameters)`` builds nodes spun with the set
         (e.g. a bag recorder); ``parameters`` are the dotted values every node
         got.  The run also waits for each one's ``done`` (when it has one).
+    namespace : str
+        The node set's namespace: every topic of the contract is relative, so
+        several sets share a domain (``/`` by default).
     """
 
     domain_id: int | None = None
@@ -200,6 +212,7 @@ class NodeSetOptions:
     executor_kind: str = "events"
     private: bool = False
     extra_nodes: Callable[[Context, dict[str, Any]], list[Node]] | None = None
+    namespace: str = "/"
 
     def parameters(self, config: PmrConfig) -> dict[str, Any]:
         """The dotted parameter values laid over the configuration for every node."""
@@ -247,6 +260,8 @@ def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watc
         executor.spin_once(timeout_sec=0.05)
         if stop:
             raise KeyboardInterrupt
+        if listener.conflict is not None:
+            raise NodeSetError(f"the diagnostician reports a conflict: {listener.conflict}")
         watch.check()
 
 
@@ -274,10 +289,10 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
     executor = None
     with stop_requests() as stop:
         try:
-            nodes = build_nodes(config, context, extra)
+            nodes = build_nodes(config, context, extra, options.namespace)
             # build_nodes' order: the diagnostician first, the plant last
             diagnostician, plant = cast("PmrDiagnosticianNode", nodes[0]), nodes[-1]
-            listener = _Listener(context, config, options.record)
+            listener = _Listener(context, config, options.record, options.namespace)
             nodes.append(listener)
             if options.extra_nodes is not None:
                 nodes.extend(options.extra_nodes(context, {**flatten_parameters(config.parameters), **extra}))

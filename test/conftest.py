@@ -14,4 +14,4 @@ def wood_berry():
 
 
 # ROS 2 isolation fixtures (a private rclpy Context and ROS domain per test): test/ros_fixtures.py
-from ros_fixtures import ros_context, ros_domain  # noqa: E402,F401
+from ros_fixtures import children, ros, ros_context, ros_domain  # noqa: E402,F401

@@ -24,7 +24,7 @@ START = "2024-03-01T00:00:00Z"
 
 def pi_loop(config, samples: int, seed: int) -> RunRecord:
     """The Wood-Berry column under two PI loops (pairing 1-1, 2-2), PRBS setpoints, the configured mismatch."""
-    plant = FoptdPlant(config.plant(), config.noise_std, seed)
+    plant = FoptdPlant(config.plant(), config.noise_std, seed, disturbance=config.disturbance)
     r = PrbsGenerator(config.prbs, seed).sequence(samples)
     ts = config.model.sample_time
     u = np.empty((samples, 2))

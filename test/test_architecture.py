@@ -45,6 +45,7 @@ LAYERS: dict[str, set[str]] = {
         "progress",
     },
     "cli": {"commands", "config", "ros"},
+    "entry": set(),  # imports its commands by name (importlib) once the signals are taken
     "__init__": {"_version", "_blas"},
 }
 """Each top-level part of pmr_ros and the parts it may import."""

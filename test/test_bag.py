@@ -76,14 +76,14 @@ def _write_small_bag(
     for k in range(samples):
         t = 10 + k * 1000
         if "clock" in topics:
-            writer.write_message(topic("clock").name, t, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
+            writer.write_message(topic("clock").resolved(), t, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
         for key, names in (
             ("measured_output", ("x_D", "x_B")),
             ("setpoint", ("x_D", "x_B")),
             ("manipulated_input", ("reflux", "steam")),
         ):
             if key in topics:
-                writer.write_message(topic(key).name, t + 1, _joint_state(k, rng.normal(size=2), names))
+                writer.write_message(topic(key).resolved(), t + 1, _joint_state(k, rng.normal(size=2), names))
     return writer
 
 
@@ -138,10 +138,10 @@ def test_writer_and_reader_round_trip_every_message(tmp_path, wood_berry, storag
     writer.close()
     bag = open_bag(tmp_path / "bag")
     assert bag.complete and bag.storage == storage
-    assert bag.counts[topic("setpoint").name] == 40 and bag.counts[topic("clock").name] == 40
-    assert bag.topics[topic("setpoint").name] == "sensor_msgs/msg/JointState"
+    assert bag.counts[topic("setpoint").resolved()] == 40 and bag.counts[topic("clock").resolved()] == 40
+    assert bag.topics[topic("setpoint").resolved()] == "sensor_msgs/msg/JointState"
     assert bag.run_config().params == wood_berry.parameters
-    stamps = [read_signal(bag.decode(m))[0] for m in bag.messages({topic("measured_output").name})]
+    stamps = [read_signal(bag.decode(m))[0] for m in bag.messages({topic("measured_output").resolved()})]
     assert stamps == [float(k) for k in range(40)]
 
 
@@ -168,7 +168,7 @@ def test_an_unclosed_bag_is_read_up_to_its_last_flush(tmp_path):
     flushed = writer.message_count
     ts = typestore().types
     for k in range(30, 40):  # written after the last flush: still in memory when the process dies
-        writer.write_message(topic("clock").name, 10**6 + k, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
+        writer.write_message(topic("clock").resolved(), 10**6 + k, ts["rosgraph_msgs/msg/Clock"](clock=_time(float(k))))
     # Simulate SIGKILL: copy the file as the disk holds it now, without closing the writer.
     killed = tmp_path / "killed"
     killed.mkdir()
@@ -187,9 +187,9 @@ def test_reference_bag_is_small_and_records_every_contract_topic(expected):
     bag = open_bag(REFERENCE)
     samples = expected["samples"]
     for key in ("setpoint", "measured_output", "manipulated_input", "clock"):
-        assert bag.counts[topic(key).name] == samples
-    assert bag.counts[topic("diagnostics").name] >= 1 and bag.counts[topic("estimates").name] >= 1
-    assert bag.counts[topic(RUN_CONFIG_KEY).name] == 1
+        assert bag.counts[topic(key).resolved()] == samples
+    assert bag.counts[topic("diagnostics").resolved()] >= 1 and bag.counts[topic("estimates").resolved()] >= 1
+    assert bag.counts[topic(RUN_CONFIG_KEY).resolved()] == 1
     config = bag.run_config()
     assert config.scenario == "full" and config.seed == 1 and config.samples == samples
 
@@ -252,7 +252,7 @@ def test_an_independent_mcap_reader_decodes_every_message_of_the_reference_bag()
         assert {c.message_encoding for c in summary.channels.values()} == {"cdr"}
         for schema, channel, _message, decoded in reader.iter_decoded_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
-            if channel.topic == topic("estimates").name:
+            if channel.topic == topic("estimates").resolved():
                 assert len(decoded.position) == 12 and decoded.name[0] == "G11/gain_ratio"
             elif schema.name == "sensor_msgs/msg/JointState":
                 assert len(decoded.position) == 2 and decoded.header.stamp.nanosec == 0
@@ -271,7 +271,7 @@ def test_metadata_yaml_is_rosbag2_jazzy_metadata():
     assert info["message_count"] == sum(t["message_count"] for t in info["topics_with_message_count"])
     topics = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
     # the model topics joined the contract after the reference bag was recorded
-    later = {topic(key).name for key in ("proposed_model", "active_model")}
+    later = {topic(key).resolved() for key in ("proposed_model", "active_model")}
     assert set(topics) == {t.name for t in recorded_topics().values()} - later
     for t in recorded_topics().values():
         if t.name in later:
@@ -332,7 +332,7 @@ def test_compare_flags_a_different_verdict(reference_result):
 
 def test_required_topics_are_r_u_y():
     assert required_topics() == {
-        topic(k).name: topic(k).type for k in ("setpoint", "manipulated_input", "measured_output")
+        topic(k).resolved(): topic(k).type for k in ("setpoint", "manipulated_input", "measured_output")
     }
 
 
@@ -364,10 +364,10 @@ def test_shared_windowing_schedule_and_outcomes(wood_berry):
 
 def test_layout_readers_work_on_rosbags_messages(reference_result):
     bag, _ = reference_result
-    (message,) = list(bag.messages({topic("diagnostics").name}))
+    (message,) = list(bag.messages({topic("diagnostics").resolved()}))
     diagnosis, info = diagnosis_from_array(bag.decode(message), "pmr_diagnostician")
     assert diagnosis.status == "ok" and set(info["levels"].values()) == {"ERROR"}
-    (est,) = list(bag.messages({topic("estimates").name}))
+    (est,) = list(bag.messages({topic("estimates").resolved()}))
     assert read_estimates(bag.decode(est))["G21"]["delay_mismatch_samples"] == 2.0
     assert level_name(b"\x01") == level_name(1) == "WARN"
 

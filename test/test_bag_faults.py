@@ -93,9 +93,9 @@ def _write_bag(path: Path, messages, *, params: dict | None, storage: str = "mca
     for n, (key, k, values) in enumerate(messages):
         if key == "measured_output":
             clock = typestore().types["rosgraph_msgs/msg/Clock"](clock=_time(float(k)))
-            writer.write_message(topic("clock").name, 10 + 10 * n, clock)
+            writer.write_message(topic("clock").resolved(), 10 + 10 * n, clock)
         channel_names = names[key][: len(values)] if len(values) <= len(names[key]) else [*names[key], "extra"]
-        writer.write_message(topic(key).name, 11 + 10 * n, _signal(k, values, channel_names))
+        writer.write_message(topic(key).resolved(), 11 + 10 * n, _signal(k, values, channel_names))
     writer.flush()
     if close:
         writer.close()
@@ -156,7 +156,7 @@ def test_a_killed_run_bag_is_judged_on_what_it_holds(tmp_path, capsys):
     writer = _write_bag(tmp_path / "run", _messages(11121), params=_run_params(16384), close=False)
     killed = _killed_copy(writer, tmp_path)
     bag = open_bag(killed)
-    assert not bag.complete and bag.counts[topic("setpoint").name] == 11121
+    assert not bag.complete and bag.counts[topic("setpoint").resolved()] == 11121
     result = diagnose_bag(bag)
     assert result.config.diagnostician.min_samples == 8192  # the declared default, not the planned 16384
     assert result.final.kind == VERDICT and result.final.window["window_samples"] == 11121
@@ -186,9 +186,9 @@ def test_a_truncated_mcap_is_recovered_with_or_without_its_metadata(tmp_path, ca
     if not metadata:
         (tmp_path / "cut" / "metadata.yaml").unlink()
     bag = open_bag(tmp_path / "cut")
-    held = bag.counts[topic("setpoint").name]
+    held = bag.counts[topic("setpoint").resolved()]
     assert not bag.complete and 3000 < held < 4096 and bag.run_config() is not None
-    stamps = [read_signal(bag.decode(m))[0] for m in bag.messages({topic("setpoint").name})]
+    stamps = [read_signal(bag.decode(m))[0] for m in bag.messages({topic("setpoint").resolved()})]
     assert stamps == [float(k) for k in range(held)]  # every whole message, in order
     assert main(["diagnose", str(tmp_path / "cut")]) == 3
     out = capsys.readouterr().out
@@ -238,13 +238,13 @@ def test_a_killed_sqlite3_recording_is_read_from_its_committed_rows(tmp_path, ca
     # rows after the last commit are lost with the process, as in a real SIGKILL
     for k in range(SAMPLES, SAMPLES + 5):
         writer.write_message(
-            topic("clock").name, 10**12 + k, typestore().types["rosgraph_msgs/msg/Clock"](clock=_time(k))
+            topic("clock").resolved(), 10**12 + k, typestore().types["rosgraph_msgs/msg/Clock"](clock=_time(k))
         )
     killed = _killed_copy(writer, tmp_path)
     assert not (killed / "metadata.yaml").exists()
     bag = open_bag(killed)
     assert not bag.complete and bag.storage == "sqlite3"
-    assert bag.counts[topic("clock").name] == SAMPLES and bag.counts[topic("setpoint").name] == SAMPLES
+    assert bag.counts[topic("clock").resolved()] == SAMPLES and bag.counts[topic("setpoint").resolved()] == SAMPLES
     assert bag.run_config().params == _run_params(SAMPLES)
     files = {p.name: p.read_bytes() for p in killed.iterdir()}
     assert main(["diagnose", str(killed)]) == 0
@@ -334,9 +334,9 @@ def test_a_start_up_window_the_live_node_could_not_diagnose_is_no_disagreement(t
     for message in open_bag(path).messages():
         writer.write_raw(message.topic, message.log_time_ns, message.data)
     window = {"window_samples": 3, "first_sample": 0, "last_sample": 2}
-    writer.write_message(topic("diagnostics").name, 10**12, _diagnostics(stale, window, STALE))
+    writer.write_message(topic("diagnostics").resolved(), 10**12, _diagnostics(stale, window, STALE))
     final = offline.final
-    writer.write_message(topic("diagnostics").name, 10**12 + 1, _diagnostics(final.diagnosis, final.window, "ok"))
+    writer.write_message(topic("diagnostics").resolved(), 10**12 + 1, _diagnostics(final.diagnosis, final.window, "ok"))
     writer.close()
     result = diagnose_bag(open_bag(tmp_path / "with_diagnostics"))
     assert len(result.recorded) == 2 and result.not_diagnosed_live == 1

@@ -1,12 +1,11 @@
 """Bags with ROS: run --bag, replay into a live diagnostician, the recorder as a process (SIGINT/SIGTERM/SIGKILL).
 
-Each test has its own ROS domain (test/ros_fixtures.py); child processes are always killed.
+Each test has its own ROS domain and owns its nodes and child processes (test/ros_fixtures.py).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import time
@@ -14,7 +13,7 @@ from pathlib import Path
 
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
-from ros_fixtures import console_script, spin_until  # noqa: E402
+from ros_fixtures import console_script  # noqa: E402
 
 from pmr_ros.bag.offline import diagnose_bag  # noqa: E402
 from pmr_ros.bag.reader import open_bag  # noqa: E402
@@ -31,14 +30,14 @@ pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
 EXPECTED = json.loads((ROOT / "bags" / "wood_berry_full.expected.json").read_text())
-SIGNAL_TOPICS = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
+SIGNAL_TOPICS = [topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output")]
 
 
-def _diagnostician(context, bag):
+def _diagnostician(context, bag, namespace: str = "/"):
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
 
     params = flatten_parameters(bag.run_config().params)
-    return PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(params))
+    return PmrDiagnosticianNode(context=context, parameter_overrides=parameter_overrides(params), namespace=namespace)
 
 
 def _final_numbers(node, last_sample: int):
@@ -62,69 +61,50 @@ def classic_numbers(elements: dict) -> dict:
 EXPECTED_NUMBERS = {name: {k: e[k] for k in (*CLASSIC_KEYS, "verdict")} for name, e in EXPECTED["elements"].items()}
 
 
-def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros_context):
-    from rclpy.executors import SingleThreadedExecutor
-
+def _player(ros, bag, **kwargs):
     from pmr_ros.nodes.bag_player import BagPlayerNode
 
+    return ros.add(BagPlayerNode(bag, context=ros.context, **kwargs))
+
+
+@pytest.mark.parametrize("namespace", ["/", "/column_b"])
+def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros, namespace):
     bag = open_bag(REFERENCE)
-    diagnostician = _diagnostician(ros_context, bag)
-    player = BagPlayerNode(bag, context=ros_context)
-    executor = SingleThreadedExecutor(context=ros_context)
-    for node in (diagnostician, player):
-        executor.add_node(node)
-    try:
-        assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
-        # Strict lockstep: after each sample the diagnostician takes its r, u and y before the next goes out.
-        count = player.play(
-            max_samples_per_s=None,
-            after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0),
-        )
-        assert count == EXPECTED["samples"]
-        assert spin_until(executor, lambda: diagnostician.last_published is not None, 10.0)
-        numbers, info = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
-        assert compare_diagnoses(numbers, EXPECTED_NUMBERS) == []
-        assert info["first_sample"] == 0 and set(info["levels"].values()) == {"ERROR"}
-        assert list(diagnostician.warnings) == []
-    finally:
-        executor.shutdown(timeout_sec=1.0)
-        for node in (diagnostician, player):
-            node.destroy_node()
+    diagnostician = ros.add(_diagnostician(ros.context, bag, namespace))
+    # the bag's /pmr/... topics go out under the player's namespace
+    player = _player(ros, bag, namespace=namespace)
+    spin = lambda: ros.executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    assert player.wait_for_subscribers(SIGNAL_TOPICS, 30.0, spin)
+    assert player.wait_for_consumers(30.0, spin) == []
+    # Lockstep through the flow control: the player waits for the diagnostician's progress reports.
+    count = player.play(spin=lambda timeout: ros.executor.spin_once(timeout_sec=timeout))
+    assert count == EXPECTED["samples"]
+    assert ros.spin_until(lambda: diagnostician.messages_received == 3 * count, 60.0)
+    assert diagnostician.wait_idle(60.0)
+    numbers, info = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
+    assert compare_diagnoses(numbers, EXPECTED_NUMBERS) == []
+    assert info["first_sample"] == 0 and set(info["levels"].values()) == {"ERROR"}
+    assert list(diagnostician.warnings) == []
+    assert diagnostician.progress.reports > 0
 
 
-def test_pmr_ros_replay_process_drives_a_live_diagnostician(ros_context, tmp_path):
-    from rclpy.executors import SingleThreadedExecutor
-
+def test_pmr_ros_replay_process_drives_a_live_diagnostician_without_losing_a_sample(ros, tmp_path):
     bag = open_bag(REFERENCE)
-    diagnostician = _diagnostician(ros_context, bag)
-    executor = SingleThreadedExecutor(context=ros_context)
-    executor.add_node(diagnostician)
-    log = open(tmp_path / "replay.log", "w+")  # noqa: SIM115 - closed in finally
-    proc = subprocess.Popen(
-        [console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5", "--max-samples-per-second", "500"],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        env=dict(os.environ),
-    )
-    last = EXPECTED["samples"] - 1
-
-    def final() -> bool:  # the verdict on the whole run (a STALE status while the replay starts up is not it)
-        msg = diagnostician.last_published
-        return msg is not None and diagnosis_from_array(msg, diagnostician.get_name())[1].get("last_sample") == last
-
-    try:
-        assert spin_until(executor, lambda: final() or proc.poll() is not None, 300.0)
-        assert spin_until(executor, final, 30.0), (tmp_path / "replay.log").read_text()
-        assert diagnostician.messages_received == 3 * EXPECTED["samples"], list(diagnostician.warnings)[:5]
-        numbers, _ = _final_numbers(diagnostician, last)
-        assert proc.wait(timeout=60) == 0, (tmp_path / "replay.log").read_text()
-        assert compare_diagnoses(numbers, EXPECTED_NUMBERS) == []
-        text = (tmp_path / "replay.log").read_text()
-        assert "8192 samples" in text and "Traceback" not in text
-    finally:
-        _stop(proc, log)
-        executor.shutdown(timeout_sec=1.0)
-        diagnostician.destroy_node()
+    diagnostician = ros.add(_diagnostician(ros.context, bag))
+    # as fast as the player may go: no pace, only the flow control
+    proc = ros.start([console_script("pmr-ros"), "replay", str(REFERENCE), "--linger", "0.5"], tmp_path / "replay.log")
+    done = lambda: proc.poll() is not None or diagnostician.messages_received >= 3 * EXPECTED["samples"]  # noqa: E731
+    assert ros.spin_until(done, 300.0), "the replay did not end in 300 s"
+    ros.spin_until(lambda: proc.poll() is not None, 60.0)
+    text = (tmp_path / "replay.log").read_text()
+    assert proc.wait(timeout=60) == 0, text
+    # every sample delivered, counted: 8192 each of r, u and y, none lost, none rejected
+    assert diagnostician.messages_received == 3 * EXPECTED["samples"], text
+    assert diagnostician.lost_samples == {"r": 0, "u": 0, "y": 0} and list(diagnostician.warnings) == []
+    assert diagnostician.wait_idle(60.0)
+    numbers, _ = _final_numbers(diagnostician, EXPECTED["samples"] - 1)
+    assert compare_diagnoses(numbers, EXPECTED_NUMBERS) == []
+    assert "8192 samples" in text and "Traceback" not in text
 
 
 def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_path, capsys):
@@ -146,8 +126,8 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     bag = open_bag(path)
     assert bag.complete and bag.storage == "sqlite3"
     for key in ("setpoint", "manipulated_input", "measured_output", "clock"):
-        assert bag.counts[topic(key).name] == samples, key
-    assert bag.counts[topic("diagnostics").name] >= 1 and bag.counts[topic("estimates").name] >= 1
+        assert bag.counts[topic(key).resolved()] == samples, key
+    assert bag.counts[topic("diagnostics").resolved()] >= 1 and bag.counts[topic("estimates").resolved()] >= 1
     config = bag.run_config()
     assert config.samples == samples and config.seed == 1 and config.scenario == "full"
     assert config.params["diagnostician"]["window_samples"] == samples  # the settings the nodes really ran with
@@ -167,83 +147,51 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     assert "--bag records the node set's topics" in capsys.readouterr().err
 
 
-def _stop(proc: subprocess.Popen, log) -> None:
-    """Kill a child process that is still running and close its log."""
-    if proc.poll() is None:
-        proc.kill()
-        proc.wait(timeout=5)
-    log.close()
+def _start_recorder(ros, tmp_path: Path, bag: Path, *extra: str) -> subprocess.Popen:
+    argv = [console_script("pmr-ros"), "record", str(bag), "--flush-period", "0.2", *extra]
+    return ros.start(argv, tmp_path / "record.log")
 
 
-def _start_recorder(tmp_path: Path, bag: Path, *extra: str) -> tuple[subprocess.Popen, object]:
-    log = open(tmp_path / "record.log", "w+")  # noqa: SIM115 - closed by the caller
-    proc = subprocess.Popen(
-        [console_script("pmr-ros"), "record", str(bag), "--flush-period", "0.2", *extra],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        env=dict(os.environ),
+def _publish_to_recorder(ros, samples: int, *, publish_config: bool):
+    """Publish the first ``samples`` samples of the reference bag to a recorder process, in lockstep with it."""
+    player = _player(ros, open_bag(REFERENCE), publish_config=publish_config)
+    spin = lambda: ros.executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    assert player.wait_for_subscribers([*SIGNAL_TOPICS, topic("clock").resolved()], 60.0, spin), "no recorder"
+    assert player.wait_for_consumers(60.0, spin) == [], "the recorder reports no progress"
+    count = player.play(
+        spin=lambda timeout: ros.executor.spin_once(timeout_sec=timeout),
+        should_stop=lambda: player.published[topic("clock").resolved()] >= samples,
     )
-    return proc, log
+    assert count == samples
+    return player
 
 
-def _publish_to_recorder(ros_context, samples: int, *, publish_config: bool, extra_nodes=()):
-    """Publish the first ``samples`` samples of the reference bag to a recorder process; returns the player."""
-    from rclpy.executors import SingleThreadedExecutor
-
-    from pmr_ros.nodes.bag_player import BagPlayerNode
-
-    bag = open_bag(REFERENCE)
-    player = BagPlayerNode(bag, context=ros_context, publish_config=publish_config)
-    executor = SingleThreadedExecutor(context=ros_context)
-    for node in (player, *extra_nodes):
-        executor.add_node(node)
-    assert player.wait_for_subscribers(
-        [*SIGNAL_TOPICS, topic("clock").name], 30.0, lambda: executor.spin_once(timeout_sec=0.02)
-    ), "the recorder did not subscribe"
-    # Pace the samples a little so the recorder (one Python process) never falls a history depth behind.
-    player.play(
-        should_stop=lambda: sum(player.published.values()) >= 4 * samples + publish_config,
-        after_sample=lambda n: executor.spin_once(timeout_sec=0) if n % 50 == 0 else None,
-    )
-    return player, executor
-
-
-@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM])
-def test_recorder_process_stopped_by_a_signal_closes_the_bag(ros_context, tmp_path, how):
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_recorder_process_stopped_by_a_signal_closes_the_bag_with_every_sample(ros, tmp_path, how):
     samples = 1500
     path = tmp_path / "recorded"
     bag = open_bag(REFERENCE)
-    diagnostician = _diagnostician(ros_context, bag) if how == signal.SIGTERM else None
-    extra = [diagnostician] if diagnostician else []
-    proc, log = _start_recorder(tmp_path, path)
-    try:
-        player, executor = _publish_to_recorder(
-            ros_context, samples, publish_config=how == signal.SIGINT, extra_nodes=extra
-        )
-        deadline = time.monotonic() + 1.5
-        while time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)  # serve the diagnostician's parameter services
-        proc.send_signal(how)
-        assert proc.wait(timeout=20) == 0
-        text = (tmp_path / "record.log").read_text()
-        assert "Traceback" not in text
-        recorded = open_bag(path)
-        assert recorded.complete and (path / "metadata.yaml").is_file()
-        for name in [*SIGNAL_TOPICS, topic("clock").name]:
-            assert recorded.counts[name] == samples, (name, recorded.counts, text)
-        config = recorded.run_config()
-        assert config is not None
-        # the same model, whatever defaults the recorder's source spelled out
-        recorded_model = parse_config(config.params, "recorded").model.element_models()
-        assert recorded_model == parse_config(bag.run_config().params, "reference").model.element_models()
-        if diagnostician is not None:
-            assert "parameters of /pmr_diagnostician" in config.source
-        executor.shutdown(timeout_sec=1.0)
-        player.destroy_node()
-    finally:
-        _stop(proc, log)
-        if diagnostician is not None:
-            diagnostician.destroy_node()
+    diagnostician = ros.add(_diagnostician(ros.context, bag)) if how == signal.SIGTERM else None
+    proc = _start_recorder(ros, tmp_path, path)
+    _publish_to_recorder(ros, samples, publish_config=how == signal.SIGINT)
+    if diagnostician is not None:  # the recorder asks the live diagnostician for the configuration
+        ros.spin_until(lambda: "live diagnostician" in (tmp_path / "record.log").read_text(), 30.0)
+    # stopped at once: the samples still on their way are taken before the bag is closed
+    proc.send_signal(how)
+    assert ros.spin_until(lambda: proc.poll() is not None, 60.0), "the recorder did not stop"
+    text = (tmp_path / "record.log").read_text()
+    assert proc.returncode == 0 and "Traceback" not in text, text
+    recorded = open_bag(path)
+    assert recorded.complete and (path / "metadata.yaml").is_file()
+    for name in [*SIGNAL_TOPICS, topic("clock").resolved()]:
+        assert recorded.counts[name] == samples, (name, recorded.counts, text)
+    config = recorded.run_config()
+    assert config is not None
+    # the same model, whatever defaults the recorder's source spelled out
+    recorded_model = parse_config(config.params, "recorded").model.element_models()
+    assert recorded_model == parse_config(bag.run_config().params, "reference").model.element_models()
+    if diagnostician is not None:
+        assert "parameters of /pmr_diagnostician" in config.source
 
 
 def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> None:
@@ -261,37 +209,32 @@ def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> 
 
 
 @pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
-def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros_context, tmp_path, capsys, storage):
+def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ros, tmp_path, capsys, storage):
     samples = 2000
     path = tmp_path / "killed"
-    proc, log = _start_recorder(tmp_path, path, "--storage", storage)
-    try:
-        player, executor = _publish_to_recorder(ros_context, samples, publish_config=True)
-        # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
-        # from the file while it is being written -- then kill it without warning.
-        _wait_until_flushed(path, topic("measured_output").name, samples, timeout_s=60.0)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
-        assert not (path / "metadata.yaml").exists()
-        recorded = open_bag(path)
-        assert not recorded.complete and recorded.storage == storage
-        for name in [*SIGNAL_TOPICS, topic("clock").name]:
-            assert recorded.counts[name] == samples, (name, recorded.counts)
-        assert recorded.counts[topic(RUN_CONFIG_KEY).name] == 1 and recorded.run_config() is not None
-        stamps = [int(recorded.decode(m).header.stamp.sec) for m in recorded.messages({topic("measured_output").name})]
-        assert stamps == list(range(samples))
-        # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
-        assert main(["diagnose", str(path)]) == 3
-        out = capsys.readouterr().out
-        assert "is incomplete (no metadata.yaml" in out and "2000 unbroken samples, need 8192" in out
-        executor.shutdown(timeout_sec=1.0)
-        player.destroy_node()
-    finally:
-        _stop(proc, log)
+    proc = _start_recorder(ros, tmp_path, path, "--storage", storage)
+    _publish_to_recorder(ros, samples, publish_config=True)
+    # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
+    # from the file while it is being written -- then kill it without warning.
+    _wait_until_flushed(path, topic("measured_output").resolved(), samples, timeout_s=60.0)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert not (path / "metadata.yaml").exists()
+    recorded = open_bag(path)
+    assert not recorded.complete and recorded.storage == storage
+    for name in [*SIGNAL_TOPICS, topic("clock").resolved()]:
+        assert recorded.counts[name] == samples, (name, recorded.counts)
+    assert recorded.counts[topic(RUN_CONFIG_KEY).resolved()] == 1 and recorded.run_config() is not None
+    outputs = recorded.messages({topic("measured_output").resolved()})
+    assert [int(recorded.decode(m).header.stamp.sec) for m in outputs] == list(range(samples))
+    # The offline diagnosis reads it too (8192 samples are needed for a verdict: insufficient data, exit 3).
+    assert main(["diagnose", str(path)]) == 3
+    out = capsys.readouterr().out
+    assert "is incomplete (no metadata.yaml" in out and "2000 unbroken samples, need 8192" in out
 
 
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
-def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, stop):
+def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, children, tmp_path, stop):
     path = tmp_path / "stopped"
     proc = subprocess.Popen(
         [console_script("pmr-ros"), "run", "--samples", "500000", "--bag", str(path)],
@@ -299,38 +242,61 @@ def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, tmp_path, s
         stderr=subprocess.PIPE,
         text=True,
     )
-    try:
-        _wait_until_flushed(path, topic("measured_output").name, 1000, timeout_s=60.0)
-        proc.send_signal(stop)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+    children.append(proc)
+    _wait_until_flushed(path, topic("measured_output").resolved(), 1000, timeout_s=120.0)
+    proc.send_signal(stop)
+    _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err, err[-2000:]
     recorded = open_bag(path)
     assert recorded.complete and (path / "metadata.yaml").exists()  # closed, not merely flushed
-    assert recorded.counts[topic("measured_output").name] >= 1000 and recorded.run_config() is not None
+    assert recorded.counts[topic("measured_output").resolved()] >= 1000 and recorded.run_config() is not None
 
 
-def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros_context, tmp_path, capsys):
+def _without_impact(elements: dict) -> dict:
+    return {name: {k: v for k, v in e.items() if k != "impact"} for name, e in elements.items()}
+
+
+def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_domain, tmp_path, capsys):
+    path = tmp_path / "column_a"
+    argv = [
+        "run",
+        "--samples",
+        "1500",
+        "--namespace",
+        "column_a",
+        "--bag",
+        str(path),
+        "--json",
+        str(tmp_path / "a.json"),
+    ]
+    assert main(argv) == 0
+    bag = open_bag(path)
+    assert bag.counts[topic("measured_output").resolved("/column_a")] == 1500
+    assert topic("measured_output").resolved() not in bag.topics
+    assert bag.run_config() is not None
+    for namespace in (None, "/column_a"):  # found in the bag, or given
+        result = diagnose_bag(bag, namespace=namespace)
+        assert result.comparisons and result.all_equal
+        reported = json.loads((tmp_path / "a.json").read_text())["elements"]
+        offline = result.final.diagnosis.to_dict()["elements"]
+        assert compare_diagnoses(_without_impact(offline), _without_impact(reported)) == []  # the run adds impact
+    capsys.readouterr()
+    assert main(["diagnose", str(path), "--namespace", "column_b"]) == 2
+    assert "topic /column_b/pmr/setpoint" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as usage:  # argparse: one line, exit code 2
+        main(["diagnose", str(path), "--namespace", "9lives"])
+    assert usage.value.code == 2 and "'9lives' is not a valid name" in capsys.readouterr().err
+
+
+def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros, tmp_path, capsys):
     """``pmr-ros run --bag`` dies mid-run: the bag is judged on what it holds, and a replay publishes all of it."""
-    from rclpy.executors import SingleThreadedExecutor
-
     path = tmp_path / "run"
-    proc = subprocess.Popen(
-        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+    proc = ros.start(
+        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"], tmp_path / "run.log"
     )
-    try:
-        _wait_until_flushed(path, topic("measured_output").name, 9000, timeout_s=120.0)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(timeout=10)
+    _wait_until_flushed(path, topic("measured_output").resolved(), 9000, timeout_s=120.0)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
     recorded = open_bag(path)
     held = min(recorded.counts[name] for name in SIGNAL_TOPICS)
     assert not recorded.complete and 9000 <= held < 16384
@@ -338,21 +304,11 @@ def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros_co
     out = capsys.readouterr().out
     assert f"the bag holds {held} of the 16384 samples its run planned" in out and "mismatch" in out
     # replay what it holds into a live diagnostician
-    diagnostician = _diagnostician(ros_context, recorded)
-    from pmr_ros.nodes.bag_player import BagPlayerNode
-
-    player = BagPlayerNode(recorded, context=ros_context)
-    executor = SingleThreadedExecutor(context=ros_context)
-    for node in (diagnostician, player):
-        executor.add_node(node)
-    try:
-        assert player.wait_for_subscribers(SIGNAL_TOPICS, 10.0, lambda: executor.spin_once(timeout_sec=0.02))
-        count = player.play(
-            max_samples_per_s=None,
-            after_sample=lambda n: spin_until(executor, lambda: diagnostician.messages_received >= 3 * n, 10.0),
-        )
-        assert count >= held and diagnostician.aligner.stretch_last == held - 1
-    finally:
-        executor.shutdown(timeout_sec=1.0)
-        for node in (diagnostician, player):
-            node.destroy_node()
+    diagnostician = ros.add(_diagnostician(ros.context, recorded))
+    player = _player(ros, recorded)
+    spin = lambda: ros.executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    assert player.wait_for_subscribers(SIGNAL_TOPICS, 60.0, spin), "no diagnostician"
+    assert player.wait_for_consumers(60.0, spin) == [], "the diagnostician reports no progress"
+    count = player.play(spin=lambda timeout: ros.executor.spin_once(timeout_sec=timeout))
+    assert ros.spin_until(lambda: diagnostician.messages_received >= 3 * held, 60.0)
+    assert count >= held and diagnostician.aligner.stretch_last == held - 1

@@ -95,3 +95,27 @@ def test_lockstep_equals_simulate_on_a_non_square_system_with_a_level_and_dither
         for name in ("r", "u", "y", "dither"):
             np.testing.assert_allclose(getattr(record, name), getattr(ref, name), rtol=0, atol=1e-9)
     assert all(stats.solves > 0 for stats in result.statistics)  # the limits bind: the OSQP path is exercised too
+
+
+def test_an_output_disturbance_enters_simulate_and_the_lockstep_batch_alike_and_only_when_on(wood_berry):
+    from pmr_ros.core.plant import DisturbanceStream, OutputDisturbance
+
+    disturbance = OutputDisturbance(np.array([0.3, 0.0]), 0.97)
+    config = replace(wood_berry, disturbance=disturbance)
+    plain = simulate(wood_berry, samples=1500, seed=4)
+    disturbed = simulate(config, samples=1500, seed=4)
+    np.testing.assert_array_equal(disturbed.r, plain.r)
+    assert not np.allclose(disturbed.y[:, 0], plain.y[:, 0])
+    (lockstep,) = simulate_many(config, [("full", 4)], samples=1500)
+    for name in ("u", "y"):
+        np.testing.assert_allclose(getattr(lockstep, name), getattr(disturbed, name), rtol=0, atol=1e-9)
+    # off (the default): the measurement noise stream is untouched, so a run is the one without the option
+    off = replace(wood_berry, disturbance=OutputDisturbance.off(2))
+    np.testing.assert_array_equal(simulate(off, samples=1500, seed=4).y, plain.y)
+    np.testing.assert_array_equal(
+        simulate_many(off, [("full", 4)], samples=1500)[0].y,
+        simulate_many(wood_berry, [("full", 4)], samples=1500)[0].y,
+    )
+    # y(0): the plant at rest, so the measurement is noise + d(0), d from its own stream
+    d0 = DisturbanceStream(disturbance, 2, 4).draw()
+    np.testing.assert_allclose(disturbed.y[0] - plain.y[0], d0, rtol=0, atol=1e-15)

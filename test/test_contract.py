@@ -7,7 +7,17 @@ import copy
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 
-from pmr_ros.contract.topics import ContractError, load_contract, msg_defs_dir, parse_contract, topic  # noqa: E402
+from pmr_ros.contract.topics import (  # noqa: E402
+    PROGRESS_KEY,
+    ContractError,
+    check_namespace,
+    load_contract,
+    msg_defs_dir,
+    namespaces_of,
+    parse_contract,
+    resolve_name,
+    topic,
+)
 from pmr_ros.ros.topics import message_class, qos_profile  # noqa: E402
 
 KEYS = ("setpoint", "measured_output", "manipulated_input", "clock", "diagnostics", "estimates")
@@ -21,8 +31,8 @@ def test_msg_defs_dir_is_the_source_tree():
 def test_contract_lists_every_topic_with_type_qos_and_fields():
     topics = load_contract()
     assert set(KEYS) <= set(topics)
-    assert topic("diagnostics").name == "/diagnostics"
-    assert topic("clock").name == "/clock"
+    assert topic("diagnostics").resolved() == "/diagnostics" and topic("diagnostics").name == "diagnostics"
+    assert topic("clock").resolved() == "/clock" and topic("clock").resolved("/column_a") == "/column_a/clock"
     for key in KEYS:
         t = topics[key]
         cls = message_class(t)
@@ -89,3 +99,24 @@ def test_rclpy_and_rosbags_qos_come_from_one_mapping():
         assert profile.reliability.name == recorded.reliability.name
         assert profile.durability.name == recorded.durability.name
         assert profile.depth == recorded.depth == t.qos.depth
+
+
+def test_topic_names_are_relative_and_resolve_in_a_namespace():
+    for key, t in load_contract().items():
+        assert not t.name.startswith("/"), key  # -r __ns:=/column_a moves every topic of a node set
+    assert topic("setpoint").resolved() == "/pmr/setpoint"
+    assert topic("setpoint").resolved("/column_a") == "/column_a/pmr/setpoint"
+    assert topic("setpoint").in_namespace("plant/column_a/").name == "/plant/column_a/pmr/setpoint"
+    assert resolve_name("/clock", "/column_a") == "/clock" and resolve_name("pmr/x", "/") == "/pmr/x"
+    assert topic(PROGRESS_KEY).type == "std_msgs/msg/Header" and topic(PROGRESS_KEY).qos.reliability == "reliable"
+
+
+def test_namespaces_are_checked_and_found_in_topic_lists():
+    assert check_namespace("column_a") == "/column_a" and check_namespace("/plant/b_2/") == "/plant/b_2"
+    assert check_namespace("/") == "/"
+    for bad in ("9column", "col-a", "col a", "colümn"):
+        with pytest.raises(ContractError, match="not a valid name"):
+            check_namespace(bad)
+    names = ["/pmr/setpoint", "/column_a/pmr/setpoint", "/column_a/pmr/measured_output", "/other/setpoint_x"]
+    assert namespaces_of("setpoint", names) == ["/", "/column_a"]
+    assert namespaces_of("setpoint", ["/clock"]) == []

@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 from scipy.signal import csd
 
+from pmr_ros.config import load_config
 from pmr_ros.core.classic import gain_bin
 from pmr_ros.core.delay import hamon_hannan_delay, search_limit_reason
 from pmr_ros.core.implicit import implicit_row, instrument_factor, row_layout
 from pmr_ros.core.model import TransferMatrix
+from pmr_ros.core.parametric import ParametricSettings
 from pmr_ros.core.parametric.fit import RowFit, column_models, interaction_delay_range
 from pmr_ros.core.parametric.guard import fitted_bins
 from pmr_ros.core.parametric.lsq import RowParameters, RowProblem
@@ -39,21 +41,9 @@ MIXED = TransferMatrix(
 """Row 1 ordinary with an empty cell; row 2 a level (integrating in u1) with an empty cell."""
 
 
-def _settings() -> dict:
-    return {
-        "segment_length": 0,
-        "resolution": 4.0,
-        "confidence_level": 0.95,
-        "gain_tolerance_pct": 3.0,
-        "tau_tolerance_pct": 5.0,
-        "max_interval_pct": 15.0,
-        "delay_confidence_min": 0.95,
-        "coherence_min": 0.3,
-        "excitation_min": 0.02,
-        "max_condition": 1e4,
-        "row_time_constant_ratio_warn": 1.8,
-        "lack_of_fit_max": 3.0,
-    }
+def _settings() -> ParametricSettings:
+    """The declared defaults (config/parameters.yaml), the one source of them."""
+    return load_config().parametric
 
 
 # -- regressors and spectra ---------------------------------------------------------------------
@@ -264,6 +254,9 @@ def test_fitted_bins_skip_leading_bins_without_coherence_and_the_zero_bin_of_a_d
 # -- verdicts --------------------------------------------------------------------------------------
 
 
+LABELS = [("G11", "u1")]
+
+
 def _fit(columns, *, lin, s, delays, sd_lin, lack=1.0) -> RowFit:
     n = len(columns)
     profiles = tuple({int(d): 0.0, int(d) + 1: 50.0} for d in delays)
@@ -282,17 +275,21 @@ def _fit(columns, *, lin, s, delays, sd_lin, lack=1.0) -> RowFit:
 
 
 def test_an_element_at_its_search_limit_or_misfitted_is_inconclusive_with_its_numbers():
-    from pmr_ros.core.parametric import ParametricSettings
 
-    settings = ParametricSettings(**_settings())
+    settings = _settings()
     column = _ratio_column()
     good = element_result(
-        _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005]), 0, settings=settings, quality={}, warnings=()
+        _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005]),
+        0,
+        settings=settings,
+        quality={},
+        warnings=(),
+        labels=LABELS,
     )
     assert good.verdict == "mismatch" and good.gain_verdict == "mismatch" and good.tau_verdict == "ok"
     edge = _fit([column], lin=[1.12], s=[0.3], delays=[6], sd_lin=[0.005])
     assert trust_reasons(edge, 0, settings)[0].startswith("delay at the search limit")
-    result = element_result(edge, 0, settings=settings, quality={}, warnings=())
+    result = element_result(edge, 0, settings=settings, quality={}, warnings=(), labels=LABELS)
     assert result.verdicts[:3] == ("inconclusive",) * 3 and result.gain_mismatch_pct == pytest.approx(12.0)
     misfit = _fit([column], lin=[1.12], s=[0.0], delays=[1], sd_lin=[0.005], lack=40.0)
     assert "fit does not follow the data (40.0x" in trust_reasons(misfit, 0, settings)[0]
@@ -303,14 +300,14 @@ def test_an_element_at_its_search_limit_or_misfitted_is_inconclusive_with_its_nu
         settings=settings,
         quality={},
         warnings=(),
+        labels=LABELS,
     )
     assert level.tau_mismatch_pct is None and level.tau_verdict is None and level.verdict == "mismatch"
 
 
 def test_an_interaction_is_judged_by_its_share_of_the_row_with_the_search_counted():
-    from pmr_ros.core.parametric import ParametricSettings
 
-    settings = ParametricSettings(**_settings())
+    settings = _settings()
     # 3.5 sd from zero: beyond a single 95 % interval, not beyond the Bonferroni level of 30 candidates
     assert interaction_verdict(3.5 * 2.0, 2.0, candidates=1, settings=settings) == "mismatch"
     assert interaction_verdict(3.0 * 2.0, 2.0, candidates=30, settings=settings) == "ok"

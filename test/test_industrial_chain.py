@@ -46,7 +46,7 @@ def chain(tmp_path_factory):
 def _signal(bag, key: str) -> np.ndarray:
     """The values of a recorded signal topic, in stamp order, one row per sample."""
     rows = []
-    for message in bag.messages({topic(key).name}):
+    for message in bag.messages({topic(key).resolved()}):
         msg = bag.decode(message)
         rows.append((msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec, np.asarray(msg.position)))
     return np.array([values for _, values in sorted(rows, key=lambda row: row[0])])

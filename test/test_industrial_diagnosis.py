@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from simulated import diagnose_record
 
 from pmr_ros.config import load_config
 from pmr_ros.core.batch import simulate_many
 from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
 
 SEEDS = (1, 2, 3)
 
@@ -130,16 +130,7 @@ def diagnoses(configs):
         runs = [(scenario, seed) for scenario in scenarios for seed in SEEDS]
         for (scenario, seed), record in zip(runs, simulate_many(config, runs), strict=True):
             for method in ("classic", "parametric"):
-                out[label, scenario, seed, method] = diagnose(
-                    record.r,
-                    record.u,
-                    record.y,
-                    model=config.model,
-                    pmr=config.pmr,
-                    parametric=config.parametric,
-                    method=method,
-                    dither=record.dither,
-                )
+                out[label, scenario, seed, method] = diagnose_record(record, config, method=method, with_dither=True)
     return out
 
 
@@ -244,16 +235,7 @@ def test_the_integrating_row_recovers_the_injected_ratio_exactly_without_noise(t
     }
     config = load_config(params_file(tmp_path, tree))
     record = simulate(config, samples=8192)
-    diagnosis = diagnose(
-        record.r,
-        record.u,
-        record.y,
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        method="parametric",
-        dither=record.dither,
-    )
+    diagnosis = diagnose_record(record, config, method="parametric", with_dither=True)
     gain, tau, delay = _truth(config, "full")
     for e in diagnosis:
         if e.model.kind == "none":  # nothing there: a gain that carries nothing of the row's output
@@ -283,15 +265,7 @@ def test_a_delay_beyond_the_search_range_is_inconclusive_not_confidently_wrong(l
     config = load_config(overrides=overrides)
     record = simulate(config, seed=1)
     for method in ("parametric", "classic"):
-        diagnosis = diagnose(
-            record.r,
-            record.u,
-            record.y,
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            method=method,
-        )
+        diagnosis = diagnose_record(record, config, method=method)
         g21 = diagnosis.elements["G21"]
         assert g21.verdict == "inconclusive", (label, method, g21.summary())
         assert any("pmr.max_delay_samples" in reason for reason in g21.all_reasons), (label, method, g21.all_reasons)
@@ -319,15 +293,7 @@ def test_a_row_without_enough_instruments_names_the_missing_excitation(tmp_path)
     config = load_config(params_file(tmp_path, {"system": system, "mismatch": MISMATCH_3X5}))
     record = simulate(config, samples=8192)
     for method in ("parametric", "classic"):
-        diagnosis = diagnose(
-            record.r,
-            record.u,
-            record.y,
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            method=method,
-        )
+        diagnosis = diagnose_record(record, config, method=method)
         for e in diagnosis:
             if e.row == 2 and not (method == "classic" and e.model.kind == "none"):
                 assert e.verdict == "inconclusive" and (e.result is None or e.result.gain_mismatch_pct is None), e.name

@@ -5,12 +5,12 @@ import json
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
+from simulated import diagnose_record
 
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array, read_estimates  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose  # noqa: E402
 from pmr_ros.core.results import ElementDiagnosis, ParametricResult  # noqa: E402
 from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_level, estimates_message  # noqa: E402
 
@@ -19,15 +19,7 @@ from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_le
 def parametric_diagnosis():
     config = load_config()
     record = simulate(config, samples=8192)
-    return diagnose(
-        record.r,
-        record.u,
-        record.y,
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        method="parametric",
-    )
+    return diagnose_record(record, config, method="parametric")
 
 
 def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
@@ -79,25 +71,21 @@ def test_node_set_with_method_parametric_matches_batch(tmp_path, ros_domain, cap
     assert "interval" in capsys.readouterr().out
 
 
-def test_diagnostician_method_parameter_is_described_and_checked(ros_context):
+def test_diagnostician_method_parameter_is_described_and_checked(ros):
     from rclpy.parameter import Parameter
 
     from pmr_ros.config import flatten_parameters
     from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
     from pmr_ros.ros.parameters import parameter_overrides
 
-    node = PmrDiagnosticianNode(
-        context=ros_context, parameter_overrides=parameter_overrides(flatten_parameters(load_config().parameters))
-    )
-    try:
-        assert "parametric" in node.describe_parameter("pmr.method").description
-        assert node.describe_parameter("parametric.gain_tolerance_pct").description
-        assert node.config.pmr.method == "parametric"
-        refused = node.set_parameters([Parameter("pmr.method", value="bogus")])[0]
-        assert not refused.successful and "pmr.method" in refused.reason and "classic, parametric" in refused.reason
-        refused = node.set_parameters([Parameter("parametric.confidence_level", value=1.5)])[0]
-        assert not refused.successful and "must be > 0 and < 1" in refused.reason
-        ok = node.set_parameters([Parameter("pmr.method", value="classic")])[0]
-        assert ok.successful and node.config.pmr.method == "classic"
-    finally:
-        node.destroy_node()
+    params = parameter_overrides(flatten_parameters(load_config().parameters))
+    node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=params))
+    assert "parametric" in node.describe_parameter("pmr.method").description
+    assert node.describe_parameter("parametric.gain_tolerance_pct").description
+    assert node.config.pmr.method == "parametric"
+    refused = node.set_parameters([Parameter("pmr.method", value="bogus")])[0]
+    assert not refused.successful and "pmr.method" in refused.reason and "classic, parametric" in refused.reason
+    refused = node.set_parameters([Parameter("parametric.confidence_level", value=1.5)])[0]
+    assert not refused.successful and "must be > 0 and < 1" in refused.reason
+    ok = node.set_parameters([Parameter("pmr.method", value="classic")])[0]
+    assert ok.successful and node.config.pmr.method == "classic"

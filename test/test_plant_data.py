@@ -86,6 +86,9 @@ def test_clean_stretches_are_deviation_variables(config, records, tmp_path):
     (stretch,) = data.stretches()
     np.testing.assert_allclose(stretch.u, records["mpc"].u - records["mpc"].u.mean(axis=0), atol=1e-9)
     np.testing.assert_allclose(stretch.y.mean(axis=0), 0.0, atol=1e-9)
+    (raw,) = data.stretches(deviations=False)  # as read: where an MV's limits are judged
+    np.testing.assert_allclose(raw.u - stretch.u, np.broadcast_to(raw.u.mean(axis=0), raw.u.shape), atol=1e-9)
+    assert np.all(np.abs(raw.u.mean(axis=0)) > 1.0)  # the export's operating point (engineering values)
 
 
 def _equivalent_segments(config, lengths: list[int]) -> float:

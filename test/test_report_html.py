@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from plant_export import DATA_BLOCK, as_parquet_frame, dirty_frame, pi_loop
+from shipped import system_only_params
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
@@ -27,17 +28,7 @@ from pmr_ros.progress import ProgressBar
 from pmr_ros.report.curves import band_radius, estimate_sigma, fitted_ratio, pmr_curves
 from pmr_ros.report.figures import decimate
 
-SYSTEM_ONLY = """/**:
-  ros__parameters:
-    system:
-      name: wood_berry
-      sample_time: 1.0
-      output_names: [x_D, x_B]
-      input_names: [reflux, steam]
-      gain: [12.8, -18.9, 6.6, -19.4]
-      time_constant: [16.7, 21.0, 10.9, 14.4]
-      delay: [1.0, 3.0, 7.0, 3.0]
-"""
+SYSTEM_ONLY = system_only_params()  # the shipped Wood-Berry system block (config/wood_berry.yaml)
 
 
 def _truth(config, omega):

@@ -20,7 +20,7 @@ from ..config.schema import parameter
 from ..contract.alignment import SIGNALS, AddResult, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.proposal import close_diagnosis
-from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis, compare_diagnoses
 from .reader import Bag
@@ -134,6 +134,8 @@ class OfflineResult:
         Times the data broke into a new stretch.
     notes : list of str
         What the console should say about how the bag was judged.
+    namespace : str
+        The node set whose topics were read.
     """
 
     config: PmrConfig
@@ -147,6 +149,7 @@ class OfflineResult:
     drops: DropCounts = field(default_factory=DropCounts)
     gaps: int = 0
     notes: list[str] = field(default_factory=list)
+    namespace: str = "/"
 
     @property
     def final(self) -> WindowOutcome | None:
@@ -200,8 +203,8 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
     return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
 
 
-def _recorded_verdicts(bag: Bag, config: PmrConfig) -> list[RecordedVerdict]:
-    name = topic("diagnostics").name
+def _recorded_verdicts(bag: Bag, config: PmrConfig, namespace: str = "/") -> list[RecordedVerdict]:
+    name = topic("diagnostics").resolved(namespace)
     if name not in bag.topics:
         return []
     out = []
@@ -213,16 +216,33 @@ def _recorded_verdicts(bag: Bag, config: PmrConfig) -> list[RecordedVerdict]:
     return out
 
 
-def required_topics() -> dict[str, str]:
-    """Topic name -> type the offline diagnosis needs (r, u, y)."""
-    return {topic(key).name: topic(key).type for key in SIGNAL_TOPICS.values()}
+def required_topics(namespace: str = "/") -> dict[str, str]:
+    """Topic name -> type the offline diagnosis needs (r, u, y of the node set in ``namespace``)."""
+    return {topic(key).resolved(namespace): topic(key).type for key in SIGNAL_TOPICS.values()}
 
 
-def _signal_labels() -> dict[str, str]:
-    return {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
+def bag_namespace(bag: Bag) -> str:
+    """The namespace of the node set a bag recorded (``/`` unless it was recorded under one).
+
+    Raises
+    ------
+    BagError
+        The bag holds the signals of several node sets (choose one with ``--namespace``).
+    """
+    found = namespaces_of("setpoint", bag.topics)
+    if len(found) > 1:
+        raise BagError(
+            f"{bag.path}: the bag holds the signals of {len(found)} node sets ({', '.join(found)}); "
+            "choose one with --namespace"
+        )
+    return found[0] if found else "/"
 
 
-def check_system(bag: Bag, config: PmrConfig, origin: str) -> None:
+def _signal_labels(namespace: str = "/") -> dict[str, str]:
+    return {s: f"{s} on {topic(SIGNAL_TOPICS[s]).resolved(namespace)}" for s in SIGNALS}
+
+
+def check_system(bag: Bag, config: PmrConfig, origin: str, namespace: str = "/") -> None:
     """Refuse a configuration whose channels are not those of the bag's signals.
 
     The first messages of r, u and y must carry as many values (and, when
@@ -238,7 +258,7 @@ def check_system(bag: Bag, config: PmrConfig, origin: str) -> None:
     model = config.model
     expected = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
     for signal, key in SIGNAL_TOPICS.items():
-        name = topic(key).name
+        name = topic(key).resolved(namespace)
         seen = []
         for message in bag.messages({name}):
             seen.append(read_signal(bag.decode(message)))
@@ -263,10 +283,10 @@ def check_system(bag: Bag, config: PmrConfig, origin: str) -> None:
 class _Replay:
     """The bag's r, u, y through the live diagnostician's aligner and schedule."""
 
-    def __init__(self, config: PmrConfig) -> None:
+    def __init__(self, config: PmrConfig, namespace: str = "/") -> None:
         model, window = config.model, config.diagnostician
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-        self.labels = _signal_labels()
+        self.labels = _signal_labels(namespace)
         self.config = config
         self.aligner = SampleAligner(
             model.sample_time, names, self.labels, window.window_samples, window.max_lag_samples
@@ -306,18 +326,18 @@ class _Replay:
         return True
 
 
-def _replay(bag: Bag, config: PmrConfig) -> _Replay:
-    """Feed the bag's r, u, y through the live diagnostician's aligner and schedule."""
-    replay = _Replay(config)
-    by_topic = {topic(SIGNAL_TOPICS[s]).name: s for s in SIGNALS}
+def _replay(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
+    """Feed the r, u, y of the node set in ``namespace`` through the live diagnostician's aligner and schedule."""
+    replay = _Replay(config, namespace)
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
     for message in bag.messages(set(by_topic)):
         replay.offer(by_topic[message.topic], bag.decode(message))
     return replay
 
 
-def held_samples(bag: Bag) -> int:
+def held_samples(bag: Bag, namespace: str = "/") -> int:
     """Samples of r, u and y the bag holds (messages of the sparsest signal)."""
-    return min(bag.counts.get(topic(SIGNAL_TOPICS[s]).name, 0) for s in SIGNALS)
+    return min(bag.counts.get(topic(SIGNAL_TOPICS[s]).resolved(namespace), 0) for s in SIGNALS)
 
 
 def judged_config(
@@ -359,14 +379,21 @@ def judged_config(
 
 
 def diagnose_bag(
-    bag: Bag, config_path: str | None = None, method: str | None = None, *, min_samples: int | None = None
+    bag: Bag,
+    config_path: str | None = None,
+    method: str | None = None,
+    *,
+    min_samples: int | None = None,
+    namespace: str | None = None,
 ) -> OfflineResult:
     """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
 
     ``method`` (``classic`` or ``parametric``) overrides the configuration's
     ``pmr.method``; recorded verdicts made with another method are not
     compared.  ``min_samples`` overrides ``diagnostician.min_samples`` (see
-    :func:`judged_config` for a recording cut short).
+    :func:`judged_config` for a recording cut short).  ``namespace`` picks the
+    node set whose topics are read (default: the one the bag recorded, see
+    :func:`bag_namespace`).
 
     Raises
     ------
@@ -374,25 +401,27 @@ def diagnose_bag(
         A needed topic is missing, empty or of the wrong type, no
         configuration, or one whose channels are not the bag's.
     """
-    bag.require(required_topics())
+    namespace = bag_namespace(bag) if namespace is None else namespace
+    bag.require(required_topics(namespace))
     config, origin = bag_configuration(bag, config_path)
-    check_system(bag, config, origin)
+    check_system(bag, config, origin, namespace)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
-    config, note = judged_config(config, held=held_samples(bag), origin=origin, min_samples=min_samples)
-    replay = _replay(bag, config)
+    config, note = judged_config(config, held=held_samples(bag, namespace), origin=origin, min_samples=min_samples)
+    replay = _replay(bag, config, namespace)
     end_of_bag = replay.finish()
     result = OfflineResult(
         config,
         origin,
         replay.outcomes,
-        _recorded_verdicts(bag, config),
+        _recorded_verdicts(bag, config, namespace),
         warnings=replay.warnings,
         messages=replay.counts,
         end_of_bag=end_of_bag,
         drops=replay.drops,
         gaps=replay.aligner.gaps,
         notes=[note] if note else [],
+        namespace=namespace,
     )
     result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method, config=config)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})

@@ -28,7 +28,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .schema import RUN_CONFIG_KEY, BagError, RunConfig, recorded_topics, typestore
+from ..contract.topics import load_contract
+from .schema import RUN_CONFIG_KEY, BagError, RunConfig, typestore
 
 
 @dataclass(frozen=True)
@@ -109,8 +110,10 @@ class Bag:
         config = RunConfig.from_custom_data(self.custom_data)
         if config is not None:
             return config
-        name = recorded_topics()[RUN_CONFIG_KEY].name
-        if name not in self.topics:
+        # the node set's namespace, whichever it was recorded under (/pmr/run_config, /column_a/pmr/run_config)
+        relative = load_contract()[RUN_CONFIG_KEY].name
+        name = next((n for n in sorted(self.topics) if n.endswith("/" + relative)), None)
+        if name is None:
             return None
         for message in self.messages({name}):
             return RunConfig.from_text(self.decode(message).data)

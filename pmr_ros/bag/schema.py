@@ -21,7 +21,7 @@ from typing import Any
 import yaml
 
 from .. import __version__
-from ..contract.topics import Topic, TopicQos, load_contract
+from ..contract.topics import PROGRESS_KEY, Topic, TopicQos, load_contract
 
 RUN_CONFIG_KEY = "run_config"
 """Contract key of the latched topic with the run's configuration."""
@@ -52,9 +52,12 @@ def typestore():
     return get_typestore(Stores.ROS2_JAZZY)
 
 
-def recorded_topics() -> dict[str, Topic]:
-    """Every topic a bag records, by contract key (the whole contract)."""
-    return dict(load_contract())
+def recorded_topics(namespace: str = "/") -> dict[str, Topic]:
+    """Every topic a bag records, by contract key, with its absolute name in ``namespace``.
+
+    The whole contract but the flow control's progress reports (``PROGRESS_KEY``).
+    """
+    return {k: t.in_namespace(namespace) for k, t in load_contract().items() if k != PROGRESS_KEY}
 
 
 def rosbags_qos(qos: TopicQos) -> Any:

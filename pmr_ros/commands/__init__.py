@@ -120,6 +120,21 @@ def nonnegative_int(text: str) -> int:
     return value
 
 
+def namespace(text: str) -> str:
+    """Argparse type: a ROS node namespace (``column_a`` or ``/plant/column_a``), made absolute."""
+    from ..contract.topics import ContractError, check_namespace
+
+    try:
+        return check_namespace(text)
+    except ContractError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_namespace_argument(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """--namespace NS, shared by run, record, replay and diagnose."""
+    parser.add_argument("--namespace", type=namespace, default=None, metavar="NS", help=help_text)
+
+
 def add_system_arguments(parser: argparse.ArgumentParser) -> None:
     """--config/--scenario/--samples/--seed, shared by commands that simulate."""
     from ..core.model import SCENARIOS

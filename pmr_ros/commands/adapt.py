@@ -62,7 +62,8 @@ def run_adapted(
     config : PmrConfig
         The user's configuration (``run.samples`` is one window).
     options_factory : callable
-        :class:`~pmr_ros.node_set.NodeSetOptions` (given, so this module need not import rclpy at load).
+        :class:`~pmr_ros.node_set.NodeSetOptions` (given, so this module need not import rclpy at load);
+        the adapter joins the node set in its ``namespace``.
     run_node_set : callable
     extra_nodes : callable, optional
         Other nodes spun with the set (a bag recorder).
@@ -76,7 +77,7 @@ def run_adapted(
     adapters: list[ModelAdapter] = []
 
     def nodes(context: Any, parameters: dict[str, Any]) -> list[Any]:
-        adapters.append(ModelAdapter(context, full, proposal_filter=proposal_filter))
+        adapters.append(ModelAdapter(context, full, proposal_filter=proposal_filter, namespace=options.namespace))
         return [adapters[0], *(extra_nodes(context, parameters) if extra_nodes else [])]
 
     options = options_factory(

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, positive_int, writable_file
+from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 
 EXIT_DIFFERENT = 4
@@ -49,6 +49,9 @@ def register(sub) -> None:
     p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_report_argument(p)
     add_method_argument(p)
+    add_namespace_argument(
+        p, "a bag: diagnose the node set recorded under this namespace (default: the one the bag holds)"
+    )
     add_model_arguments(p)
     p.add_argument(
         "--min-samples",
@@ -164,6 +167,8 @@ def handle(args: argparse.Namespace) -> int:
     if source_kind(args.bag) == TABLE:
         if args.min_samples is not None:
             raise CommandError(f"--min-samples: an option for a bag; {args.bag} is judged on all its clean data")
+        if args.namespace is not None:
+            raise CommandError(f"--namespace: an option for a bag; {args.bag} is a historian export")
         return diagnose_table(args)
     return diagnose_bag_command(args)
 
@@ -193,7 +198,7 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     check_model_output(args)
     try:
         bag = open_bag(args.bag)
-        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples)
+        result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
         report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
     except BagError as exc:
         raise CommandError(str(exc)) from None

@@ -75,6 +75,38 @@ def _table_config(args: argparse.Namespace) -> Any:
     return load_checked_config(args.config, overrides)
 
 
+def _with_data_quality(diagnosis: Any, args: argparse.Namespace, config: Any, data: Any) -> Any:
+    """The diagnosis with its data-quality figures.
+
+    Slow disturbances from the diagnosed (deviation) stretches; saturation from the values as read, and only
+    against limits the params file gives (``mpc.u_min``, ``mpc.u_max`` in the data's units): the defaults
+    describe the simulation, not the plant.
+    """
+    from dataclasses import replace
+
+    from ..config.files import read_parameter_file
+    from ..core.data_quality import assess, saturation
+    from ..core.diagnosis import useful_stretches, with_data_quality
+
+    settings = config.quality
+    kw = {"model": config.model, "pmr": config.pmr, "parametric": config.parametric}
+    used = useful_stretches(data.stretches(), **kw, method="classic")
+    if not used:
+        return diagnosis
+    figures = assess(used, model=config.model, welch=config.pmr.welch, settings=settings.without_limits())
+    if {"u_min", "u_max"} <= set(read_parameter_file(args.config).get("mpc") or {}):
+        at, beyond = saturation(
+            data.stretches(deviations=False),
+            u_min=settings.u_min,
+            u_max=settings.u_max,
+            tolerance=settings.limit_tolerance,
+        )
+        figures = replace(figures, saturated=at, outside=beyond)
+    else:
+        settings = settings.without_limits()
+    return with_data_quality(diagnosis, figures, model=config.model, settings=settings)
+
+
 def _data_report(config: Any, diagnosis: Any, data: Any, path: str) -> dict[str, Any]:
     from ..report import build_report
 
@@ -143,6 +175,7 @@ def diagnose_table(args: argparse.Namespace) -> int:
     stretches = data.stretches()
     diagnosis = diagnose_stretches(stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
     if diagnosis.status == "ok":
+        diagnosis = _with_data_quality(diagnosis, args, config, data)
         diagnosis = close_the_loop(args, config, diagnosis)
     report = _data_report(config, diagnosis, data, str(args.bag))
     if diagnosis.status == "ok":
@@ -171,7 +204,7 @@ def _bag_window(bag: Any, result: Any) -> tuple[dict[str, np.ndarray], int] | No
     first, samples = int(window["first_sample"]), int(window["window_samples"])
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
     signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
-    by_topic = {topic(SIGNAL_TOPICS[s]).name: s for s in names}
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
         stamp, channels, values = read_signal(bag.decode(message))

@@ -1,10 +1,13 @@
 """``pmr-ros record DIR``: record the contract's topics of a live ROS graph into a rosbag2 bag.
 
 For nodes running as separate processes (or a ``pmr-ros replay``): the
-recorder subscribes to every contract topic and writes until Ctrl-C/SIGTERM
-(or ``--duration``), then closes the bag.  The bag is flushed every
-``--flush-period`` seconds, so a killed recorder leaves a readable bag up to
-its last flush.
+recorder subscribes to every contract topic of the node set in
+``--namespace`` and writes until Ctrl-C/SIGTERM (or ``--duration``).  It is a
+lockstep consumer (it reports its progress, so a lockstep plant or player
+never outruns it); when stopped it takes what is still on its way, then
+closes the bag (:func:`pmr_ros.nodes.bag_recorder.drain`).  The bag is flushed
+every ``--flush-period`` seconds, so a killed recorder leaves a readable bag
+up to its last flush.
 """
 
 from __future__ import annotations
@@ -13,7 +16,14 @@ import argparse
 import sys
 import time
 
-from . import CommandError, add_system_arguments, load_checked_config, positive_float, run_overrides
+from . import (
+    CommandError,
+    add_namespace_argument,
+    add_system_arguments,
+    load_checked_config,
+    positive_float,
+    run_overrides,
+)
 
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,12 +62,13 @@ def register(sub) -> None:
     p.add_argument(
         "--duration", type=positive_float, default=None, metavar="S", help="stop after S seconds of wall time"
     )
+    add_namespace_argument(p, "record the node set in this namespace (default: the root namespace)")
     p.set_defaults(handler=handle)
 
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros record`` until Ctrl-C, SIGTERM or ``--duration``; the exit code."""
-    from ..bag.schema import BagError, RunConfig
+    from ..bag.schema import BagError, RunConfig, recorded_topics
     from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 
     run_config = None
@@ -65,15 +76,16 @@ def handle(args: argparse.Namespace) -> int:
         config = load_checked_config(args.config, run_overrides(args))
         run_config = RunConfig(config.parameters, source=str(config.source))
     try:
-        from rclpy.executors import SingleThreadedExecutor
-
         from ..nodes.bag_recorder import BagRecorderNode
         from ..ros.signals import rclpy_session
     except ImportError as exc:
         raise CommandError(f"recording needs rclpy ({exc}); install pmr_ros[ros]") from None
     flush = args.flush_period or DEFAULT_FLUSH_PERIOD_S
+    namespace = args.namespace or "/"
     try:
-        writer = BagWriter(args.bag, storage=args.storage, force=args.force, flush_period_s=flush)
+        writer = BagWriter(
+            args.bag, storage=args.storage, force=args.force, flush_period_s=flush, topics=recorded_topics(namespace)
+        )
     except BagError as exc:
         raise CommandError(str(exc)) from None
     node = None
@@ -84,17 +96,9 @@ def handle(args: argparse.Namespace) -> int:
                 run_config=run_config,
                 parameter_source=None if args.no_parameters else "pmr_diagnostician",
                 flush_period_s=flush,
+                namespace=namespace,
             )
-            executor = SingleThreadedExecutor()
-            executor.add_node(node)
-            print(
-                f"pmr-ros record: recording into {writer.path} ({args.storage}); Ctrl-C to stop",
-                file=sys.stderr,
-                flush=True,
-            )
-            deadline = time.monotonic() + args.duration if args.duration else None
-            while not stop and (deadline is None or time.monotonic() < deadline):
-                executor.spin_once(timeout_sec=0.1)
+            _record(node, args, stop)
         finally:
             if node is not None:
                 node.close()
@@ -106,14 +110,37 @@ def handle(args: argparse.Namespace) -> int:
     return 0
 
 
+def _record(node, args: argparse.Namespace, stop: list[int]) -> None:
+    """Spin the recorder until a stop request or ``--duration``, then take what is on its way."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from ..nodes.bag_recorder import drain
+
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        print(
+            f"pmr-ros record: recording into {node.writer.path} ({args.storage}); Ctrl-C to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        deadline = time.monotonic() + args.duration if args.duration else None
+        while not stop and (deadline is None or time.monotonic() < deadline):
+            executor.spin_once(timeout_sec=0.1)
+        drain(node, lambda timeout: executor.spin_once(timeout_sec=timeout))
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+
+
 def start_recording(args: argparse.Namespace, config):
     """The recording of ``pmr-ros run --bag``: the bag is created now (fails before the run)."""
-    from ..bag.schema import BagError
+    from ..bag.schema import BagError, recorded_topics
     from ..bag.writer import BagWriter
     from ..nodes.bag_recorder import RunRecording
 
+    namespace = getattr(args, "namespace", None) or "/"
     try:
-        writer = BagWriter(args.bag, storage=args.storage, force=args.force)
+        writer = BagWriter(args.bag, storage=args.storage, force=args.force, topics=recorded_topics(namespace))
     except BagError as exc:
         raise CommandError(str(exc)) from None
-    return RunRecording(writer, str(config.source), config.run.samples)
+    return RunRecording(writer, str(config.source), config.run.samples, namespace=namespace)

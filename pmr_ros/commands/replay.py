@@ -1,10 +1,13 @@
 """``pmr-ros replay BAG``: publish a bag's messages on their topics for live nodes.
 
-Sample by sample in simulated-time lockstep (/clock first), by default paced so
-subscribers in other processes keep up (at most 1000 samples/s,
-``--max-samples-per-second``; see :data:`pmr_ros.nodes.bag_player.DEFAULT_MAX_SAMPLES_PER_S`
-for why acknowledgements cannot do it), or at the recorded pace times ``--rate``.
-The diagnostician's own outputs are left out unless ``--all-topics``: a live
+Sample by sample in simulated-time lockstep (the clock first), as fast as the
+slowest lockstep consumer (a diagnostician, a recorder, in any process) takes
+them: they report their progress and the player never runs more than
+``--max-samples-ahead`` samples ahead of one (:mod:`pmr_ros.ros.flow`), so
+none loses a sample.  ``--max-samples-per-second`` adds a pace for subscribers
+that do not report progress; ``--rate`` replays at the recorded pace times R.
+``--namespace`` publishes into another node set's namespace.  The
+diagnostician's own outputs are left out unless ``--all-topics``: a live
 ``pmr_diagnostician`` listening to the replay reacts as it did to the run.
 """
 
@@ -14,7 +17,7 @@ import argparse
 import sys
 import time
 
-from . import CommandError, nonnegative_float, nonnegative_int, positive_float
+from . import CommandError, add_namespace_argument, nonnegative_float, nonnegative_int, positive_float, positive_int
 
 
 def register(sub) -> None:
@@ -42,8 +45,17 @@ def register(sub) -> None:
         type=nonnegative_float,
         default=None,
         metavar="N",
-        help="lockstep pace limit (default: 1000; 0: unbounded, only if every subscriber keeps up)",
+        help="lockstep: also at most N samples per second (default: unbounded; the consumers' progress paces it)",
     )
+    p.add_argument(
+        "--max-samples-ahead",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="lockstep: publish a sample only once every consumer has taken the one N samples back "
+        "(default: simulation.max_samples_ahead)",
+    )
+    add_namespace_argument(p, "publish into this node set's namespace (default: the root namespace)")
     p.add_argument(
         "--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)"
     )
@@ -76,8 +88,7 @@ def handle(args: argparse.Namespace) -> int:
     try:
         from rclpy.executors import SingleThreadedExecutor
 
-        from ..contract.topics import topic
-        from ..nodes.bag_player import DEFAULT_MAX_SAMPLES_PER_S, BagPlayerNode
+        from ..nodes.bag_player import BagPlayerNode
         from ..ros.signals import rclpy_session
     except ImportError as exc:
         raise CommandError(f"replaying needs rclpy ({exc}); install pmr_ros[ros]") from None
@@ -85,38 +96,55 @@ def handle(args: argparse.Namespace) -> int:
     with rclpy_session() as stop:
         try:
             try:
-                node = BagPlayerNode(bag, include_outputs=args.all_topics)
+                node = BagPlayerNode(
+                    bag, include_outputs=args.all_topics, max_ahead=args.max_samples_ahead, namespace=args.namespace
+                )
             except BagError as exc:
                 raise CommandError(str(exc)) from None
             executor = SingleThreadedExecutor()
             executor.add_node(node)
-            signals = [topic(k).name for k in ("setpoint", "manipulated_input", "measured_output")]
-            if args.wait and not node.wait_for_subscribers(
-                signals, float(args.wait), lambda: executor.spin_once(timeout_sec=0.05)
-            ):
-                print(
-                    f"pmr-ros replay: no subscriber on {', '.join(n for n in signals if node.subscribers(n) == 0)} "
-                    f"after {args.wait} s; replaying anyway",
-                    file=sys.stderr,
-                )
-            started = time.monotonic()
-            limit = (
-                DEFAULT_MAX_SAMPLES_PER_S
-                if args.max_samples_per_second is None
-                else (args.max_samples_per_second or None)
-            )
-            count = node.play(rate=args.rate, max_samples_per_s=limit, should_stop=lambda: bool(stop))
-            wall = time.monotonic() - started
-            end = time.monotonic() + max(args.linger, 0.0)
-            while time.monotonic() < end and not stop:
-                executor.spin_once(timeout_sec=0.05)
-            total = sum(node.published.values())
-            print(
-                f"pmr-ros replay: {count} samples, {total} messages from {bag.path} in {wall:.2f} s "
-                f"({total / wall if wall > 0 else 0:.0f} msgs/s)",
-                file=sys.stderr,
-            )
+            _replay(node, executor, args, stop)
         finally:
             if node is not None:
                 node.destroy_node()
     return 130 if stop else 0
+
+
+def _wait_for_peers(node, executor, wait_s: float) -> None:
+    """Wait for subscribers of r, u, y and for each of them to report progress; say who never did."""
+    signals = node.signal_topics()
+    spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
+    if not node.wait_for_subscribers(signals, wait_s, spin):
+        missing = ", ".join(node.resolve_topic_name(node.topics[n].name) for n in signals if node.subscribers(n) == 0)
+        print(f"pmr-ros replay: no subscriber on {missing} after {wait_s:g} s; replaying anyway", file=sys.stderr)
+        return
+    silent = node.wait_for_consumers(wait_s, spin)
+    if silent:
+        print(
+            f"pmr-ros replay: {', '.join(silent)} subscribe(s) to the signals without reporting progress on "
+            "pmr/progress: the replay does not wait for them (--max-samples-per-second paces it)",
+            file=sys.stderr,
+        )
+
+
+def _replay(node, executor, args: argparse.Namespace, stop: list[int]) -> None:
+    if args.wait:
+        _wait_for_peers(node, executor, float(args.wait))
+    started = time.monotonic()
+    count = node.play(
+        rate=args.rate,
+        max_samples_per_s=args.max_samples_per_second or None,
+        spin=lambda timeout: executor.spin_once(timeout_sec=timeout),
+        should_stop=lambda: bool(stop),
+    )
+    wall = time.monotonic() - started
+    end = time.monotonic() + max(args.linger, 0.0)
+    while time.monotonic() < end and not stop:
+        executor.spin_once(timeout_sec=0.05)
+    total = sum(node.published.values())
+    waits = f", held back {node.gate.waits} time(s) by the consumers" if node.gate.waits else ""
+    print(
+        f"pmr-ros replay: {count} samples, {total} messages from {node.bag.path} in {wall:.2f} s "
+        f"({count / wall if wall > 0 else 0:.0f} samples/s{waits})",
+        file=sys.stderr,
+    )

@@ -15,6 +15,7 @@ from . import (
     EXIT_INSUFFICIENT,
     CommandError,
     add_method_argument,
+    add_namespace_argument,
     add_system_arguments,
     check_memory,
     load_checked_config,
@@ -56,6 +57,11 @@ def register(sub) -> None:
         help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
     )
     add_storage_arguments(p)
+    add_namespace_argument(
+        p,
+        "run the node set in this namespace (its topics become /NS/pmr/...), so several sets share a ROS domain "
+        "(with --visible); default: the root namespace",
+    )
     add_model_arguments(p)
     p.add_argument(
         "--adapt",
@@ -105,15 +111,14 @@ def _run_nodes(args: argparse.Namespace, config, recording):
     """The node set's run (and the adapter of ``--adapt``, else None); the recording is closed after it."""
     run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
     extra = recording.nodes if recording else None
+
+    def options(**kwargs):
+        return NodeSetOptions(private=not args.visible, namespace=args.namespace or "/", **kwargs)
+
     try:
         if args.adapt:
-
-            def options(**kwargs):
-                return NodeSetOptions(private=not args.visible, **kwargs)
-
             return run_adapted(config, options, run_node_set, extra_nodes=extra)
-        options = NodeSetOptions(private=not args.visible, extra_nodes=extra, stall_timeout_s=STALL_TIMEOUT_S)
-        return run_node_set(config, options), None
+        return run_node_set(config, options(extra_nodes=extra, stall_timeout_s=STALL_TIMEOUT_S)), None
     except NodeSetError as exc:
         raise CommandError(str(exc), code=1) from None
     finally:
@@ -130,64 +135,85 @@ def _on_model(config, adapter):
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
-    from ..report import build_report, format_table
+    from ..report import format_table
 
     config = load_checked_config(args.config, run_overrides(args))
     check_model_output(args)
     _check_before_running(args, config)
-    if args.batch:
-        from ..core.closed_loop import simulate
-        from ..core.diagnosis import diagnose
-
-        record = simulate(config)
-        diagnosis = diagnose(
-            record.r,
-            record.u,
-            record.y,
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            dither=record.dither,
-        )
-        diagnosis = close_the_loop(args, config, diagnosis)
-        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
-        report["path"] = "batch"
-    else:
-        recording = start_recording(args, config) if args.bag else None
-        result, adapter = _run_nodes(args, config, recording)
-        adaptation = None
-        if adapter is not None:
-            final, adaptation = adapted_report(adapter)
-            diagnosis = close_the_loop(args, _on_model(config, adapter), final)
-        else:
-            diagnosis = close_the_loop(args, config, result.diagnosis)
-        report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
-        report["path"] = "nodes"
-        if adaptation is not None:
-            report["adaptation"] = adaptation
-        report["node_set"] = {
-            "levels": result.info["levels"],
-            "messages": result.info["messages"],
-            "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
-            "estimates": result.estimates,
-            "wall_time_s": result.wall_time_s,
-            "samples_per_second": result.samples_per_second,
-            "diagnostician_warnings": result.warnings,
-        }
-        if recording is not None:
-            report["bag"] = {
-                "path": str(recording.writer.path),
-                "storage": recording.writer.storage,
-                "messages": recording.writer.counts,
-            }
+    diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
     sys.stdout.write(format_table(report))
     for line in adaptation_lines(report):
         print(line)
     if args.json:
-        try:
-            from ..report import write_json
-
-            write_json(report, args.json)
-        except OSError as exc:
-            raise CommandError(f"--json {args.json}: cannot write: {exc.strerror or exc}") from None
+        _write_json(report, args.json)
     return 0 if diagnosis.status == "ok" else EXIT_INSUFFICIENT
+
+
+def _batch_run(args: argparse.Namespace, config) -> tuple:
+    """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
+    from ..core.closed_loop import simulate
+    from ..core.diagnosis import diagnose_stretches
+    from ..core.stretch import Stretch
+    from ..report import build_report
+
+    record = simulate(config)
+    diagnosis = diagnose_stretches(
+        [Stretch(record.r, record.u, record.y, record.dither)],
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        quality=config.quality,
+    )
+    diagnosis = close_the_loop(args, config, diagnosis)
+    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    report["path"] = "batch"
+    return diagnosis, report
+
+
+def _node_set_run(args: argparse.Namespace, config) -> tuple:
+    """The node set's run (adapted with ``--adapt``, recorded with ``--bag``); the diagnosis and the report."""
+    from ..report import build_report
+
+    recording = start_recording(args, config) if args.bag else None
+    result, adapter = _run_nodes(args, config, recording)
+    adaptation = None
+    if adapter is not None:
+        final, adaptation = adapted_report(adapter)
+        diagnosis = close_the_loop(args, _on_model(config, adapter), final)
+    else:
+        diagnosis = close_the_loop(args, config, result.diagnosis)
+    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    report["path"] = "nodes"
+    if adaptation is not None:
+        report["adaptation"] = adaptation
+    report["node_set"] = _node_set_section(result)
+    if recording is not None:
+        report["bag"] = {
+            "path": str(recording.writer.path),
+            "storage": recording.writer.storage,
+            "messages": recording.writer.counts,
+        }
+    return diagnosis, report
+
+
+def _node_set_section(result) -> dict:
+    """The report's ``node_set`` object: the levels, messages and window of the final verdicts, the timing."""
+    return {
+        "levels": result.info["levels"],
+        "messages": result.info["messages"],
+        "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
+        "estimates": result.estimates,
+        "wall_time_s": result.wall_time_s,
+        "samples_per_second": result.samples_per_second,
+        "diagnostician_warnings": result.warnings,
+    }
+
+
+def _write_json(report: dict, path: str) -> None:
+    """``--json``: the report, or one line saying why it cannot be written."""
+    from ..report import write_json
+
+    try:
+        write_json(report, path)
+    except OSError as exc:
+        raise CommandError(f"--json {path}: cannot write: {exc.strerror or exc}") from None

@@ -17,10 +17,12 @@ import numpy as np
 
 from ..core.adaptation import AdaptSettings
 from ..core.classic import PmrSettings
+from ..core.data_quality import QualitySettings
 from ..core.impact import ImpactSettings
 from ..core.model import Mismatch, TransferMatrix
 from ..core.mpc import MpcTuning
 from ..core.parametric import ParametricSettings
+from ..core.plant import OutputDisturbance
 from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from .data import DataSettings, data_settings
 from .errors import ConfigError
@@ -60,11 +62,15 @@ class SimulationSettings:
         Subscribers of y the plant waits for before sample 0.
     startup_timeout_s : float
         Longest wait for them [s].
+    max_samples_ahead : int
+        Lockstep flow control: how far the plant may run ahead of its slowest
+        consumer's reported progress [samples].
     """
 
     real_time_rate_hz: float
     wait_for_subscribers: int
     startup_timeout_s: float
+    max_samples_ahead: int
 
     @property
     def lockstep(self) -> bool:
@@ -83,6 +89,8 @@ class DiagnosticianSettings:
         which a signal counts as stopped [samples].
     stale_timeout_s : float
         Silence of a signal after which the verdicts turn STALE [s, wall time].
+    publish_period_s : float
+        The latest statuses are republished this often [s, wall time].
     """
 
     window_samples: int
@@ -90,6 +98,7 @@ class DiagnosticianSettings:
     min_samples: int
     max_lag_samples: int
     stale_timeout_s: float
+    publish_period_s: float
 
 
 @dataclass(frozen=True)
@@ -115,11 +124,13 @@ class PmrConfig:
     model: TransferMatrix
     mismatch: Mismatch
     noise_std: np.ndarray
+    disturbance: OutputDisturbance
     prbs: PrbsSettings
     excitation: ExcitationSettings
     mpc: MpcTuning
     pmr: PmrSettings
     parametric: ParametricSettings
+    quality: QualitySettings
     run: RunSettings
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
@@ -373,6 +384,11 @@ def _parametric(v: _Values) -> ParametricSettings:
     return settings
 
 
+def _quality(v: _Values, mpc: MpcTuning) -> QualitySettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("quality.")]
+    return QualitySettings(u_min=mpc.u_min, u_max=mpc.u_max, **{key: v[f"quality.{key}"] for key in keys})
+
+
 def _diagnostician(v: _Values) -> DiagnosticianSettings:
     keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("diagnostician.")]
     settings = DiagnosticianSettings(**{key: v[f"diagnostician.{key}"] for key in keys})
@@ -408,20 +424,24 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     _check_prbs_channels(v, model, excitation)
+    mpc = _mpc(v, model)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
+        disturbance=OutputDisturbance(v["noise.disturbance_std"], v["noise.disturbance_pole"]),
         prbs=_prbs(v),
         excitation=excitation,
-        mpc=_mpc(v, model),
+        mpc=mpc,
         pmr=_pmr(v),
         parametric=_parametric(v),
+        quality=_quality(v, mpc),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
         simulation=SimulationSettings(
             real_time_rate_hz=v["simulation.real_time_rate_hz"],
             wait_for_subscribers=v["simulation.wait_for_subscribers"],
             startup_timeout_s=v["simulation.startup_timeout_s"],
+            max_samples_ahead=v["simulation.max_samples_ahead"],
         ),
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),

@@ -25,6 +25,8 @@ No rclpy here: this module is plain Python/numpy and is tested without ROS.
 
 from __future__ import annotations
 
+import bisect
+import copy
 from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -254,6 +256,54 @@ class SampleAligner:
             AlignedStretch(int(index[a]), *(np.array(rows[s][a:b]) for s in SIGNALS))
             for a, b in zip(cuts[:-1], cuts[1:], strict=True)
         ]
+
+    def snapshot(self) -> SampleAligner:
+        """A copy of the aligned samples that later messages do not change.
+
+        For diagnosing on another thread while messages keep coming (the live
+        diagnostician): the copy answers ``window``, ``lagging``,
+        ``stretch_*`` and ``gaps`` as this aligner does now.  The sample
+        arrays, never modified once stored, are shared; the containers are not.
+        """
+        twin = copy.copy(self)
+        twin.newest = dict(self.newest)
+        twin.rejected = dict(self.rejected)
+        twin._pending = {}
+        twin._broken = {}
+        twin._index = deque(self._index, maxlen=self.capacity)
+        twin._rows = {s: deque(self._rows[s], maxlen=self.capacity) for s in SIGNALS}
+        return twin
+
+    def value(self, signal: str, k: int) -> np.ndarray | None:
+        """The values of ``signal`` taken for sample ``k``, if still held (waiting, or in the stretch).
+
+        For telling a repeated message from an inconsistent one (the same
+        stamp with other values: two publishers on one topic).
+        """
+        waiting = self._pending.get(k, {}).get(signal)
+        if waiting is not None:
+            return waiting
+        if not self._index or not self._index[0] <= k <= self._index[-1]:
+            return None
+        if self.stretch_first is not None and self.stretch_last is not None and k >= self.stretch_first:
+            return self._rows[signal][k - self.stretch_last - 1]  # in the newest stretch: counted from the end
+        index = list(self._index)  # an older stretch: the indices are sorted, with gaps
+        pos = bisect.bisect_left(index, k)
+        return self._rows[signal][pos] if index[pos] == k else None
+
+    def restart(self) -> None:
+        """Begin a new stretch after a break the stamps do not show (samples that cannot be trusted).
+
+        Every complete sample held is forgotten, in every stretch (the window
+        may already mix two publishers' samples); what comes next starts a new
+        stretch.
+        """
+        if self.stretch_last is not None:
+            self.gaps += 1
+        self._index.clear()
+        for s in SIGNALS:
+            self._rows[s].clear()
+        self.stretch_first = self.stretch_last = None
 
     def resize(self, capacity: int) -> None:
         """Keep up to ``capacity`` samples from now on (newest first kept)."""

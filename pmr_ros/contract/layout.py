@@ -33,6 +33,7 @@ from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementMo
 __all__ = [
     "LEVELS",
     "NO_VERDICT",
+    "CONFLICT",
     "STALE",
     "WINDOW_KEYS",
     "decode_value",
@@ -60,7 +61,11 @@ STATUS_KEYS = ("status", "reason", *WINDOW_KEYS)
 STALE = "stale"
 """``status`` of statuses published because a signal stopped."""
 
-NO_VERDICT = ("insufficient_data", STALE)
+CONFLICT = "conflict"
+"""``status`` of statuses published because two publishers send on one signal topic (two node sets
+without their own namespaces, or a stray publisher): the samples cannot be told apart."""
+
+NO_VERDICT = ("insufficient_data", STALE, CONFLICT)
 """``status`` values of statuses without numbers."""
 
 IMPACT_KEY = "impact_all"

@@ -2,14 +2,15 @@
 
 Shared, rclpy-free, by ``pmr-ros run``/``diagnose`` (``--write-model``, the
 impact in the report) and the live ``pmr_diagnostician`` (the impact on
-/diagnostics, the proposal on ``pmr/proposed_model``), so the same diagnosis
-gives the same impact figures and the same params file everywhere.
+/diagnostics, the proposal on ``pmr/proposed_model``: :func:`close_window`, run
+on its worker thread with the window's diagnosis), so the same diagnosis gives
+the same impact figures and the same params file everywhere.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..config import PmrConfig
@@ -17,8 +18,9 @@ from ..config.write import model_params_text
 from ..core.impact import control_impact
 from ..core.results import Diagnosis
 from ..core.update import ModelUpdate, NotCorrectable, corrected_model
+from .windowing import VERDICT, WindowOutcome
 
-__all__ = ["Closed", "close_diagnosis", "model_file_text"]
+__all__ = ["Closed", "ClosedWindow", "close_diagnosis", "close_window", "model_file_text"]
 
 
 @dataclass(frozen=True)
@@ -107,3 +109,35 @@ def model_file_text(
     ]
     notes = {change.name: change.note() for change in update.changes}
     return model_params_text(update.model, settings=config.parameters, header=header, notes=notes)
+
+
+@dataclass(frozen=True)
+class ClosedWindow:
+    """A verdict window closed: its outcome with the control impact, and the model it proposes.
+
+    Attributes
+    ----------
+    outcome : WindowOutcome
+        The window's outcome; a verdict's diagnosis carries its impact.
+    proposal : str or None
+        The corrected model's params file (:func:`model_file_text`, naming the
+        window) when a mismatch verdict stands, else None.
+    """
+
+    outcome: WindowOutcome
+    proposal: str | None = None
+
+
+def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
+    """:func:`close_diagnosis` of a window's verdict and its proposal; any other outcome as it is.
+
+    The live diagnostician's worker runs this after the window's diagnosis: the
+    impact's closed-loop simulations never run on the executor's thread.
+    """
+    if outcome.kind != VERDICT:
+        return ClosedWindow(outcome)
+    closed = close_diagnosis(outcome.diagnosis, config)
+    proposal = None
+    if closed.proposes and closed.update is not None:
+        proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
+    return ClosedWindow(replace(outcome, diagnosis=closed.diagnosis), proposal)

@@ -7,7 +7,8 @@ literals.  Plain data: the rclpy and ``rosbags`` forms of a QoS are made from
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
 from functools import cache
 from pathlib import Path
 
@@ -17,13 +18,17 @@ from ..resources import share_dir
 
 __all__ = [
     "CONTRACT_FILE",
+    "PROGRESS_KEY",
     "SIGNAL_TOPICS",
     "ContractError",
     "Topic",
     "TopicQos",
+    "check_namespace",
     "load_contract",
     "msg_defs_dir",
+    "namespaces_of",
     "parse_contract",
+    "resolve_name",
     "topic",
 ]
 
@@ -34,6 +39,9 @@ HISTORIES = ("keep_last", "keep_all")
 
 SIGNAL_TOPICS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
 """Contract keys of the signals the diagnostician aligns: setpoints r, inputs u, outputs y."""
+
+PROGRESS_KEY = "progress"
+"""Contract key of the lockstep consumers' progress reports (flow control; never recorded in bags)."""
 
 
 class ContractError(ValueError):
@@ -84,7 +92,9 @@ class Topic:
     key : str
         The contract's key (``setpoint``, ``measured_output``, ...).
     name : str
-        The ROS topic name (``/pmr/setpoint``).
+        The ROS topic name, relative (``pmr/setpoint``): a node resolves it in
+        its namespace, so ``-r __ns:=/column_a`` moves a whole node set; see
+        :meth:`resolved` for the absolute name.
     type : str
         The interface, ``package/msg/Type``.
     qos : TopicQos
@@ -99,6 +109,68 @@ class Topic:
     qos: TopicQos
     description: str
     fields: dict
+
+    def resolved(self, namespace: str = "/") -> str:
+        """The absolute topic name in ``namespace`` (``/column_a/pmr/setpoint``); see :func:`resolve_name`."""
+        return resolve_name(self.name, namespace)
+
+    def in_namespace(self, namespace: str = "/") -> Topic:
+        """The topic with its absolute name in ``namespace`` (as a bag records it)."""
+        return replace(self, name=self.resolved(namespace))
+
+
+def resolve_name(name: str, namespace: str = "/") -> str:
+    """The absolute name of topic ``name`` for a node in ``namespace``, as rcl expands it.
+
+    Parameters
+    ----------
+    name : str
+        Absolute (``/clock``, left as it is) or relative (``pmr/setpoint``).
+    namespace : str
+        A node namespace, ``/`` or ``/column_a`` (a trailing ``/`` and a
+        missing leading one are tolerated: ``column_a/`` is ``/column_a``).
+
+    Returns
+    -------
+    str
+    """
+    if name.startswith("/"):
+        return name
+    parts = [p for p in namespace.strip().split("/") if p]
+    return "/" + "/".join([*parts, name])
+
+
+def namespaces_of(key: str, names: Iterable[str]) -> list[str]:
+    """The namespaces in which contract topic ``key`` is among the absolute topic ``names`` (a bag's).
+
+    ``/column_a/pmr/setpoint`` gives ``/column_a``, ``/pmr/setpoint`` gives ``/``.
+    """
+    relative = topic(key).name
+    found = set()
+    for name in names:
+        if name == "/" + relative:
+            found.add("/")
+        elif name.endswith("/" + relative):
+            found.add(name[: -len(relative) - 1])
+    return sorted(found)
+
+
+def check_namespace(text: str) -> str:
+    """A node namespace as given by a user (``column_a``, ``/plant/column_a``), made absolute.
+
+    Raises
+    ------
+    ContractError
+        Not a valid ROS namespace (tokens of letters, digits and ``_``, not
+        starting with a digit).
+    """
+    parts = [p for p in text.strip().split("/") if p]
+    for part in parts:
+        if not part.replace("_", "a").isalnum() or not part.isascii() or part[0].isdigit():
+            raise ContractError(
+                f"namespace {text!r}: {part!r} is not a valid name (letters, digits and _, not starting with a digit)"
+            )
+    return "/" + "/".join(parts)
 
 
 def _choice(where: str, field: str, value: object, choices: tuple[str, ...]) -> str:

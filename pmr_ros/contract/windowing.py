@@ -274,7 +274,9 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0
         )
         window = window_info(aligner, window_samples, since=since)
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)
-    diagnosis = diagnose_stretches(data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    diagnosis = diagnose_stretches(
+        data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric, quality=config.quality
+    )
     window = window_info(aligner, window_samples, data.samples, data.pieces[0].first)
     if diagnosis.status != "ok":
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)

@@ -13,8 +13,9 @@ together, one sample at a time, with batched numpy:
   each on its own :class:`~pmr_ros.core.mpc.LinearMpc` (own warm-start state),
   exactly as :func:`~pmr_ros.core.closed_loop.simulate` would.
 
-Noise and setpoints come from the same streams as ``simulate``
-(:func:`~pmr_ros.core.plant.noise_generator`, :class:`PrbsGenerator`), so a run
+Noise, output disturbance and setpoints come from the same streams as ``simulate``
+(:func:`~pmr_ros.core.plant.noise_generator`, :class:`~pmr_ros.core.plant.DisturbanceStream`,
+:class:`PrbsGenerator`), so a run
 here equals the ``simulate`` run of the same scenario and seed up to
 floating-point summation order (tested to 1e-9).
 """
@@ -30,7 +31,7 @@ import numpy as np
 from .closed_loop import LoopConfig, RunRecord
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .mpc import LinearMpc, MpcStatistics, MpcTuning
-from .plant import noise_generator
+from .plant import DisturbanceStream, noise_generator
 from .prbs import PrbsGenerator, dither_generator
 
 
@@ -183,6 +184,10 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     noise_std = np.broadcast_to(np.asarray(config.noise_std, dtype=float), (n_out,))
     # One draw of the whole stream equals ``samples`` draws of n_out (numpy Generator).
     noise = np.stack([noise_generator(seed).standard_normal((samples, n_out)) for _, seed in runs], axis=1)
+    disturbance = None
+    if config.disturbance.active:
+        streams = [DisturbanceStream(config.disturbance, n_out, seed) for _, seed in runs]
+        disturbance = np.stack([stream.sequence(samples) for stream in streams], axis=1)
     setpoints = np.stack([PrbsGenerator(config.prbs, seed).sequence(samples) for _, seed in runs], axis=1)
     dither = None
     if config.excitation.active:
@@ -195,6 +200,8 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     for k in range(samples):
         for group in groups:
             y[group.runs] = _mv(group.C, group.x) + noise_std * noise[k, group.runs]
+            if disturbance is not None:
+                y[group.runs] = y[group.runs] + disturbance[k, group.runs]
         y_rec[k] = y
         u = u_rec[k] = mpc.step(y, setpoints[k], None if dither is None else dither[k])
         for group in groups:

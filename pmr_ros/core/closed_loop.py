@@ -9,7 +9,7 @@ import numpy as np
 
 from .model import TransferMatrix
 from .mpc import LinearMpc, MpcTuning
-from .plant import FoptdPlant
+from .plant import FoptdPlant, OutputDisturbance
 from .prbs import ExcitationSettings, PrbsGenerator, PrbsSettings, dither_generator
 
 
@@ -51,6 +51,11 @@ class LoopConfig(Protocol):
     @property
     def noise_std(self) -> np.ndarray:
         """Standard deviation of the measurement noise per output."""
+        ...
+
+    @property
+    def disturbance(self) -> OutputDisturbance:
+        """The unmeasured coloured output disturbance (inactive: none)."""
         ...
 
     @property
@@ -124,7 +129,7 @@ def simulate(
     """
     samples = config.run.samples if samples is None else samples
     seed = config.run.seed if seed is None else seed
-    plant = FoptdPlant(config.plant(scenario), config.noise_std, seed)
+    plant = FoptdPlant(config.plant(scenario), config.noise_std, seed, disturbance=config.disturbance)
     controller = LinearMpc(config.model, config.mpc)
     r = PrbsGenerator(config.prbs, seed).sequence(samples)
     d = dither_generator(config.excitation, config.prbs, seed).sequence(samples) if config.excitation.active else None

@@ -1,19 +1,28 @@
-"""One entry point for every diagnosis method."""
+"""One entry point for every diagnosis method, and the data-quality figures every method's result carries."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from .classic import PmrSettings, diagnose_classic
+from .data_quality import QualitySettings, RecordQuality, assess, element_warnings
 from .model import TransferMatrix
 from .parametric import ParametricSettings, diagnose_parametric
-from .results import Diagnosis
+from .results import DataQuality, Diagnosis
 from .spectra import WelchSettings
 from .stretch import Stretch
 
-__all__ = ["METHODS", "diagnose", "diagnose_stretches", "shortest_useful_stretch", "useful_stretches"]
+__all__ = [
+    "METHODS",
+    "diagnose",
+    "diagnose_stretches",
+    "shortest_useful_stretch",
+    "useful_stretches",
+    "with_data_quality",
+]
 
 
 def _classic(
@@ -94,6 +103,38 @@ def useful_stretches(
     return [s for s in stretches if s.samples >= shortest]
 
 
+def _known(value: float) -> float | None:
+    """A figure, or None where it could not be computed (NaN)."""
+    return float(value) if np.isfinite(value) else None
+
+
+def with_data_quality(
+    diagnosis: Diagnosis, quality: RecordQuality, *, model: TransferMatrix, settings: QualitySettings
+) -> Diagnosis:
+    """``diagnosis`` with every element's :class:`~pmr_ros.core.results.DataQuality` (verdicts unchanged).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    quality : RecordQuality
+        The record's figures (:func:`~pmr_ros.core.data_quality.assess`).
+    model : TransferMatrix
+        The controller's model (channel names).
+    settings : QualitySettings
+        The warning thresholds.
+    """
+    elements = {}
+    for name, e in diagnosis.elements.items():
+        figures = DataQuality(
+            saturated_share=_known(quality.saturated[e.column]),
+            outside_share=_known(quality.outside[e.column]),
+            low_frequency_ratio=_known(quality.low_frequency[e.row]),
+            warnings=element_warnings(quality, e.row, e.column, model=model, settings=settings),
+        )
+        elements[name] = replace(e, data_quality=figures)
+    return replace(diagnosis, elements=elements)
+
+
 def diagnose_stretches(
     stretches: Sequence[Stretch],
     *,
@@ -101,6 +142,7 @@ def diagnose_stretches(
     pmr: PmrSettings,
     parametric: ParametricSettings,
     method: str | None = None,
+    quality: QualitySettings | None = None,
 ) -> Diagnosis:
     """Diagnose unbroken stretches of data (one estimate from all of them) with ``method`` (default ``pmr.method``).
 
@@ -115,6 +157,11 @@ def diagnose_stretches(
     parametric : ParametricSettings
     method : str, optional
         A key of :data:`METHODS`.
+    quality : QualitySettings, optional
+        Input limits and warning thresholds: a diagnosis with verdicts then
+        carries each element's data-quality figures and warnings
+        (:func:`with_data_quality`; residual spectra with ``pmr.welch``, whose
+        lowest bin the classic M(0) is read from).
 
     Raises
     ------
@@ -124,7 +171,15 @@ def diagnose_stretches(
     method = method or pmr.method
     if method not in METHODS:
         raise ValueError(f"unknown diagnosis method {method!r}; choose one of {', '.join(METHODS)}")
-    return METHODS[method](list(stretches), model=model, pmr=pmr, parametric=parametric)
+    stretches = list(stretches)
+    diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
+    if quality is None or diagnosis.status != "ok":
+        return diagnosis
+    used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
+    if not used:  # a diagnosis with verdicts had a stretch long enough for its own, longer, segments
+        return diagnosis
+    figures = assess(used, model=model, welch=pmr.welch, settings=quality)
+    return with_data_quality(diagnosis, figures, model=model, settings=quality)
 
 
 def diagnose(
@@ -138,7 +193,9 @@ def diagnose(
     method: str | None = None,
     dither: np.ndarray | None = None,
 ) -> Diagnosis:
-    """Diagnose one gap-free record with ``method`` (default ``pmr.method``).
+    """Diagnose one gap-free record with ``method`` (default ``pmr.method``); no data-quality figures.
+
+    :func:`diagnose_stretches` of ``[Stretch(r, u, y, dither)]`` with ``quality`` adds them.
 
     Parameters
     ----------

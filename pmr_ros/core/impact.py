@@ -23,6 +23,7 @@ import numpy as np
 from .closed_loop import LoopConfig, RunPlan, simulate
 from .model import TransferMatrix
 from .mpc import MpcTuning
+from .plant import OutputDisturbance
 from .prbs import ExcitationSettings, PrbsSettings
 from .results import Diagnosis, ImpactResult
 from .update import ModelUpdate
@@ -88,6 +89,11 @@ class _Loop:
     mpc: MpcTuning
     run: RunPlan
     truth: TransferMatrix
+
+    @property
+    def disturbance(self) -> OutputDisturbance:
+        """None: the loop is noise-free."""
+        return OutputDisturbance.off(self.model.n_outputs)
 
     def plant(self, scenario: str | None = None) -> TransferMatrix:
         return self.truth

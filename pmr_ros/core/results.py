@@ -26,6 +26,7 @@ __all__ = [
     "RELATIVE_TOLERANCE",
     "VERDICTS",
     "ClassicResult",
+    "DataQuality",
     "Diagnosis",
     "ElementDiagnosis",
     "ElementModel",
@@ -299,6 +300,34 @@ class ImpactResult:
     rank: int = 0
 
 
+@dataclass(frozen=True)
+class DataQuality:
+    """How far the data can be trusted for one element, whatever the method (never changes a verdict).
+
+    Attributes
+    ----------
+    saturated_share : float or None
+        Share of the diagnosed samples where the element's input sits at one of
+        its limits (``mpc.u_min``, ``mpc.u_max``): samples that carry no
+        excitation of it from the controller [-]; None when the limits are not
+        known (plant data whose params file gives none).
+    outside_share : float or None
+        Share where it lies beyond them (the limits do not describe the data) [-].
+    low_frequency_ratio : float or None
+        The element's row: its residual spectrum at the lowest bins over its
+        median (about 1 for white noise; large under a slow unmeasured
+        disturbance, where the classic M(0) is read) [-]; None when the row has
+        no regression.
+    warnings : tuple of str
+        The figures above their thresholds (``quality.*``), in words.
+    """
+
+    saturated_share: float | None
+    outside_share: float | None
+    low_frequency_ratio: float | None
+    warnings: tuple[str, ...] = ()
+
+
 Part = ClassicResult | ParametricResult
 _PARTS: dict[str, type] = {"classic": ClassicResult, "parametric": ParametricResult}
 
@@ -322,6 +351,9 @@ class ElementDiagnosis:
         Why there is no result at all (insufficient data), empty otherwise.
     impact : ImpactResult or None
         What this element's mismatch alone does to control (elements with a mismatch verdict, when computed).
+    data_quality : DataQuality or None
+        Saturation of its input, slow disturbances on its row (None: not assessed, e.g. no verdict, or
+        a diagnosis recorded before these figures existed).
     """
 
     name: str
@@ -333,6 +365,7 @@ class ElementDiagnosis:
     parametric: ParametricResult | None = None
     reasons: tuple[str, ...] = ()
     impact: ImpactResult | None = None
+    data_quality: DataQuality | None = None
 
     @property
     def result(self) -> Part | None:
@@ -364,6 +397,16 @@ class ElementDiagnosis:
             return "insufficient data" + (f": {self.reasons[0]}" if self.reasons else "")
         return result.summary()
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The data-quality warnings (saturation, slow disturbances), empty when there are none."""
+        return () if self.data_quality is None else self.data_quality.warnings
+
+    def message(self) -> str:
+        """:meth:`summary`, with a short note when the data carry warnings (the /diagnostics message)."""
+        count = len(self.warnings)
+        return self.summary() + (f" [data: {count} warning{'s' if count > 1 else ''}]" if count else "")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: verdict, method, model, each method's result, reasons, summary."""
         return {
@@ -377,6 +420,7 @@ class ElementDiagnosis:
             "parametric": None if self.parametric is None else _part_dict(self.parametric),
             "reasons": list(self.reasons),
             "impact": None if self.impact is None else _plain(self.impact),
+            "data_quality": None if self.data_quality is None else _plain(self.data_quality),
             "summary": self.summary(),
         }
 
@@ -395,6 +439,7 @@ class ElementDiagnosis:
             method=str(data["method"]),
             reasons=tuple(data.get("reasons") or ()),
             impact=None if data.get("impact") is None else _build(ImpactResult, data["impact"]),
+            data_quality=None if data.get("data_quality") is None else _build(DataQuality, data["data_quality"]),
             **parts,
         )
 
@@ -500,6 +545,11 @@ class Diagnosis:
 DERIVED_KEYS = ("summary",)
 """Serialised keys that are derived text of numbers already compared (never compared themselves)."""
 
+LATER_KEYS = ("data_quality",)
+"""Parts that a diagnosis recorded by an earlier pmr_ros lacks (absent or None): compared only when both have them.
+
+They never change a verdict, so a recording from before they existed still agrees on everything it holds."""
+
 
 def compare_diagnoses(
     first: Diagnosis | Mapping[str, Any],
@@ -512,7 +562,8 @@ def compare_diagnoses(
 
     Verdicts, flags, delays (integers), statuses and strings must be equal;
     floats may differ by ``rtol`` relative or ``atol`` absolute (see
-    :data:`RELATIVE_TOLERANCE`).  Either side may be a :class:`Diagnosis` or
+    :data:`RELATIVE_TOLERANCE`); the parts of :data:`LATER_KEYS` are compared
+    only where both sides have them.  Either side may be a :class:`Diagnosis` or
     its :meth:`~Diagnosis.to_dict` (e.g. read back from JSON).
 
     Returns
@@ -558,7 +609,7 @@ def _compare_mappings(
     a: Mapping[str, Any], b: Mapping[str, Any], path: str, tolerance: _Tolerance, out: list[str]
 ) -> None:
     for key in sorted(set(a) | set(b)):
-        if key in DERIVED_KEYS:
+        if key in DERIVED_KEYS or (key in LATER_KEYS and (a.get(key) is None or b.get(key) is None)):
             continue
         where = f"{path}.{key}" if path else str(key)
         if key not in a or key not in b:

@@ -199,11 +199,14 @@ class PlantData:
         """``[start, stop)`` of every unbroken stretch of usable samples."""
         return runs(self.usable)
 
-    def stretches(self) -> list[Stretch]:
-        """The usable stretches as deviation variables (each stretch's means removed)."""
+    def stretches(self, *, deviations: bool = True) -> list[Stretch]:
+        """The usable stretches as deviation variables (each one's means removed), or as read if not ``deviations``."""
         out = []
         for a, b in self.stretch_bounds():
-            part = {key: values[a:b] - values[a:b].mean(axis=0) for key, values in self.signals.items()}
+            part = {
+                key: values[a:b] - (values[a:b].mean(axis=0) if deviations else 0.0)
+                for key, values in self.signals.items()
+            }
             out.append(Stretch(part["r"], part["u"], part["y"], part.get("dither")))
         return out
 

@@ -12,7 +12,10 @@ model) and judges the update (:func:`pmr_ros.core.adaptation.judge_update`:
 a larger mismatch, or a tracking error risen beyond
 ``adapt.ise_rise_tolerance_pct``).  A worse update is rolled back the same way,
 to the previous model.  The tracking figures come from r, u and y as heard on
-their topics.
+their topics; like every reader of them it is a lockstep consumer (it reports
+its progress on ``pmr/progress``), so the plant never outruns it.  It lives in
+the node set's namespace: its topics and the controller's parameter services
+resolve there.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from ..contract.model_topics import read_active_model, system_parameters
 from ..contract.topics import SIGNAL_TOPICS, topic
 from ..core.adaptation import Adaptation, TrackingFigures, judge_update, tracking_figures
 from ..core.results import Diagnosis
+from ..ros.flow import ProgressReporter, stamp_ns
 from ..ros.parameters import ros_value
 from ..ros.topics import message_class, qos_profile
 
@@ -64,6 +68,8 @@ class ModelAdapter(Node):
         ``proposal_filter(system_block) -> system_block`` applied to the
         proposed ``system`` block before it is sent (tests: a deliberately
         wrong proposal).
+    namespace : str
+        The node set's namespace (``/`` by default).
 
     Attributes
     ----------
@@ -76,9 +82,14 @@ class ModelAdapter(Node):
     """
 
     def __init__(
-        self, context: Any, config: PmrConfig, *, proposal_filter: Callable[[dict], dict] | None = None
+        self,
+        context: Any,
+        config: PmrConfig,
+        *,
+        proposal_filter: Callable[[dict], dict] | None = None,
+        namespace: str = "/",
     ) -> None:
-        super().__init__("pmr_adapter", context=context, start_parameter_services=False)
+        super().__init__("pmr_adapter", context=context, start_parameter_services=False, namespace=namespace)
         self.config = config
         self.proposal_filter = proposal_filter
         self.before: _Window | None = None
@@ -101,6 +112,7 @@ class ModelAdapter(Node):
         ):
             t = topic(key)
             self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
+        self.progress = ProgressReporter(self, SIGNAL_TOPICS)
         for signal, key in SIGNAL_TOPICS.items():
             t = topic(key)
             self.create_subscription(message_class(t), t.name, self._recorder(signal), qos_profile(t.qos))
@@ -110,6 +122,7 @@ class ModelAdapter(Node):
     def _recorder(self, signal: str) -> Callable[[Any], None]:
         def on_message(msg: Any) -> None:
             stamp, _, values = read_signal(msg)
+            self.progress.took(signal, stamp_ns(msg.header.stamp))
             k, _ = sample_index(stamp, self.config.model.sample_time)
             if 0 <= k < self.arrays[signal].shape[0] and values.shape == self.arrays[signal][k].shape:
                 self.arrays[signal][k] = values
@@ -133,7 +146,7 @@ class ModelAdapter(Node):
 
     def _on_active_model(self, msg: Any) -> None:
         try:
-            active = read_active_model(msg.data, topic("active_model").name)
+            active = read_active_model(msg.data, self.resolve_topic_name(topic("active_model").name))
         except ConfigError as exc:
             self.notes.append(f"ignored: {exc}")
             return
@@ -186,7 +199,7 @@ class ModelAdapter(Node):
         if text is None:
             return  # the proposal follows its statuses
         try:
-            system = system_parameters(text, topic("proposed_model").name)
+            system = system_parameters(text, self.resolve_topic_name(topic("proposed_model").name))
         except ConfigError as exc:
             self.notes.append(f"the proposal could not be read: {exc}")
             self._finished = True

@@ -1,18 +1,23 @@
 """``pmr_bag_player``: publishes a bag's messages on their topics in simulated-time lockstep.
 
 Messages go out in recording order with the contract's QoS, CDR bytes as
-recorded.  Sample by sample (a sample begins with its /clock message), in
-lockstep by default at most :data:`DEFAULT_MAX_SAMPLES_PER_S`, so subscribers
-in other processes are never overrun (waiting for reliable acknowledgements
-does not help: they come with Fast DDS's heartbeats, every 3 s, and only say
-a message arrived, not that it was processed); in one process a test spins the subscriber after each sample
-(``after_sample``) and replays strictly in lockstep, unthrottled.  With a
-``rate``, the recorded receive times are reproduced (``rate`` 1.0 = the
-recorded pace, 2.0 = twice as fast).
+recorded, sample by sample (a sample begins with its clock message).  Lockstep
+by default: the player is a producer of the flow control
+(:mod:`pmr_ros.ros.flow`) and publishes a sample only once every lockstep
+consumer (a diagnostician, a recorder: the publishers of ``pmr/progress``, in
+this process or any other) has taken the one ``max_samples_ahead`` samples
+back, so it runs as fast as its slowest consumer and none loses a sample.
+A ``max_samples_per_s`` pace may be added (for subscribers that do not report
+progress); with a ``rate``, the recorded receive times are reproduced
+(``rate`` 1.0 = the recorded pace, 2.0 = twice as fast).
 
-By default the diagnostician's own outputs (/diagnostics, /pmr/estimates) are
-not replayed: a live diagnostician listening to the replay publishes its own.
-The recorded run configuration goes out first on the latched /pmr/run_config.
+The bag's topics are read in the namespace the bag recorded (``/pmr/...``,
+``/column_a/pmr/...``) and published under the contract's relative names in
+the player node's own namespace, so a bag of one node set can be replayed to
+another.  By default the diagnostician's own outputs (/diagnostics,
+pmr/estimates) are not replayed: a live diagnostician listening to the replay
+publishes its own.  The recorded run configuration goes out first on the
+latched pmr/run_config.
 """
 
 from __future__ import annotations
@@ -23,27 +28,26 @@ from collections.abc import Callable, Iterator
 from rclpy.duration import Duration
 from rclpy.node import Node
 
+from ..bag.offline import bag_namespace
 from ..bag.reader import Bag, BagMessage
 from ..bag.schema import RUN_CONFIG_KEY, BagError, typestore
-from ..contract.topics import load_contract
+from ..config.schema import parameters
+from ..contract.topics import PROGRESS_KEY, SIGNAL_TOPICS, Topic, load_contract
+from ..ros.flow import ProgressGate, cdr_stamp_ns
 from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
-DEFAULT_MAX_SAMPLES_PER_S = 1000.0
-"""Lockstep pace limit for subscribers in other processes [samples/s].
-
-A subscriber cannot tell a publisher it has *processed* a message: reliable
-QoS only acknowledges arrival in its history, and a keep-last history of the
-contract's depth (1000) drops the oldest unread messages when its node falls
-behind.  At 1000 samples/s a Python diagnostician (several thousand
-samples/s) never falls that far behind, and the bag replays about as fast as
-the lockstep node set recorded it."""
 DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates")
 """Contract keys not replayed by default (a live diagnostician makes its own)."""
 
 
-def replayed_topics(bag: Bag, include_outputs: bool = False) -> dict[str, str]:
-    """Topic name -> type of the bag's contract topics to publish.
+def default_max_ahead() -> int:
+    """The declared ``simulation.max_samples_ahead`` (the player holds back as the plant does) [samples]."""
+    return int(parameters()["simulation.max_samples_ahead"].default)
+
+
+def replayed_topics(bag: Bag, include_outputs: bool = False, namespace: str = "/") -> dict[str, Topic]:
+    """The bag's contract topics to publish: recorded name (in ``namespace``) -> contract topic.
 
     Raises
     ------
@@ -52,17 +56,18 @@ def replayed_topics(bag: Bag, include_outputs: bool = False) -> dict[str, str]:
     """
     out = {}
     for key, t in load_contract().items():
-        if t.name not in bag.topics:
+        name = t.resolved(namespace)
+        if key == PROGRESS_KEY or name not in bag.topics:
             continue
-        if bag.topics[t.name] != t.type:
-            raise BagError(f"{bag.path}: topic {t.name} has type {bag.topics[t.name]}, the contract says {t.type}")
+        if bag.topics[name] != t.type:
+            raise BagError(f"{bag.path}: topic {name} has type {bag.topics[name]}, the contract says {t.type}")
         if include_outputs or key not in DIAGNOSTICIAN_OUTPUTS:
-            out[t.name] = t.type
+            out[name] = t
     return out
 
 
 def samples(bag: Bag, topics: set[str], clock_topic: str) -> Iterator[list[BagMessage]]:
-    """The bag's messages of ``topics`` grouped by sample: each group starts at a /clock message."""
+    """The bag's messages of ``topics`` grouped by sample: each group starts at a clock message."""
     group: list[BagMessage] = []
     for message in bag.messages(topics):
         if message.topic == clock_topic and group:
@@ -80,16 +85,20 @@ class BagPlayerNode(Node):
     ----------
     bag : Bag
     include_outputs : bool
-        Also replay /diagnostics and /pmr/estimates.
+        Also replay /diagnostics and pmr/estimates.
     publish_config : bool
         Publish the recorded run configuration (latched) first.
+    max_ahead : int, optional
+        Lockstep: hold back until every consumer has taken the sample this many back
+        [samples]; default ``simulation.max_samples_ahead``.
     **kwargs
-        For :class:`rclpy.node.Node` (``context``).
+        For :class:`rclpy.node.Node` (``context``, ``namespace``: where the topics go).
 
     Attributes
     ----------
     published : dict
-        Topic name -> messages published.
+        Recorded topic name -> messages published.
+    gate : ProgressGate
     """
 
     def __init__(
@@ -98,25 +107,29 @@ class BagPlayerNode(Node):
         *,
         include_outputs: bool = False,
         publish_config: bool = True,
+        max_ahead: int | None = None,
         node_name: str = NODE_NAME,
         **kwargs,
     ) -> None:
         super().__init__(node_name, start_parameter_services=False, **kwargs)
         self.bag = bag
+        source = bag_namespace(bag)
         contract = load_contract()
-        self.topics = replayed_topics(bag, include_outputs)
-        self.config_topic = contract[RUN_CONFIG_KEY].name
+        self.topics = replayed_topics(bag, include_outputs, source)
+        self.config_topic = contract[RUN_CONFIG_KEY].resolved(source)
         if not publish_config:
             self.topics.pop(self.config_topic, None)
-        by_name = {t.name: t for t in contract.values()}
-        self._outlets = {
-            name: self.create_publisher(message_class(by_name[name]), name, qos_profile(by_name[name].qos))
-            for name in self.topics
-        }
+        self._outlets = {name: self._publisher(t) for name, t in self.topics.items()}
         self.published = dict.fromkeys(self.topics, 0)
-        self.clock_topic = contract["clock"].name
+        self.clock_topic = contract["clock"].resolved(source)
+        self._signals = [contract[key].name for key in SIGNAL_TOPICS.values()]
+        self.gate = ProgressGate(self, max_ahead=max_ahead or default_max_ahead(), on_change=lambda: None)
         if publish_config:
             self._publish_config()
+
+    def _publisher(self, t: Topic):
+        relative = load_contract()[t.key]
+        return self.create_publisher(message_class(relative), relative.name, qos_profile(relative.qos))
 
     def _publish_config(self) -> None:
         """The run configuration first (latched), from the topic or metadata.yaml."""
@@ -129,7 +142,7 @@ class BagPlayerNode(Node):
             return
         t = load_contract()[RUN_CONFIG_KEY]
         if self.config_topic not in self._outlets:
-            self._outlets[self.config_topic] = self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
+            self._outlets[self.config_topic] = self._publisher(t)
             self.published[self.config_topic] = 0
         data = typestore().serialize_cdr(
             typestore().types["std_msgs/msg/String"](data=config.to_text()), "std_msgs/msg/String"
@@ -141,11 +154,15 @@ class BagPlayerNode(Node):
         self.published[name] += 1
 
     def subscribers(self, name: str) -> int:
-        """Subscribers matched on topic ``name``."""
+        """Subscribers matched on the topic the recorded topic ``name`` is published to."""
         return self._outlets[name].get_subscription_count()
 
+    def signal_topics(self) -> list[str]:
+        """The recorded names of the bag's r, u and y topics."""
+        return [n for n, t in self.topics.items() if t.key in SIGNAL_TOPICS.values()]
+
     def wait_for_subscribers(self, names: list[str], timeout_s: float, spin: Callable[[], None]) -> bool:
-        """Wait until every topic of ``names`` has a subscriber (or ``timeout_s`` passed)."""
+        """Wait until every recorded topic of ``names`` has a subscriber (or ``timeout_s`` passed)."""
         deadline = time.monotonic() + timeout_s
         while any(self.subscribers(n) == 0 for n in names if n in self._outlets):
             if time.monotonic() > deadline:
@@ -153,11 +170,23 @@ class BagPlayerNode(Node):
             spin()
         return True
 
+    def silent_subscribers(self) -> list[str]:
+        """Nodes subscribed to r, u or y that do not report progress (they may fall behind and lose samples)."""
+        return self.gate.silent_subscribers(self._signals)
+
+    def wait_for_consumers(self, timeout_s: float, spin: Callable[[], None]) -> list[str]:
+        """Wait until every subscriber of r, u and y reports progress; those that still do not."""
+        deadline = time.monotonic() + timeout_s
+        while (silent := self.silent_subscribers()) and time.monotonic() < deadline:
+            spin()
+        return silent
+
     def play(
         self,
         *,
         rate: float | None = None,
-        max_samples_per_s: float | None = DEFAULT_MAX_SAMPLES_PER_S,
+        max_samples_per_s: float | None = None,
+        spin: Callable[[float], None] | None = None,
         after_sample: Callable[[int], None] | None = None,
         should_stop: Callable[[], bool] | None = None,
     ) -> int:
@@ -166,42 +195,76 @@ class BagPlayerNode(Node):
         Parameters
         ----------
         rate : float, optional
-            None: lockstep, paced by ``max_samples_per_s``; else the recorded pace times ``rate``.
+            None: lockstep; else the recorded pace times ``rate`` (no flow control).
         max_samples_per_s : float or None
-            Lockstep: at most this many samples per second of wall time
-            [samples/s]; None: unbounded (only for subscribers known to keep
-            up, or with ``after_sample`` spinning them).
+            Lockstep: also at most this many samples per second of wall time
+            [samples/s]; None: as fast as the consumers take them.
+        spin : callable, optional
+            ``spin(timeout_s)`` runs this node's callbacks (the consumers'
+            progress reports); lockstep waits for them only when given.
         after_sample : callable, optional
-            Called with the count of samples sent after each one (an in-process
-            test spins the receiving node there: strict lockstep).
+            Called with the count of samples sent after each one.
         should_stop : callable, optional
             Polled between samples; True ends the replay early.
         """
         names = set(self.topics) - {self.config_topic}
         count = 0
-        first_log = start = None
+        pace = _Pace(rate, max_samples_per_s)
         for group in samples(self.bag, names, self.clock_topic):
             if should_stop is not None and should_stop():
                 break
-            if rate is not None:
-                first_log = group[0].log_time_ns if first_log is None else first_log
-                start = time.monotonic() if start is None else start
-                delay = (group[0].log_time_ns - first_log) * 1e-9 / rate - (time.monotonic() - start)
-                if delay > 0:
-                    time.sleep(delay)
-            elif max_samples_per_s:
-                start = time.monotonic() if start is None else start
-                ahead = count / max_samples_per_s - (time.monotonic() - start)
-                if ahead > 0:
-                    time.sleep(ahead)
+            if not self._hold_back(rate, spin, should_stop):
+                break
+            pace.wait(count, group[0].log_time_ns)
             for message in group:
                 self._send(message.topic, message.data)
+            self.gate.published(cdr_stamp_ns(group[0].data))
             count += 1
             if after_sample is not None:
                 after_sample(count)
         self.wait_for_acks(2.0)
         return count
 
+    def _hold_back(
+        self, rate: float | None, spin: Callable[[float], None] | None, should_stop: Callable[[], bool] | None
+    ) -> bool:
+        """Lockstep: spin until the consumers let the next sample go; False when stopped meanwhile."""
+        if rate is not None or spin is None:
+            return True
+        while not self.gate.open():
+            if should_stop is not None and should_stop():
+                return False
+            spin(0.01)
+        return True
+
     def wait_for_acks(self, timeout_s: float) -> bool:
         """Wait until every subscriber has acknowledged everything published (reliable QoS)."""
         return all(p.wait_for_all_acked(Duration(seconds=timeout_s)) for p in self._outlets.values())
+
+    def destroy_node(self) -> None:
+        """Stop the flow control's timer, then destroy the node."""
+        self.gate.destroy()
+        super().destroy_node()
+
+
+class _Pace:
+    """Sleeps so samples go out at a recorded pace (``rate``) or at most ``max_samples_per_s``."""
+
+    def __init__(self, rate: float | None, max_samples_per_s: float | None) -> None:
+        self.rate, self.limit = rate, max_samples_per_s
+        self.start: float | None = None
+        self.first_log: int | None = None
+
+    def wait(self, count: int, log_time_ns: int) -> None:
+        """Sleep until sample number ``count`` (logged at ``log_time_ns``) is due."""
+        if self.rate is None and not self.limit:
+            return
+        self.start = time.monotonic() if self.start is None else self.start
+        if self.rate is not None:
+            self.first_log = log_time_ns if self.first_log is None else self.first_log
+            due = (log_time_ns - self.first_log) * 1e-9 / self.rate
+        else:
+            due = count / float(self.limit or 1.0)
+        ahead = due - (time.monotonic() - self.start)
+        if ahead > 0:
+            time.sleep(ahead)

@@ -16,6 +16,7 @@ its parameter services.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from contextlib import suppress
 from typing import TYPE_CHECKING, Any
 
@@ -26,7 +27,7 @@ from ..bag.schema import RUN_CONFIG_KEY, RunConfig, typestore
 from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 from ..config import nested
 from ..contract.layout import diagnosis_from_array
-from ..contract.topics import load_contract
+from ..ros.flow import ProgressReporter, cdr_stamp_ns
 from ..ros.parameters import node_parameters, plain_value
 from ..ros.topics import message_class, qos_profile
 
@@ -86,10 +87,13 @@ class BagRecorderNode(Node):
         self._final_seen = False
         self._final_has_verdict = False
         self._signal_topics = [
-            load_contract()[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")
+            writer.topics[k].name for k in ("setpoint", "manipulated_input", "measured_output", "clock")
         ]
-        self._diagnostics_topic = load_contract()["diagnostics"].name
-        self._estimates_topic = load_contract()["estimates"].name
+        self._diagnostics_topic = writer.topics["diagnostics"].name
+        self._estimates_topic = writer.topics["estimates"].name
+        # a lockstep consumer: the plant or a bag player never runs more than max_samples_ahead ahead of it
+        self.progress = ProgressReporter(self, self._signal_topics)
+        self.last_message_at = time.monotonic()
         if run_config is not None:
             writer.write_run_config(run_config, time.time_ns())
             self.counts[self._config_topic] += 1
@@ -123,10 +127,26 @@ class BagRecorderNode(Node):
                 return
             self.writer.write_raw(name, time.time_ns(), data)
             self.counts[name] += 1
+            self.last_message_at = time.monotonic()
+            if name in self._signal_topics:
+                self._took(name, data)
             if name == self._diagnostics_topic and self.expected_samples is not None:
                 self._note_final(data, self.expected_samples - 1)
 
         return on_message
+
+    def _took(self, name: str, data: bytes) -> None:
+        try:
+            self.progress.took(name, cdr_stamp_ns(data))
+        except ValueError as exc:  # recorded as it came; a message without a stamp cannot count as progress
+            self.get_logger().warning(f"{name}: {exc}", throttle_duration_sec=5.0)
+
+    def stop_reporting(self) -> None:
+        """Report no further progress, so producers stop ``max_samples_ahead`` samples on.
+
+        What is on its way can then still be taken (:func:`drain`) before the bag is closed.
+        """
+        self.progress.held = True
 
     def _note_final(self, data: bytes, last_sample: int) -> None:
         diagnosis, info = diagnosis_from_array(typestore().deserialize_cdr(data, "diagnostic_msgs/msg/DiagnosticArray"))
@@ -192,9 +212,38 @@ class BagRecorderNode(Node):
         Safe after the node was destroyed (the node set destroys its nodes first).
         """
         self._closing = True
-        with suppress(Exception):  # the timer is gone when the node was destroyed
+        with suppress(Exception):  # the timers are gone when the node was destroyed
             self._flush_timer.cancel()
+        with suppress(Exception):
+            self.progress.destroy()
         self.writer.close()
+
+
+DRAIN_QUIET_S = 0.3
+"""A stopping recorder takes messages until none came for this long [s of wall time] ..."""
+DRAIN_LIMIT_S = 10.0
+"""... or for at most this long [s of wall time]."""
+
+
+def drain(recorder: BagRecorderNode, spin: Callable[[float], None]) -> None:
+    """Take what is still on its way to a stopping recorder before its bag is closed.
+
+    The recorder stops reporting progress first, so a lockstep producer stops
+    at most ``simulation.max_samples_ahead`` samples later; those, and
+    everything before them, are taken until the topics have been quiet for
+    :data:`DRAIN_QUIET_S` (at most :data:`DRAIN_LIMIT_S`: a producer that does not
+    wait for it would never let the topics go quiet).
+
+    Parameters
+    ----------
+    recorder : BagRecorderNode
+    spin : callable
+        ``spin(timeout_s)`` runs the recorder's callbacks once (``executor.spin_once``).
+    """
+    recorder.stop_reporting()
+    started = time.monotonic()
+    while time.monotonic() - started < DRAIN_LIMIT_S and time.monotonic() - recorder.last_message_at < DRAIN_QUIET_S:
+        spin(0.05)
 
 
 class RunRecording:
@@ -212,17 +261,24 @@ class RunRecording:
         The params file the run was configured from.
     samples : int
         The run's length [samples].
+    namespace : str
+        The node set's namespace.
     """
 
-    def __init__(self, writer: BagWriter, source: str, samples: int) -> None:
-        self.writer, self.source, self.samples = writer, source, samples
+    def __init__(self, writer: BagWriter, source: str, samples: int, *, namespace: str = "/") -> None:
+        self.writer, self.source, self.samples, self.namespace = writer, source, samples, namespace
         self.recorder: BagRecorderNode | None = None
 
     def nodes(self, context, parameters: dict) -> list[Node]:
         """The ``extra_nodes`` hook: a recorder of every contract topic with the run's parameters."""
         config = RunConfig(nested(parameters), source=self.source)
         self.recorder = BagRecorderNode(
-            self.writer, run_config=config, parameter_source=None, expected_samples=self.samples, context=context
+            self.writer,
+            run_config=config,
+            parameter_source=None,
+            expected_samples=self.samples,
+            context=context,
+            namespace=self.namespace,
         )
         return [self.recorder]
 

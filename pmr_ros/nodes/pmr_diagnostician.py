@@ -6,16 +6,32 @@ aligns the three signals by their sample stamps, keeps a rolling window of the
 newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.diagnosis.diagnose`
 every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
 per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
-reason and no numbers when the data do not support a verdict); the numbers
-also go to the estimates topic when there is a verdict.
+reason and no numbers when the data do not support a verdict), again every
+``diagnostician.publish_period_s``; the numbers also go to the estimates topic
+when there is a verdict.
 
-With a verdict it closes the loop (:mod:`pmr_ros.contract.proposal`): the
-control impact of the mismatches goes into the statuses (each element's
-``impact.*``, all together ``impact_all.*``), and when a mismatch verdict
-stands the corrected model is published, latched, on ``pmr/proposed_model``.
-It follows the controller's model: a new one on ``pmr/active_model`` becomes
-its own (the same validated parameter change as ``set_parameters``) and only
-samples from the switch on are diagnosed against it.
+The diagnosis runs on a worker thread (:class:`~pmr_ros.ros.worker.SerialWorker`)
+on a snapshot of the window taken when it was due, so the subscriptions are
+never starved and the verdict is the one the window had then.  The node is a
+lockstep consumer: it reports on ``pmr/progress`` how far it has taken r, u and
+y (:class:`~pmr_ros.ros.flow.ProgressReporter`), holding the report back while
+diagnoses queue up, so a lockstep plant or bag player never outruns it.  It
+reports two publishers on one signal topic (another node set without its own
+namespace, a stray publisher of old stamps): a message that repeats a stamp
+with other values, or comes out of order, while the topic has two publishers
+suspends the verdicts (level ERROR, ``status: conflict``, the window
+restarted) until no such message came for ``diagnostician.stale_timeout_s``.
+In real time, where nobody waits for it, every lost sample is counted and
+reported with its topic and stamps.
+
+With a verdict it closes the loop (:func:`pmr_ros.contract.proposal.close_window`,
+on the worker thread with the diagnosis): the control impact of the mismatches
+goes into the statuses (each element's ``impact.*``, all together
+``impact_all.*``), and when a mismatch verdict stands the corrected model is
+published, latched, on ``pmr/proposed_model``.  It follows the controller's
+model: a new one on ``pmr/active_model`` becomes its own (the same validated
+parameter change as ``set_parameters``) and only samples from the switch on
+are diagnosed against it.
 """
 
 from __future__ import annotations
@@ -25,24 +41,38 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 
-from ..config import ConfigError, flatten_parameters
+from ..config import ConfigError, PmrConfig, flatten_parameters
 from ..config.write import system_tree
-from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.alignment import SIGNALS, SampleAligner, sample_index
+from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
-from ..contract.layout import read_signal
 from ..contract.model_topics import read_active_model
-from ..contract.proposal import close_diagnosis, model_file_text
+from ..contract.proposal import ClosedWindow, close_window
 from ..contract.topics import SIGNAL_TOPICS, topic
-from ..contract.windowing import STALE, VERDICT, check_window_memory, evaluate_window, offer_signal, window_info
+from ..contract.windowing import (
+    STALE,
+    VERDICT,
+    Offer,
+    check_window_memory,
+    evaluate_window,
+    offer_signal,
+    window_info,
+)
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message, text_message
+from ..ros.flow import ProgressReporter, stamp_ns
 from ..ros.parameters import ros_value
+from ..ros.worker import SerialWorker
 
 NODE_NAME = "pmr_diagnostician"
+
+MAX_QUEUED_JOBS = 1
+"""Diagnoses allowed to wait behind the running one before the node stops reporting progress."""
 
 
 class PmrDiagnosticianNode(ConfiguredNode):
@@ -57,6 +87,13 @@ class PmrDiagnosticianNode(ConfiguredNode):
     last_published : DiagnosticArray or None
     messages_received : int
         Messages of r, u and y taken, good or bad.
+    lost_samples : dict
+        Signal -> samples that never arrived (gaps in the stamps heard, rejected messages aside).
+    progress : ProgressReporter
+        Its reports on ``pmr/progress`` (lockstep flow control).
+    worker : SerialWorker
+        Runs the diagnoses (with the control impact and the proposal) and
+        publishes their results, off the executor's thread.
     model_since : int
         The first sample the controller ran on the current model (0 until a switch).
     last_proposal : str or None
@@ -69,20 +106,26 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0
-        self._labels = {s: f"{s} on {topic(SIGNAL_TOPICS[s]).name}" for s in SIGNALS}
+        self.lost_samples = dict.fromkeys(SIGNALS, 0)
+        self._heard: dict[str, int | None] = dict.fromkeys(SIGNALS)
+        self._topics = {s: topic(SIGNAL_TOPICS[s]).name for s in SIGNALS}
+        self._labels = {s: f"{s} on {self.resolve_topic_name(self._topics[s])}" for s in SIGNALS}
         self.aligner = self._new_aligner()
+        self._conflict: tuple[str, float] | None = None
         self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
         self.model_since = 0
         self.last_proposal: str | None = None
+        self.worker = SerialWorker("pmr_diagnosis", self._job_failed)
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
         self._proposal_pub = self.contract_publisher("proposed_model")
         self._model_sub = self.contract_subscription("active_model", self._on_active_model)
+        self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
         self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
-        wall = Clock(clock_type=ClockType.STEADY_TIME)
-        self._stale_timer = self.create_timer(self._stale_check_period(), self._check_silence, clock=wall)
+        self._own_timers: list[Any] = []
+        self._start_timers()
 
     # -- set-up --------------------------------------------------------------
     def _new_aligner(self) -> SampleAligner:
@@ -96,8 +139,16 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self.config.diagnostician.max_lag_samples,
         )
 
-    def _stale_check_period(self) -> float:
-        return min(1.0, self.config.diagnostician.stale_timeout_s / 4)
+    def _start_timers(self) -> None:
+        for timer in self._own_timers:
+            timer.cancel()
+            self.destroy_timer(timer)
+        wall = Clock(clock_type=ClockType.STEADY_TIME)
+        settings = self.config.diagnostician
+        self._own_timers = [
+            self.create_timer(min(1.0, settings.stale_timeout_s / 4), self._check_silence, clock=wall),
+            self.create_timer(settings.publish_period_s, self._republish, clock=wall),
+        ]
 
     def on_configuration_changed(self, names: list[str]) -> None:
         """A new model or window applies from the next update; a new system restarts the window."""
@@ -113,16 +164,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
         else:
             al.resize(self.config.diagnostician.window_samples)
             al.max_lag_samples = self.config.diagnostician.max_lag_samples
-        self._stale_timer.cancel()
-        self.destroy_timer(self._stale_timer)
-        self._stale_timer = self.create_timer(
-            self._stale_check_period(), self._check_silence, clock=Clock(clock_type=ClockType.STEADY_TIME)
-        )
+        self._start_timers()
         self.get_logger().info(f"parameters changed: {', '.join(names)}")
 
     def _on_active_model(self, msg: Any) -> None:
         """The controller switched models: take the new one, diagnose only the samples from its first on."""
-        source = f"{topic('active_model').name} of the controller"
+        source = f"{self.resolve_topic_name(topic('active_model').name)} of the controller"
         try:
             active = read_active_model(msg.data, source)
         except ConfigError as exc:
@@ -155,17 +202,77 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.messages_received += 1
         self._last_arrival[signal] = time.monotonic()
         stamp, names, values = read_signal(msg)
-        period = self.config.diagnostician.update_period_samples
+        self._check_publishers(signal, stamp, values)
+        k, _ = sample_index(stamp, self.aligner.sample_time_s)
+        heard = self._heard[signal]
+        self._heard[signal] = k if heard is None else max(k, heard)
         offer = offer_signal(
-            self.aligner, signal, stamp_s=stamp, names=names, values=values, update_period_samples=period
+            self.aligner,
+            signal,
+            stamp_s=stamp,
+            names=names,
+            values=values,
+            update_period_samples=self.config.diagnostician.update_period_samples,
         )
+        self.progress.took(signal, stamp_ns(msg.header.stamp))
+        if heard is not None and k > heard + 1:
+            self._count_lost(signal, heard + 1, k - 1)
+        self._note_offer(offer)
+
+    def _note_offer(self, offer: Offer) -> None:
         for text in offer.result.warnings:
             self._warn(text)
         if offer.newly_lagging:
             self._warn(offer.newly_lagging)
+        if offer.newly_lagging or offer.update_due:
             self.publish_diagnostics()
-        if offer.update_due:
+
+    def _count_lost(self, signal: str, first: int, last: int) -> None:
+        """Samples ``first..last`` of ``signal`` never arrived: count them and say where."""
+        self.lost_samples[signal] += last - first + 1
+        ts = self.aligner.sample_time_s
+        self._warn(
+            f"{self._labels[signal]}: {last - first + 1} sample(s) lost, stamps {first * ts:.9g}..{last * ts:.9g} s "
+            f"({self.lost_samples[signal]} lost on this topic)"
+        )
+
+    def _check_publishers(self, signal: str, stamp_s: float, values: Any) -> None:
+        """A repeated stamp with other values, or an older one, from a topic with two publishers: a conflict."""
+        newest = self.aligner.newest[signal]
+        k, _ = sample_index(stamp_s, self.aligner.sample_time_s)
+        if newest is None or k > newest:
+            return
+        held = self.aligner.value(signal, k)
+        if held is not None and held.shape == np.shape(values) and np.array_equal(held, values):
+            return  # the same message again: harmless
+        publishers = self.get_publishers_info_by_topic(self.resolve_topic_name(self._topics[signal]))
+        if len(publishers) < 2:
+            return  # one publisher going back in time: the aligner drops it with its own warning
+        nodes = sorted({f"{p.node_namespace.rstrip('/')}/{p.node_name}" for p in publishers})
+        kind = "other values for" if held is not None else "an older"
+        reason = (
+            f"{len(publishers)} publishers on {self._labels[signal]} ({', '.join(nodes)}) send different samples: "
+            f"{kind} sample {k} (stamp {stamp_s:.9g} s) after sample {newest}; another node set without its own "
+            "namespace, or a stray publisher? No verdict until none came for "
+            f"{self.config.diagnostician.stale_timeout_s:g} s"
+        )
+        self.aligner.restart()
+        first = self._active_conflict() is None
+        self._conflict = (reason, time.monotonic())
+        if first:
+            self._warn(reason)
             self.publish_diagnostics()
+
+    def _active_conflict(self) -> str | None:
+        """The reason of a conflict still going on (or None; an ended one is forgotten)."""
+        if self._conflict is None:
+            return None
+        reason, at = self._conflict
+        if time.monotonic() - at < self.config.diagnostician.stale_timeout_s:
+            return reason
+        self._conflict = None
+        self._warn("no conflicting sample for a while: the window restarted after the last one")
+        return None
 
     def _check_silence(self) -> None:
         now = time.monotonic()
@@ -182,47 +289,86 @@ class PmrDiagnosticianNode(ConfiguredNode):
         reason = "; ".join(parts) if len(never) < len(SIGNALS) else f"no data received in {now - self._created:.1f} s"
         if len(never) < len(SIGNALS):
             self._warn(reason)
+        self._submit_without_verdict(reason, STALE_STATUS)
+
+    # -- output --------------------------------------------------------------
+    def _window_info(self) -> dict[str, int]:
+        return window_info(self.aligner, self.config.diagnostician.window_samples, since=self.model_since)
+
+    def _submit_without_verdict(self, reason: str, state: str) -> None:
         window = self._window_info()
-        silent_diagnosis = Diagnosis.insufficient(
+        diagnosis = Diagnosis.insufficient(
             method=self.config.pmr.method,
             models=self.config.model.element_models(),
             reason=reason,
             samples=int(window.get("window_samples", 0)),
         )
-        self._publish(silent_diagnosis, window, STALE_STATUS)
+        newest = self.aligner.stretch_last if self.aligner.stretch_last is not None else 0
+        stamp = newest * self.aligner.sample_time_s
+        self.worker.submit(lambda: self._publish(diagnosis, window, stamp, state))
 
-    # -- output --------------------------------------------------------------
-    def _window_info(self) -> dict[str, int]:
-        return window_info(self.aligner, self.config.diagnostician.window_samples)
-
-    def _publish(self, diagnosis: Diagnosis, window: dict[str, int], state: str | None = None) -> None:
-        al = self.aligner
-        newest = al.stretch_last if al.stretch_last is not None else 0
-        model = self.config.model
+    def _publish(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
+        """Publish the statuses of ``diagnosis`` (on the worker's thread, in submission order)."""
         statuses = diagnosis_statuses(
-            diagnosis, node_name=self.get_name(), hardware_id=model.name, window=window, state=state
+            diagnosis, node_name=self.get_name(), hardware_id=self.config.model.name, window=window, state=state
         )
-        msg = diagnostic_array(statuses, newest * al.sample_time_s)
+        msg = diagnostic_array(statuses, stamp_s)
         self.last_published = msg
         self._diag_pub.publish(msg)
+
+    def _diagnose(self, snapshot: SampleAligner, config: PmrConfig, since: int) -> None:
+        """The worker's job: diagnose the window, close the loop on a verdict, publish it all."""
+        self._publish_outcome(close_window(evaluate_window(snapshot, config, since=since), config), config)
+
+    def _publish_outcome(self, closed: ClosedWindow, config: PmrConfig) -> None:
+        outcome = closed.outcome
+        state = STALE_STATUS if outcome.kind == STALE else None
+        self._publish(outcome.diagnosis, outcome.window, outcome.stamp_s, state)
+        if outcome.kind == VERDICT:
+            self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, config.model.name))
+        if closed.proposal is not None:
+            self.last_proposal = closed.proposal
+            self._proposal_pub.publish(text_message("proposed_model", closed.proposal))
+
+    def _republish(self) -> None:
+        def again() -> None:
+            if self.last_published is not None:
+                self._diag_pub.publish(self.last_published)
+
+        self.worker.submit(again)
+
+    def _job_failed(self, text: str) -> None:
+        self.get_logger().error(f"diagnosis failed: {text}")
 
     def publish_diagnostics(self) -> None:
         """Diagnose the current window (or say why not) and publish the statuses.
 
-        The decision and the diagnosis are :func:`pmr_ros.contract.windowing.evaluate_window`,
-        which the offline diagnosis of a bag shares.
+        The window is copied now; the diagnosis (:func:`pmr_ros.contract.windowing.evaluate_window`,
+        shared with the offline diagnosis of a bag), its control impact and the
+        proposal (:func:`pmr_ros.contract.proposal.close_window`) run on the
+        worker thread, with the configuration and model switch of this moment.
         """
-        config = self.config
-        outcome = evaluate_window(self.aligner, config, since=self.model_since)
-        if outcome.kind != VERDICT:
-            self._publish(outcome.diagnosis, outcome.window, STALE_STATUS if outcome.kind == STALE else None)
+        conflict = self._active_conflict()
+        if conflict is not None:
+            self._submit_without_verdict(conflict, CONFLICT)
             return
-        closed = close_diagnosis(outcome.diagnosis, config)
-        self._publish(closed.diagnosis, outcome.window)
-        self._estimates_pub.publish(estimates_message(closed.diagnosis, outcome.stamp_s, config.model.name))
-        if closed.proposes and closed.update is not None:
-            self.last_proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
-            self._proposal_pub.publish(text_message("proposed_model", self.last_proposal))
+        snapshot, config, since = self.aligner.snapshot(), self.config, self.model_since
+        self.worker.submit(lambda: self._diagnose(snapshot, config, since))
+
+    def wait_idle(self, timeout_s: float = 30.0) -> bool:
+        """Block until every diagnosis due so far is published (tests); whether it was."""
+        return self.worker.wait_idle(timeout_s)
+
+    @property
+    def busy(self) -> bool:
+        """Whether a diagnosis is running or queued."""
+        return self.worker.pending > 0
+
+    def destroy_node(self) -> None:
+        """Finish the running diagnosis (drop queued ones), stop the timers, destroy the node."""
+        self.worker.shutdown()
+        self.progress.destroy()
+        super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:

@@ -1,8 +1,11 @@
-"""``prbs_setpoint``: publishes the PRBS setpoints r(k) on every new sample of /clock.
+"""``prbs_setpoint``: publishes the PRBS setpoints r(k) on every sample of the plant's clock.
 
 The setpoint of sample k is a pure function of k (and the seed), so the node
 needs no state but the last sample published: r(k) goes out as soon as the
-plant's /clock reaches k Ts.
+plant's clock reaches k Ts.  It answers every clock sample but a repeat of the
+last one, older ones included: a stray clock publisher ahead of the live plant
+(an old bag replayed into the loop) must not silence the live loop's setpoints,
+and a resumed plant's clock is answered at once.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ class PrbsSetpointNode(ConfiguredNode):
     def _on_clock(self, msg: Any) -> None:
         stamp = seconds_from_stamp(msg.clock)
         k, _ = sample_index(stamp, self.sample_time)
-        if k <= self.sample:
-            return  # time stood still or went back (a restarted plant): nothing new to publish
+        if k == self.sample:
+            return  # the same clock sample again: r(k) is out already
         self.sample = k
         self._pub.publish(
             signal_message(self.generator.value(k), self.names, k * self.sample_time, self.config.model.name)

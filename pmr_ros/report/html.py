@@ -69,6 +69,7 @@ def element_notes(element: ElementDiagnosis) -> dict[str, Any]:
     """An element's verdict, one-line summary, reasons and warnings for the page."""
     result = element.result
     warnings = list(getattr(result, "warnings", ()) or ()) if result is not None else []
+    warnings += list(element.warnings)
     return {
         "name": element.name,
         "verdict": element.verdict,

@@ -27,6 +27,11 @@ def _delay_text(samples: int | None, confidence: float | None, verdict: str | No
     return f"{samples:+d} ({100 * confidence:.0f} %)" + MARKS.get(verdict or "ok", "")
 
 
+def _data_warnings(element: dict[str, Any]) -> list[str]:
+    """The element's data-quality warnings (saturation, slow disturbances), whatever the method."""
+    return list((element.get("data_quality") or {}).get("warnings", []))
+
+
 def _parametric_line(name: str, element: dict[str, Any]) -> str:
     p = element.get("parametric") or {}
     if element["model"]["kind"] == "none":
@@ -88,7 +93,8 @@ def format_parametric_table(report: dict[str, Any]) -> str:
     for name, e in report["elements"].items():
         lines.append(_parametric_line(name, e) + (_injected(report, name) if injected else ""))
         p = e.get("parametric") or {}
-        notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", [])]]
+        texts = [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", []), *_data_warnings(e)]
+        notes += [f"{name}: {text}" for text in texts]
     lines.append("")
     lines.append("! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]")
     if any(e["model"]["kind"] == "none" for e in report["elements"].values()):
@@ -129,7 +135,7 @@ def format_classic_table(report: dict[str, Any]) -> str:
     for name, e in report["elements"].items():
         lines.append(_classic_line(name, e) + (" " + _injected(report, name) if injected else ""))
         c = e.get("classic") or {}
-        notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *c.get("reasons", [])]]
+        notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *c.get("reasons", []), *_data_warnings(e)]]
     lines.append("")
     lines.append(
         "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; "

@@ -45,8 +45,10 @@ class ConfiguredNode(Node):
         change (``mpc_controller``: the ``system`` block, a new model), and every
         other one is read-only (the node built its simulation from them at start).
     sim_time : bool
-        The node lives on the plant's /clock: ``use_sim_time`` defaults to true
-        (a value given explicitly, e.g. ``-p use_sim_time:=false``, is kept).
+        The node lives on the plant's clock: ``use_sim_time`` defaults to true
+        (a value given explicitly, e.g. ``-p use_sim_time:=false``, is kept),
+        and its time source follows the contract's clock topic in the node's
+        namespace (``/column_a/clock``).
     **kwargs
         Passed to :class:`rclpy.node.Node` (``context``, ``parameter_overrides``).
 
@@ -60,22 +62,34 @@ class ConfiguredNode(Node):
     def __init__(
         self, node_name: str, *, executable: str, live_parameters: bool = False, sim_time: bool = False, **kwargs: Any
     ) -> None:
+        if sim_time:
+            # the time source (use_sim_time) listens to /clock; the node set's clock is the contract's, relative
+            # to the namespace like every contract topic: remap one onto the other (a no-op in the root namespace)
+            kwargs["cli_args"] = [*(kwargs.get("cli_args") or []), "--ros-args", "-r", f"/clock:={topic('clock').name}"]
         super().__init__(node_name, **kwargs)
         if sim_time and "use_sim_time" not in self._parameter_overrides:
             self.set_parameters([Parameter("use_sim_time", value=True)])
         self._live_parameters = live_parameters
         self._source = f"parameters of node {self.get_fully_qualified_name()}"
         self._declared = [p.name for p in node_parameters(executable)]
+        try:
+            self._configure(executable)
+        except ConfigError:
+            Node.destroy_node(self)  # refused at start: nothing left in the graph (not the subclass's, half-built)
+            raise
+        if live_parameters or any(executable in spec.live for spec in node_parameters(executable)):
+            self.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def _configure(self, executable: str) -> None:
+        """Declare the executable's parameters and build :attr:`config` from what was given."""
         self._check_overrides()
         for spec in node_parameters(executable):
-            self._declare(spec, read_only=not (live_parameters or executable in spec.live))
+            self._declare(spec, read_only=not (self._live_parameters or executable in spec.live))
         # what was given, as a params file would give it: the declared defaults fill the rest
         self._given = {n: plain_value(p.value) for n, p in self._parameter_overrides.items() if n in self._declared}
         self.config: PmrConfig = self._build(self._current())
         for warning in self.config.warnings:
             self.get_logger().warning(warning)
-        if live_parameters or any(executable in spec.live for spec in node_parameters(executable)):
-            self.add_on_set_parameters_callback(self._on_set_parameters)
 
     def _check_overrides(self) -> None:
         """A parameter given to this node that pmr_ros does not declare is a typo: refuse it."""
@@ -137,7 +151,7 @@ class ConfiguredNode(Node):
         t = topic(key)
         return self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
 
-    def contract_subscription(self, key: str, callback: Callable[[Any], None], *, raw: bool = False) -> Any:
+    def contract_subscription(self, key: str, callback: Callable[..., None], *, raw: bool = False) -> Any:
         """A subscription to contract topic ``key`` with the contract's type and QoS."""
         t = topic(key)
         return self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos), raw=raw)

@@ -22,7 +22,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..contract.layout import STALE, diagnosis_pairs, element_pairs, encode_value, estimate_pairs
+from ..contract.layout import CONFLICT, STALE, diagnosis_pairs, element_pairs, encode_value, estimate_pairs
 from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
 from .topics import message_class
@@ -45,6 +45,11 @@ LEVEL_NAMES = {
     DiagnosticStatus.ERROR: "ERROR",
     DiagnosticStatus.STALE: "STALE",
 }
+
+
+_NO_VERDICT_LEVELS = {STALE: DiagnosticStatus.STALE, CONFLICT: DiagnosticStatus.ERROR}
+"""Levels of the statuses without numbers (else WARN: insufficient data)."""
+_NO_VERDICT_WORDS = {STALE: "stale", CONFLICT: "conflict"}
 
 
 def stamp_from_seconds(seconds: float) -> Time:
@@ -107,7 +112,8 @@ def diagnosis_statuses(
     window : dict
         ``window_samples``, ``first_sample``, ``last_sample`` of the diagnosed window.
     state : str, optional
-        ``stale`` when the statuses say a signal stopped (level STALE);
+        ``stale`` when the statuses say a signal stopped (level STALE),
+        ``conflict`` when two publishers send on one signal topic (ERROR);
         default: the diagnosis's status (``ok`` or ``insufficient_data``, WARN).
     """
     state = state or diagnosis.status
@@ -120,10 +126,10 @@ def diagnosis_statuses(
     statuses = []
     for name, element in diagnosis.elements.items():
         if state == "ok":
-            level, message = element_level(element), element.summary()
+            level, message = element_level(element), element.message()
         else:
-            level = DiagnosticStatus.STALE if state == STALE else DiagnosticStatus.WARN
-            message = f"{'stale' if state == STALE else 'insufficient data'}: {diagnosis.reason}"
+            level = _NO_VERDICT_LEVELS.get(state, DiagnosticStatus.WARN)
+            message = f"{_NO_VERDICT_WORDS.get(state, 'insufficient data')}: {diagnosis.reason}"
         pairs = {**common, **element_pairs(element)}
         statuses.append(
             DiagnosticStatus(

@@ -30,18 +30,40 @@ from ..model import TransferMatrix
 from ..spectra import RowSpectra
 from .lsq import RowParameters, RowProblem
 from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
-from .search import ColumnGrid, column_grids, move_delay, sweep_columns
+from .search import column_grids, sweep_columns
+from .separation import Separation, separation
+from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
 
-__all__ = ["PROFILE_HALF_WIDTH", "RowData", "RowFit", "column_models", "fit_row", "interaction_delay_range"]
-
-PROFILE_HALF_WIDTH = 2
-"""Delay candidates either side of the chosen one that enter its confidence [samples]."""
+__all__ = ["RowData", "RowFit", "WeightedFit", "column_models", "fit_row", "interaction_delay_range"]
 
 PROFILE_PRUNE = 60.0
 """A neighbour this many (reduced) chi-square units worse ends its side of the profile."""
 
-NEIGHBOUR_ITERATIONS = 3
-"""Joint-fit steps at a neighbouring delay, from the column refitted alone: its chi-square to far below one."""
+JOINT_ROUNDS = 3
+"""Most rounds of neighbour profile and joint pair search (a better delay vector found starts another)."""
+
+
+@dataclass(frozen=True)
+class WeightedFit:
+    """A competing delay vector of a row and its fit: a component of the intervals' mixture.
+
+    Attributes
+    ----------
+    weight : float
+        Likelihood weight relative to the chosen fit (<= 1 up to rounding).
+    lin, s : ndarray, shape (n,)
+        Its fitted parameters (as :class:`RowFit`).
+    delays : ndarray of int, shape (n,)
+    sd_lin, sd_s : ndarray, shape (n,)
+        Their standard deviations, inflated as the fit's.
+    """
+
+    weight: float
+    lin: np.ndarray
+    s: np.ndarray
+    delays: np.ndarray
+    sd_lin: np.ndarray
+    sd_s: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -68,6 +90,12 @@ class RowFit:
     lack_of_fit : ndarray, shape (n,)
         Mean squared distance of the fit from the free estimate per bin, in its noise units (about 1 when it fits).
     columns : tuple of ColumnModel
+    separation : Separation or None
+        How well the data separate each column from the others (:mod:`.separation`).
+    alternatives : tuple of WeightedFit
+        The other delay vectors whose likelihood weight relative to the fit is
+        at least :data:`~.trials.ALTERNATIVE_WEIGHT_MIN`: the intervals are
+        mixtures over them and the fit (:mod:`.verdicts`).
     """
 
     lin: np.ndarray
@@ -80,6 +108,8 @@ class RowFit:
     delay_profile: tuple[dict[int, float], ...]
     lack_of_fit: np.ndarray
     columns: tuple[ColumnModel, ...]
+    separation: Separation | None = None
+    alternatives: tuple[WeightedFit, ...] = ()
 
     @property
     def scale(self) -> float:
@@ -164,41 +194,14 @@ class RowData:
         )
 
 
-class _Trials:
-    """Joint fits of one row with one weighting, cached by delay vector."""
-
-    def __init__(self, problem: RowProblem, grids: Sequence[ColumnGrid]) -> None:
-        self.problem, self.grids = problem, grids
-        self._cache: dict[tuple[int, ...], tuple[RowParameters, float]] = {}
-
-    def full(self, start: RowParameters) -> tuple[RowParameters, float]:
-        """The converged joint fit at ``start``'s delays."""
-        fit = self.problem.fit(start)
-        self._cache[tuple(int(v) for v in start.delays)] = fit
-        return fit
-
-    def neighbour(self, fit: tuple[RowParameters, float], k: int, delay: int) -> tuple[RowParameters, float]:
-        """The joint fit with column ``k`` at ``delay``: from ``fit`` with that column refitted alone, a few steps."""
-        params = fit[0]
-        key = tuple(int(v) for v in params.with_delay(k, delay).delays)
-        if key not in self._cache:
-            theta = self.problem.coefficients(params).theta
-            start = move_delay(self.problem.system, self.grids[k], params, theta=theta, k=k, delay=delay)
-            self._cache[key] = self.problem.fit(start, iterations=NEIGHBOUR_ITERATIONS)
-        return self._cache[key]
-
-
-def _profile(
-    trials: _Trials, fit: tuple[RowParameters, float], *, scale: float
-) -> tuple[tuple[RowParameters, float], tuple[dict[int, float], ...]]:
-    """Each column's delay profile, the others at their best; a better neighbour is taken (and fitted in full).
+def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) -> tuple[RowParameters, float]:
+    """Each column's delay neighbours, the others at their best; a better neighbour is taken (and fitted in full).
 
     Outwards from the chosen delay, a side stops once a neighbour's chi-square
     exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
     reduced chi-square): its likelihood weight, below ``exp(-PROFILE_PRUNE/2)``,
     changes no confidence, and the one beyond it would weigh less still.
     """
-    profiles = []
     for k, column in enumerate(trials.problem.columns):
         low, high = column.delay_bounds
         chosen = int(fit[0].delays[k])
@@ -208,15 +211,27 @@ def _profile(
                 d = chosen + direction * step
                 if not low <= d <= high:
                     break
-                profile[d] = trials.neighbour(fit, k, d)[1]
+                profile[d] = trials.moved(fit, [(k, d)])[1]
                 if profile[d] - fit[1] > PROFILE_PRUNE * scale:
                     break
         best = min(profile, key=profile.__getitem__)
         if best != chosen:
-            fit = trials.full(trials.neighbour(fit, k, best)[0])
-            profile[best] = fit[1]
-        profiles.append(dict(sorted(profile.items())))
-    return fit, tuple(profiles)
+            fit = trials.full(trials.moved(fit, [(k, best)])[0])
+    return fit
+
+
+def _search_delays(
+    trials: Trials, fit: tuple[RowParameters, float], *, dof: int, joint_correlation: float
+) -> tuple[RowParameters, float]:
+    """The best delays: each column's neighbours, then the coupled pairs' joint grids, until neither improves."""
+    for _ in range(JOINT_ROUNDS):
+        scale = max(1.0, fit[1] / dof)
+        fit = _profile(trials, fit, scale=scale)
+        pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, joint_correlation)
+        if not joint_search(trials, fit, pairs[: trials.problem.n]):
+            break
+        fit = trials.full(trials.best()[0])
+    return fit
 
 
 def _uncertainty(problem: RowProblem, params: RowParameters, inflation: float) -> tuple[np.ndarray, np.ndarray]:
@@ -240,7 +255,21 @@ def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) 
     return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
 
 
-def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.ndarray) -> RowFit:
+def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation: float) -> tuple[WeightedFit, ...]:
+    """The delay vectors other than ``chosen`` that keep a likelihood weight, with their fits' deviations."""
+    out = []
+    for alternative in alternatives(trials, scale=scale):
+        if np.array_equal(alternative.params.delays, chosen.delays):
+            continue
+        sd_lin, sd_s = _uncertainty(trials.problem, alternative.params, inflation)
+        params = alternative.params
+        out.append(WeightedFit(alternative.weight, params.lin, params.s, params.delays, sd_lin, sd_s))
+    return tuple(out)
+
+
+def fit_row(
+    data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.ndarray, joint_correlation: float
+) -> RowFit:
     """Fit every coefficient of one output row (see the module docstring).
 
     Parameters
@@ -250,6 +279,9 @@ def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.nd
         One per column of ``data.columns``.
     theta_start : ndarray of complex, shape (F, n)
         A first estimate of the row (the nonparametric one) for the first noise spectrum.
+    joint_correlation : float
+        Pairs of columns whose delay estimates correlate at least this much
+        are searched jointly (``parametric.joint_delay_correlation``).
 
     Returns
     -------
@@ -259,17 +291,15 @@ def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.nd
     first = data.system(theta_start)
     problem = RowProblem(first, columns)
     grids = column_grids(columns, first.z_inv)
-    fit = _Trials(problem, grids).full(sweep_columns(first, grids))
-    # pass 2: weights from the first fit's residual; delays profiled
+    fit = Trials(problem, grids).full(sweep_columns(first, grids))
+    # pass 2: weights from the first fit's residual; delays profiled, coupled pairs searched jointly
     z_inv = np.exp(-1j * data.omega)
     second = data.system(problem.coefficients(fit[0], z_inv).theta)
     final = RowProblem(second, columns)
-    trials = _Trials(final, grids)
+    trials = Trials(final, grids)
     p = len(columns) + final.free_tau.size
     dof = max(1, second.components - p)
-    fit = trials.full(fit[0])
-    fit, profiles = _profile(trials, fit, scale=max(1.0, fit[1] / dof))
-    params, cost = fit
+    params, cost = _search_delays(trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation)
     inflation = data.bin_correlation * max(1.0, cost / dof)
     sd_lin, sd_s = _uncertainty(final, params, inflation)
     return RowFit(
@@ -280,7 +310,9 @@ def fit_row(data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.nd
         sd_s=sd_s,
         chi_square=cost,
         dof=dof,
-        delay_profile=profiles,
+        delay_profile=joint_profiles(trials, params),
         lack_of_fit=_lack_of_fit(first, problem, params),
         columns=tuple(columns),
+        separation=separation(final, params),
+        alternatives=_weighted(trials, params, scale=max(1.0, cost / dof), inflation=inflation),
     )

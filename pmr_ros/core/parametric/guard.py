@@ -21,7 +21,15 @@ from ..model import TransferMatrix
 from ..spectra import WelchSettings
 from .settings import ParametricSettings
 
-__all__ = ["RowQuality", "fitted_bins", "row_quality"]
+__all__ = ["NEGLIGIBLE_GAIN_RATIO", "RowQuality", "fitted_bins", "negligible_gains", "row_quality"]
+
+NEGLIGIBLE_GAIN_RATIO = 1e-4
+"""A model gain below this fraction of the row's largest is taken as ~0: the element is an empty cell in effect.
+
+Its filtered input then carries no information whatever the input does (its
+share of the row's output is below 1e-8 of the largest element's for inputs
+moved alike), so the element is left out of the row's fit and called what it
+is -- a property of the model, not of the excitation."""
 
 
 @dataclass(frozen=True)
@@ -46,6 +54,10 @@ class RowQuality:
         Why the row cannot be diagnosed (empty: it can).
     warnings : tuple of str
         Remarks that do not stop a verdict.
+    negligible : ndarray of bool, shape (n_columns,)
+        Modeled elements whose model gain is ~0 (:data:`NEGLIGIBLE_GAIN_RATIO`): left out of the fit.
+    gains : ndarray, shape (n_columns,)
+        The model gains of the layout's columns (0 for an empty cell).
     """
 
     layout: RowLayout
@@ -56,6 +68,8 @@ class RowQuality:
     excitation: np.ndarray
     reasons: tuple[str, ...]
     warnings: tuple[str, ...]
+    negligible: np.ndarray
+    gains: np.ndarray
 
     def quality(self, c: int, *, omega: np.ndarray, welch: WelchSettings) -> dict[str, float]:
         """The quality figures reported with column ``c`` of the layout (any row figures when ``c`` < 0)."""
@@ -71,10 +85,16 @@ class RowQuality:
         return figures
 
     def element_reasons(
-        self, c: int, settings: ParametricSettings, *, modeled: bool, input_name: str
+        self, c: int, settings: ParametricSettings, *, modeled: bool, input_name: str, element_name: str
     ) -> tuple[str, ...]:
-        """The row's reasons plus column ``c``'s own (a modeled element barely excited: which input to move)."""
+        """The row's reasons plus column ``c``'s own: a model gain ~0, or a modeled element barely excited."""
         share = float(self.excitation[c])
+        if modeled and self.negligible[c]:
+            return (
+                *self.reasons,
+                f"{element_name}'s model gain {self.gains[c]:.3g} is ~0 (below {NEGLIGIBLE_GAIN_RATIO:g} of the row's "
+                "largest): its filtered input carries no information; treat it as an empty cell (element_type none)",
+            )
         if modeled and share < settings.excitation_min:
             return (
                 *self.reasons,
@@ -151,6 +171,14 @@ def _warnings(
     return tuple(warnings)
 
 
+def negligible_gains(model: TransferMatrix, i: int, columns: np.ndarray) -> np.ndarray:
+    """Which of row ``i``'s ``columns`` are modeled elements with a model gain ~0 (:data:`NEGLIGIBLE_GAIN_RATIO`)."""
+    modeled = model.present[i]
+    gains = np.abs(np.where(modeled, model.gain[i], 0.0))
+    largest = float(gains.max()) if gains.size else 0.0
+    return (modeled & (gains < NEGLIGIBLE_GAIN_RATIO * largest))[columns]
+
+
 def row_quality(
     layout: RowLayout,
     estimate: RowEstimate,
@@ -182,4 +210,6 @@ def row_quality(
     modeled = model.present[i, layout.columns]
     driven = np.where(modeled, estimate.power[bins].sum(axis=0), 0.0) if bins.size else np.zeros(modeled.size)
     share = driven / max(float(driven.sum()), 1e-300)
-    return RowQuality(layout, bins, coherence, condition, ratio, share, tuple(reasons), warnings)
+    negligible = negligible_gains(model, i, layout.columns)
+    gains = np.where(modeled, model.gain[i, layout.columns], 0.0)
+    return RowQuality(layout, bins, coherence, condition, ratio, share, tuple(reasons), warnings, negligible, gains)

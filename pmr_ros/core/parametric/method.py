@@ -61,6 +61,12 @@ class _FittedRow:
     estimate: RowEstimate
     quality: RowQuality
     fit: RowFit | None
+    fitted: np.ndarray
+    """The layout's columns (input indices) the fit has: all but those whose model gain is ~0."""
+
+    def fit_column(self, k: int) -> int:
+        """The fit's column of input ``k``."""
+        return int(np.flatnonzero(self.fitted == k)[0])
 
 
 def _fit(
@@ -78,25 +84,33 @@ def _fit(
     estimate = implicit_row(row, spectra.rr, factor, layout.columns)
     quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
     if quality.reasons:
-        return _FittedRow(layout, estimate, quality, None)
+        return _FittedRow(layout, estimate, quality, None, layout.columns)
+    kept = ~quality.negligible
+    fitted = RowLayout(i, layout.columns[kept])
     data = RowData(
         spectra=row,
         factor=factor,
-        columns=layout.columns,
+        columns=fitted.columns,
         bins=quality.bins,
         omega=spectra.omega,
         equivalent_segments=spectra.equivalent_segments,
         bin_correlation=spectra.settings.bin_correlation,
     )
-    columns = column_models(model, layout, max_delay_samples=classic.max_delay_samples)
-    return _FittedRow(layout, estimate, quality, fit_row(data, columns, theta_start=estimate.ratio))
+    columns = column_models(model, fitted, max_delay_samples=classic.max_delay_samples)
+    fit = fit_row(
+        data, columns, theta_start=estimate.ratio[:, kept], joint_correlation=settings.joint_delay_correlation
+    )
+    return _FittedRow(layout, estimate, quality, fit, fitted.columns)
 
 
-def _share_per_gain(row: _FittedRow, c: int, omega: np.ndarray) -> float:
-    """RMS share of the row's instrument-driven output that a unit gain of column ``c``'s fitted template carries."""
+def _share_per_gain(row: _FittedRow, c: int, f: int, omega: np.ndarray) -> float:
+    """RMS share of the row's instrument-driven output that a unit gain of the fitted template carries.
+
+    ``c`` is the column in the row's layout, ``f`` in its fit.
+    """
     assert row.fit is not None
     bins = row.quality.bins
-    shape, _ = row.fit.columns[c].shapes(np.exp(-1j * omega[bins]), np.array([row.fit.s[c]]))
+    shape, _ = row.fit.columns[f].shapes(np.exp(-1j * omega[bins]), np.array([row.fit.s[f]]))
     driven = np.sum(np.abs(shape[0]) ** 2 * row.estimate.power[bins, c])
     return float(np.sqrt(driven / max(float(row.estimate.explained[bins].sum()), 1e-300)))
 
@@ -111,15 +125,24 @@ def _element(
     figures = quality.quality(c, omega=spectra.omega, welch=spectra.settings)
     if c < 0:
         return _without_numbers(kind, quality.reasons or (row.layout.untested,), quality.warnings, figures)
-    reasons = quality.element_reasons(c, settings, modeled=kind != "none", input_name=spectra.model.input_names[k])
+    reasons = quality.element_reasons(
+        c,
+        settings,
+        modeled=kind != "none",
+        input_name=spectra.model.input_names[k],
+        element_name=spectra.model.element_names()[row.layout.row * spectra.model.n_inputs + k],
+    )
     if row.fit is None or reasons:
         return _without_numbers(kind, reasons, quality.warnings, figures)
+    f = row.fit_column(k)
     if kind == "none":
-        share = _share_per_gain(row, c, spectra.omega)
+        share = _share_per_gain(row, c, f, spectra.omega)
         return interaction_result(
-            row.fit, c, share_per_gain=share, settings=settings, quality=figures, warnings=quality.warnings
+            row.fit, f, share_per_gain=share, settings=settings, quality=figures, warnings=quality.warnings
         )
-    return element_result(row.fit, c, settings=settings, quality=figures, warnings=quality.warnings)
+    names = spectra.model.element_names()[row.layout.row * spectra.model.n_inputs :]
+    labels = [(names[m], spectra.model.input_names[m]) for m in row.fitted]
+    return element_result(row.fit, f, settings=settings, quality=figures, warnings=quality.warnings, labels=labels)
 
 
 def _check_segments(welch: WelchSettings, stretches: Sequence[Stretch], model: TransferMatrix) -> None:

@@ -54,6 +54,16 @@ class ParametricSettings:
         estimate than this, in mean squared units of that estimate's noise
         (about 1 when the model fits), is inconclusive: the fit cannot follow
         the data (a delay beyond the search range, another element structure).
+    max_collinearity : float
+        An element whose gain information the row's other elements account
+        for beyond this share (its filtered input moves with theirs) and
+        whose interval is wider than the practical tolerance cannot be told
+        apart from them: its gain and time constant are inconclusive.
+    joint_delay_correlation : float
+        Two elements of a row whose delay estimates correlate at least this
+        much (one's shift compensated by the other's) have their delays
+        searched jointly, and their delay confidence and intervals cover the
+        joint alternatives.
     """
 
     segment_length: int
@@ -68,6 +78,8 @@ class ParametricSettings:
     max_condition: float
     row_time_constant_ratio_warn: float
     lack_of_fit_max: float
+    max_collinearity: float
+    joint_delay_correlation: float
 
     def welch(self, model: TransferMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
         """The Welch settings for a record of ``samples`` on ``model``."""

@@ -20,14 +20,15 @@ Three rules, each its own function so that each can be hardened alone:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+from scipy.optimize import brentq
 from scipy.stats import norm
 
 from ..delay import search_limit_reason
 from ..results import ParametricResult
-from .fit import RowFit
+from .fit import RowFit, WeightedFit
 from .ratio import ColumnModel
 from .settings import ParametricSettings
 
@@ -36,8 +37,10 @@ __all__ = [
     "element_result",
     "interaction_result",
     "interaction_verdict",
+    "mixture_interval",
     "parameter_verdict",
     "search_candidates",
+    "separation_reason",
     "trust_reasons",
 ]
 
@@ -86,6 +89,40 @@ def delay_confidence(profile: Mapping[int, float], chosen: int, scale: float) ->
     return float(1.0 / weights.sum())
 
 
+def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *, level: float) -> tuple[float, float]:
+    """The central ``level`` interval of a mixture of normals: a parameter over competing delay vectors.
+
+    Parameters
+    ----------
+    means, sds : ndarray, shape (J,)
+        The parameter's estimate and standard deviation under each delay vector.
+    weights : ndarray, shape (J,)
+        Their likelihood weights (normalized here).
+    level : float
+        Confidence level, e.g. 0.95.
+
+    Returns
+    -------
+    (float, float)
+        ``(low, high)``; infinite when a component's deviation is.
+    """
+    means, sds = np.asarray(means, dtype=float), np.asarray(sds, dtype=float)
+    weights = np.asarray(weights, dtype=float) / float(np.sum(weights))
+    if not np.all(np.isfinite(sds)) or not np.all(np.isfinite(means)):
+        return -math.inf, math.inf
+    sds = np.maximum(sds, 1e-300)
+    if means.size == 1:
+        z = float(norm.ppf(0.5 + level / 2.0))
+        return float(means[0] - z * sds[0]), float(means[0] + z * sds[0])
+    low, high = float(np.min(means - 40.0 * sds)), float(np.max(means + 40.0 * sds))
+
+    def quantile(q: float) -> float:
+        return float(brentq(lambda x: float(weights @ norm.cdf((x - means) / sds)) - q, low, high, xtol=1e-12))
+
+    tail = (1.0 - level) / 2.0
+    return quantile(tail), quantile(1.0 - tail)
+
+
 def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[str, ...]:
     """Why column ``c``'s numbers cannot be trusted at all: a delay at its search limit, a lack of fit."""
     column = fit.columns[c]
@@ -103,8 +140,63 @@ def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[st
     return tuple(reasons)
 
 
+def separation_reason(
+    fit: RowFit,
+    c: int,
+    settings: ParametricSettings,
+    *,
+    labels: Sequence[tuple[str, str]],
+    halfwidths: tuple[float, float | None],
+) -> str | None:
+    """Why column ``c`` cannot be told apart from a neighbour, or None.
+
+    When the other columns account for at least ``parametric.max_collinearity``
+    of its gain's information (:attr:`~.separation.Separation.collinearity`)
+    *and* its gain or time-constant interval is wider than the practical
+    tolerance, the interval is made wide by the neighbour, not by a lack of
+    data on the element itself, and any small misfit of one element is passed
+    to the other many times over: neither verdict can be trusted.
+
+    Parameters
+    ----------
+    labels : sequence of (str, str)
+        ``(element name, input name)`` per column of the fit.
+    halfwidths : (float, float or None)
+        Half widths of the gain and time-constant intervals [percentage points].
+    """
+    separation = fit.separation
+    if separation is None or not separation.collinearity[c] >= settings.max_collinearity:
+        return None
+    gain, tau = halfwidths
+    if gain <= settings.gain_tolerance_pct and (tau is None or tau <= settings.tau_tolerance_pct):
+        return None
+    partner = int(separation.partner[c])
+    (element, input_name), (other, other_input) = labels[c], labels[partner]
+    shared = 100 * separation.collinearity[c]
+    return (
+        f"{input_name} and {other_input} move together in the fitted band (coherence "
+        f"{separation.partner_coherence[c]:.2f}; {shared:.0f} % of {element}'s information is shared with the row's "
+        f"other inputs > parametric.max_collinearity {100 * settings.max_collinearity:g} %): {element} and {other} "
+        f"cannot be told apart (gain ±{gain:.1f} %); add MV dither on {input_name} or {other_input} "
+        "(excitation.mv_dither_amplitude)"
+    )
+
+
 def _z(settings: ParametricSettings) -> float:
     return float(norm.ppf(0.5 + settings.confidence_level / 2.0))
+
+
+def _halfwidth(interval: tuple[float, float]) -> float:
+    return (interval[1] - interval[0]) / 2.0
+
+
+def _mixture(fit: RowFit, c: int, settings: ParametricSettings, *, tau: bool) -> tuple[float, float]:
+    """Interval of column ``c``'s ``rho`` (or ``log tau`` ratio) over the fit and its weighted delay alternatives."""
+    fits: list[RowFit | WeightedFit] = [fit, *fit.alternatives]
+    means = np.array([f.s[c] if tau else f.lin[c] for f in fits])
+    sds = np.array([f.sd_s[c] if tau else f.sd_lin[c] for f in fits])
+    weights = np.array([1.0] + [a.weight for a in fit.alternatives])
+    return mixture_interval(means, sds, weights, level=settings.confidence_level)
 
 
 def _delay(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[int, float, str]:
@@ -121,10 +213,9 @@ def _tau(
     """``(dtau %, interval, verdict)`` of a column with a time constant, all None without one."""
     if not fit.columns[c].has_tau:
         return None, None, None
-    s, sd = float(fit.s[c]), float(fit.sd_s[c])
-    z = _z(settings)
-    tau = 100.0 * math.expm1(s)
-    interval = (100.0 * math.expm1(s - z * sd), 100.0 * math.expm1(s + z * sd))
+    tau = 100.0 * math.expm1(float(fit.s[c]))
+    low, high = _mixture(fit, c, settings, tau=True)
+    interval = (100.0 * math.expm1(low), 100.0 * math.expm1(high))
     verdict = parameter_verdict(
         tau, interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct
     )
@@ -138,12 +229,16 @@ def element_result(
     settings: ParametricSettings,
     quality: Mapping[str, float],
     warnings: tuple[str, ...],
+    labels: Sequence[tuple[str, str]],
 ) -> ParametricResult:
-    """The estimate, intervals and verdicts of a modeled element, column ``c`` of a fitted row."""
-    z = _z(settings)
-    rho, sd_rho = float(fit.lin[c]), float(fit.sd_lin[c])
+    """The estimate, intervals and verdicts of a modeled element, column ``c`` of a fitted row.
+
+    ``labels`` are ``(element name, input name)`` per column of the fit (for :func:`separation_reason`).
+    """
+    rho = float(fit.lin[c])
     gain = 100.0 * (rho - 1.0)
-    gain_interval = (100.0 * (rho - z * sd_rho - 1.0), 100.0 * (rho + z * sd_rho - 1.0))
+    low, high = _mixture(fit, c, settings, tau=False)
+    gain_interval = (100.0 * (low - 1.0), 100.0 * (high - 1.0))
     gain_verdict = parameter_verdict(
         gain, gain_interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
     )
@@ -156,6 +251,12 @@ def element_result(
     distrust = trust_reasons(fit, c, settings)
     if distrust:
         gain_verdict, delay_verdict = "inconclusive", "inconclusive"
+        tau_verdict = None if tau_verdict is None else "inconclusive"
+    halfwidths = (_halfwidth(gain_interval), None if tau_interval is None else _halfwidth(tau_interval))
+    apart = separation_reason(fit, c, settings, labels=labels, halfwidths=halfwidths)
+    if apart is not None:
+        reasons.insert(0, apart)
+        gain_verdict = "inconclusive"
         tau_verdict = None if tau_verdict is None else "inconclusive"
     return ParametricResult(
         gain_mismatch_pct=gain,

@@ -1,0 +1,197 @@
+"""Fits of one row at other whole-sample delays: the delay profile, one column and pairs of columns at a time.
+
+A row's delays are chosen by the column search (:mod:`.search`) and
+polished one column at a time; that cannot see a *joint* shift -- one
+element's delay moved one way, a neighbour's the other, their gains and time
+constants bending to match -- which in closed loop, where the controller
+moves its inputs together, can fit almost as well as the truth.  So the
+pairs of columns whose delay estimates are strongly correlated
+(:attr:`~.separation.Separation.delay_coupling` at or above
+``parametric.joint_delay_correlation``) are searched together over a small
+grid around the chosen delays, every other parameter refitted.
+
+Every fit tried is kept (:class:`Trials`): the delay profile of a column is
+the best chi-square over *all* delay vectors tried with that column's delay
+-- the profile likelihood over the joint alternatives, not one coordinate at
+a time -- and the alternatives near the best carry their own gains and time
+constants into the intervals (:func:`alternatives`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .lsq import RowParameters, RowProblem
+from .search import ColumnGrid, move_delay
+
+__all__ = [
+    "ALTERNATIVE_WEIGHT_MIN",
+    "JOINT_HALF_WIDTH",
+    "PROFILE_HALF_WIDTH",
+    "Alternative",
+    "Trials",
+    "coupled_pairs",
+    "joint_profiles",
+]
+
+PROFILE_HALF_WIDTH = 2
+"""Delay candidates either side of the chosen one that enter its confidence [samples]."""
+
+JOINT_HALF_WIDTH = 2
+"""Half width of the joint grid over a coupled pair's delays [samples each]."""
+
+JOINT_CANDIDATES = 8
+"""Points of a pair's joint grid fitted jointly (of up to 24), those whose starts fit best."""
+
+NEIGHBOUR_ITERATIONS = 3
+"""Joint-fit steps at a neighbouring delay, from the column(s) refitted alone: its chi-square to far below one."""
+
+ALTERNATIVE_WEIGHT_MIN = 1e-3
+"""A delay vector whose likelihood weight relative to the best is below this does not enter the intervals."""
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """One delay vector of a row, its fit and that fit's likelihood weight relative to the best.
+
+    Attributes
+    ----------
+    params : RowParameters
+    chi_square : float
+    weight : float
+        ``exp(-(chi_square - best) / (2 scale))``, 1 for the best.
+    """
+
+    params: RowParameters
+    chi_square: float
+    weight: float
+
+
+def _key(delays: np.ndarray) -> tuple[int, ...]:
+    return tuple(int(v) for v in delays)
+
+
+class Trials:
+    """Fits of one row with one weighting, cached by delay vector.
+
+    Parameters
+    ----------
+    problem : RowProblem
+    grids : sequence of ColumnGrid
+        The column search grids (:func:`~.search.column_grids`).
+    """
+
+    def __init__(self, problem: RowProblem, grids: Sequence[ColumnGrid]) -> None:
+        self.problem, self.grids = problem, grids
+        self.tried: dict[tuple[int, ...], tuple[RowParameters, float]] = {}
+
+    def full(self, start: RowParameters) -> tuple[RowParameters, float]:
+        """The converged joint fit at ``start``'s delays."""
+        fit = self.problem.fit(start)
+        self.tried[_key(start.delays)] = fit
+        return fit
+
+    def start(self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]]) -> RowParameters:
+        """``fit`` with each ``(column, delay)`` of ``moves`` applied: the start of a joint fit there.
+
+        Each moved column's gain and time constant are refitted alone in turn (:func:`~.search.move_delay`).
+        """
+        start = fit[0]
+        for k, delay in moves:
+            theta = self.problem.coefficients(start).theta
+            start = move_delay(self.problem.system, self.grids[k], start, theta=theta, k=k, delay=delay)
+        return start
+
+    def moved(self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]]) -> tuple[RowParameters, float]:
+        """The joint fit with each ``(column, delay)`` of ``moves`` applied: a few steps from :meth:`start`."""
+        params = fit[0]
+        for k, delay in moves:
+            params = params.with_delay(k, delay)
+        key = _key(params.delays)
+        if key not in self.tried:
+            self.tried[key] = self.problem.fit(self.start(fit, moves), iterations=NEIGHBOUR_ITERATIONS)
+        return self.tried[key]
+
+    def best(self) -> tuple[RowParameters, float]:
+        """The best fit tried."""
+        return min(self.tried.values(), key=lambda fit: fit[1])
+
+
+def coupled_pairs(coupling: np.ndarray, threshold: float) -> list[tuple[int, int]]:
+    """Pairs ``(k, m)``, ``k < m``, whose delay estimates correlate at or above ``threshold``, strongest first.
+
+    Parameters
+    ----------
+    coupling : ndarray, shape (n, n)
+        ``|corr(D_k, D_m)|`` (:attr:`~.separation.Separation.delay_coupling`).
+    threshold : float
+        ``parametric.joint_delay_correlation``; above 1: no pair.
+    """
+    k, m = np.nonzero(np.triu(coupling, 1) >= threshold)
+    order = np.argsort(-coupling[k, m], kind="stable")
+    return [(int(k[j]), int(m[j])) for j in order]
+
+
+def _grid(trials: Trials, fit: tuple[RowParameters, float], k: int, m: int) -> list[list[tuple[int, int]]]:
+    """The moves of pair ``(k, m)``'s joint grid around ``fit`` (within bounds), cheapest start first."""
+    columns = trials.problem.columns
+    (low_k, high_k), (low_m, high_m) = columns[k].delay_bounds, columns[m].delay_bounds
+    dk, dm = int(fit[0].delays[k]), int(fit[0].delays[m])
+    grid = []
+    for a in range(-JOINT_HALF_WIDTH, JOINT_HALF_WIDTH + 1):
+        for b in range(-JOINT_HALF_WIDTH, JOINT_HALF_WIDTH + 1):
+            if (a, b) != (0, 0) and low_k <= dk + a <= high_k and low_m <= dm + b <= high_m:
+                moves = [(k, dk + a), (m, dm + b)]
+                start = trials.start(fit, moves)
+                grid.append((trials.problem.system.cost(trials.problem.coefficients(start).theta), moves))
+    return [moves for _, moves in sorted(grid, key=lambda point: point[0])]
+
+
+def joint_search(trials: Trials, fit: tuple[RowParameters, float], pairs: Sequence[tuple[int, int]]) -> bool:
+    """Try every pair's joint grid around ``fit``; whether a delay vector fits better than ``fit``.
+
+    Of each pair's grid, the :data:`JOINT_CANDIDATES` points whose starts (the
+    two columns refitted alone, :meth:`Trials.start`) fit best are fitted
+    jointly: a start is a poor guide to the fitted cost (measured: the true
+    delays' start 870 chi-square units above the fit, their joint fit 3
+    below), but its rank is a fair one.
+    """
+    better = False
+    for k, m in pairs:
+        for moves in _grid(trials, fit, k, m)[:JOINT_CANDIDATES]:
+            better |= trials.moved(fit, moves)[1] < fit[1]
+    return better
+
+
+def joint_profiles(trials: Trials, chosen: RowParameters) -> tuple[dict[int, float], ...]:
+    """Per column: ``delay -> best chi-square`` over every delay vector tried with it, within the profile's width."""
+    profiles = []
+    for k in range(trials.problem.n):
+        centre = int(chosen.delays[k])
+        profile: dict[int, float] = {}
+        for key, (_, cost) in trials.tried.items():
+            if abs(key[k] - centre) <= PROFILE_HALF_WIDTH:
+                profile[key[k]] = min(profile.get(key[k], math.inf), cost)
+        profiles.append(dict(sorted(profile.items())))
+    return tuple(profiles)
+
+
+def alternatives(trials: Trials, *, scale: float) -> tuple[Alternative, ...]:
+    """The fits tried whose relative likelihood weight is :data:`ALTERNATIVE_WEIGHT_MIN` or more, best first.
+
+    Parameters
+    ----------
+    scale : float
+        The reduced chi-square (>= 1) the likelihood is tempered by.
+    """
+    best = trials.best()[1]
+    out = []
+    for params, cost in sorted(trials.tried.values(), key=lambda fit: fit[1]):
+        weight = math.exp(-(cost - best) / (2.0 * scale))
+        if weight >= ALTERNATIVE_WEIGHT_MIN:
+            out.append(Alternative(params, cost, weight))
+    return tuple(out)
