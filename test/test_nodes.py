@@ -118,7 +118,9 @@ def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros):
     desc = node.describe_parameter("diagnostician.window_samples")
     assert desc.description and desc.integer_range[0].from_value == 1 and not desc.read_only
     assert "< 1" in node.describe_parameter("pmr.overlap").additional_constraints
-    assert not node.has_parameter("prbs.clock_period") and not node.has_parameter("mpc.control_horizon")
+    # the control impact simulates the configured controller and setpoints; the plant's noise is not its business
+    assert node.has_parameter("prbs.clock_period") and node.has_parameter("mpc.control_horizon")
+    assert not node.has_parameter("noise.std") and not node.has_parameter("simulation.real_time_rate_hz")
     result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
     assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
     result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
