@@ -22,7 +22,14 @@ from . import (
     run_overrides,
     writable_file,
 )
-from .adapt import ADAPT_STALL_TIMEOUT_S, adaptation_lines, adapted_report, check_adapt, run_adapted
+from .adapt import (
+    ADAPT_STALL_TIMEOUT_S,
+    adapt_config,
+    adaptation_lines,
+    adapted_report,
+    check_adapt,
+    run_adapted,
+)
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
 
@@ -174,7 +181,7 @@ def _node_set_run(args: argparse.Namespace, config) -> tuple:
     """The node set's run (adapted with ``--adapt``, recorded with ``--bag``); the diagnosis and the report."""
     from ..report import build_report
 
-    recording = start_recording(args, config) if args.bag else None
+    recording = start_recording(args, adapt_config(config) if args.adapt else config) if args.bag else None
     result, adapter = _run_nodes(args, config, recording)
     adaptation = None
     if adapter is not None:
