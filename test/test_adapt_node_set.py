@@ -9,9 +9,13 @@ import numpy as np
 import pytest
 import yaml
 
+from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
 from pmr_ros.config.write import system_tree
+from pmr_ros.contract.layout import read_signal
+from pmr_ros.contract.model_topics import read_active_model
+from pmr_ros.contract.topics import topic
 
 WINDOW = 8192
 
@@ -96,3 +100,22 @@ def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
     assert any(e.verdict == "mismatch" for e in final)  # the wrong model's verdicts, reported
     # the controller is back on the model it started with
     assert adapter.models[-1][1] == system_tree(config.model) and len(adapter.models) == 3
+
+
+def test_adapt_in_a_namespace_updates_that_sets_controller_and_records_its_model_topics(tmp_path, ros_domain):
+    bag = tmp_path / "adapted"
+    report = _run(tmp_path, "adapt_ns", "--adapt", "--namespace", "column_a", "--bag", str(bag))
+    adaptation = report["adaptation"]
+    assert adaptation["switch_sample"] > WINDOW - 1 and not adaptation["worse"] and not adaptation["rolled_back"]
+    recorded = open_bag(bag)
+    assert recorded.topics and all(name.startswith("/column_a/") for name in recorded.topics), recorded.topics
+    on_wire = recorded.messages({topic("active_model").resolved("/column_a")})
+    models = [read_active_model(recorded.decode(m).data, "bag") for m in on_wire]
+    assert [m.revision for m in models] == [0, 1] and models[1].first_sample == adaptation["switch_sample"]
+    proposals = [recorded.decode(m).data for m in recorded.messages({topic("proposed_model").resolved("/column_a")})]
+    assert proposals and "(samples 0..8191)" in proposals[0]
+    # the recording covers the whole adapted run (3 windows), every sample of y
+    y = [
+        read_signal(recorded.decode(m))[0] for m in recorded.messages({topic("measured_output").resolved("/column_a")})
+    ]
+    assert [round(stamp) for stamp in y] == list(range(3 * WINDOW))
