@@ -204,9 +204,10 @@ def _record():
 class Harness:
     """A diagnostician fed r, u, y over the real topics by a test node; collects /diagnostics."""
 
-    def __init__(self, ros) -> None:
+    def __init__(self, ros, **overrides) -> None:
         flat = flatten_parameters(load_config().parameters)
         flat.update(SMALL)
+        flat.update(overrides)
         self.diag = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
         self.feeder = ros.create_node("feeder")
         self.config = self.diag.config
@@ -444,6 +445,28 @@ def test_a_diagnosis_runs_off_the_executor_thread_and_holds_the_progress_while_t
         release.set()
     assert h.diag.wait_idle(30.0)
     assert spin_until(h.executor, lambda: h.diag.progress.reports > reports, 30.0)
+
+
+def test_the_impact_and_the_proposal_are_computed_on_the_worker_thread(ros, monkeypatch):
+    import threading
+
+    from pmr_ros.contract import proposal
+    from pmr_ros.nodes import pmr_diagnostician
+
+    threads = []
+
+    def close_window(outcome, config):
+        threads.append(threading.current_thread().name)
+        return proposal.close_window(outcome, config)
+
+    monkeypatch.setattr(pmr_diagnostician, "close_window", close_window)
+    h = Harness(ros, **{"impact.samples": 500, "diagnostician.stale_timeout_s": 60.0})
+    h.send_samples(range(1000))
+    verdicts = [d for d, _ in h.statuses() if d.status == "ok"]
+    assert verdicts and verdicts[-1].impact is not None  # the full scenario's mismatches, with their impact
+    assert h.diag.last_proposal is not None and "(samples 400..999)" in h.diag.last_proposal
+    executor = threading.current_thread().name  # the test spins the executor on this thread
+    assert threads and all(name.startswith("pmr_diagnosis") and name != executor for name in threads), threads
 
 
 def _node_set(ros, config, extra):
