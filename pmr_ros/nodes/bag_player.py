@@ -37,8 +37,9 @@ from ..ros.flow import ProgressGate, cdr_stamp_ns
 from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
-DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates")
-"""Contract keys not replayed by default (a live diagnostician makes its own)."""
+DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates", "proposed_model")
+"""Contract keys not replayed by default (a live diagnostician makes its own).  The controller's
+``active_model`` is replayed like its u: a live diagnostician follows the recorded model switches."""
 
 
 def default_max_ahead() -> int:
@@ -85,7 +86,7 @@ class BagPlayerNode(Node):
     ----------
     bag : Bag
     include_outputs : bool
-        Also replay /diagnostics and pmr/estimates.
+        Also replay the diagnostician's outputs (diagnostics, pmr/estimates, pmr/proposed_model).
     publish_config : bool
         Publish the recorded run configuration (latched) first.
     max_ahead : int, optional
