@@ -221,6 +221,8 @@ class NodeSetOptions:
         if self.diagnose_once:
             keys = ("diagnostician.window_samples", "diagnostician.update_period_samples", "diagnostician.min_samples")
             extra.update(dict.fromkeys(keys, n))
+        if self.private:
+            extra["simulation.discovery_settle_s"] = 0.0  # discovery is off: there is no one to wait for
         extra.update(self.extra_parameters or {})
         return extra
 

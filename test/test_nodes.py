@@ -7,6 +7,7 @@ The full 16384-sample run of the paper's scenario happens once per module.
 from __future__ import annotations
 
 import json
+import time
 from functools import cache
 
 import numpy as np
@@ -554,3 +555,19 @@ def test_a_stray_publisher_of_old_stamps_is_reported_and_does_not_stall_the_loop
     # once the stray is silent the verdicts come back, from a window after its last message
     final, info = next((d, i) for d, i in reversed(received) if i.get("last_sample") == 2999)
     assert final.status == "ok" and info["first_sample"] >= 600
+
+
+def test_the_plant_sends_sample_0_only_after_its_discovery_settle_time(ros):
+    # nodes running before the plant (a recorder) need DDS discovery time, or they would lose the start
+    config = load_config(overrides={"run": {"samples": 50}})
+    started = time.monotonic()
+    (_, _, _, plant), _ = _node_set(ros, config, {**SHORT_RUN, "simulation.discovery_settle_s": 1.5})
+    assert ros.spin_until(lambda: plant.sample >= 0, 60.0), "the plant never started"
+    assert time.monotonic() - started >= 1.5
+    assert ros.spin_until(lambda: plant.finished, 60.0)
+
+
+def test_a_private_node_set_skips_the_discovery_settle_time():
+    config = load_config()
+    assert NodeSetOptions(private=True).parameters(config)["simulation.discovery_settle_s"] == 0.0
+    assert "simulation.discovery_settle_s" not in NodeSetOptions(private=False).parameters(config)

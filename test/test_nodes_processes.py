@@ -109,7 +109,8 @@ def read_signal_or_clock(msg) -> float:
 
 def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothing(ros, tmp_path):
     samples = 3000
-    run_file = _params_file(tmp_path, samples)
+    # the plant starts once all five subscribers of y are there: controller, diagnostician, watcher, two recorders
+    run_file = _params_file(tmp_path, samples, simulation={"wait_for_subscribers": 5})
     # two recorders of the live set, stopped half-way, one by Ctrl-C and one by SIGTERM
     recorders = {
         how: ros.start(
@@ -187,8 +188,12 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         tmp_path / "record.log",
     )
     _wait_subscribed(ros, topic("measured_output").resolved("/column_a"), 1)
+    # column_a's plant waits for its recorder too (3 subscribers of y), however long DDS takes to discover it
+    waits = {"column_a": ("--wait-for-subscribers", "3"), "column_b": ()}
     runs = {
-        name: _run(ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples))
+        name: _run(
+            ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples), *waits[name]
+        )
         for name, seed in (("column_a", 1), ("column_b", 2))
     }
     assert ros.spin_until(lambda: all(p.poll() is not None for p in runs.values()), 600.0)

@@ -19,6 +19,7 @@ from . import (
     add_system_arguments,
     check_memory,
     load_checked_config,
+    nonnegative_int,
     run_overrides,
     writable_file,
 )
@@ -62,6 +63,15 @@ def register(sub) -> None:
         "--bag",
         metavar="DIR",
         help="record every contract topic and the run's configuration into a rosbag2 bag (node set only)",
+    )
+    p.add_argument(
+        "--wait-for-subscribers",
+        type=nonnegative_int,
+        default=None,
+        metavar="N",
+        help="the plant sends sample 0 once N nodes subscribe to y (default: simulation.wait_for_subscribers, 2: the "
+        "controller and the diagnostician); with --visible, count a recorder started before the run (3), so it is "
+        "waited for however long DDS takes to discover it",
     )
     add_storage_arguments(p)
     add_namespace_argument(
@@ -144,7 +154,10 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros run``; the exit code (0 verdicts, 3 insufficient data)."""
     from ..report import format_table
 
-    config = load_checked_config(args.config, run_overrides(args))
+    overrides = run_overrides(args)
+    if args.wait_for_subscribers is not None:
+        overrides["simulation"] = {"wait_for_subscribers": args.wait_for_subscribers}
+    config = load_checked_config(args.config, overrides)
     check_model_output(args)
     _check_before_running(args, config)
     diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)

@@ -62,6 +62,9 @@ class SimulationSettings:
         Subscribers of y the plant waits for before sample 0.
     startup_timeout_s : float
         Longest wait for them [s].
+    discovery_settle_s : float
+        Least time between the plant's start and sample 0, for DDS to discover
+        the nodes already running [s].
     max_samples_ahead : int
         Lockstep flow control: how far the plant may run ahead of its slowest
         consumer's reported progress [samples].
@@ -70,6 +73,7 @@ class SimulationSettings:
     real_time_rate_hz: float
     wait_for_subscribers: int
     startup_timeout_s: float
+    discovery_settle_s: float
     max_samples_ahead: int
 
     @property
@@ -441,6 +445,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
             real_time_rate_hz=v["simulation.real_time_rate_hz"],
             wait_for_subscribers=v["simulation.wait_for_subscribers"],
             startup_timeout_s=v["simulation.startup_timeout_s"],
+            discovery_settle_s=v["simulation.discovery_settle_s"],
             max_samples_ahead=v["simulation.max_samples_ahead"],
         ),
         diagnostician=_diagnostician(v),

@@ -127,6 +127,8 @@ class PlantNode(ConfiguredNode):
     def _check_ready(self, now: float) -> None:
         """Note when the peers are there (or the start-up timeout passed), with a warning for what is missing.
 
+        Nothing is decided before ``simulation.discovery_settle_s`` from the
+        plant's start: DDS needs that long to discover the nodes already running.
         Once the controller and enough subscribers are there, the plant also
         waits up to :data:`CONSUMER_DISCOVERY_S` for each other subscriber of y
         to be known as a consumer (DDS discovers a node's endpoints one by one),
@@ -135,6 +137,8 @@ class PlantNode(ConfiguredNode):
         """
         sim = self.config.simulation
         waited = now - self._started_at
+        if waited < sim.discovery_settle_s:
+            return  # nodes running before this one (a recorder) may not be discovered yet: they would lose the start
         if self._peers_at is None and self._peers_ready():
             self._peers_at = now
         unknown = self._unknown_subscribers() if self._peers_at is not None else []
