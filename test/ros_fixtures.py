@@ -27,8 +27,8 @@ import pytest
 DOMAIN_IDS = range(1, 102)
 """Domain ids the tests draw from: 1..101, the range ROS 2 documents as safe on Linux.  Above 101 a
 domain's DDS ports (7400 + 250 x domain + ...) fall into Linux's ephemeral port range (32768-60999),
-where any other socket may hold them: discovery between processes then fails at random (measured:
-a recorder in domain 100-232 received none of two namespaced runs' messages, again and again)."""
+where any other socket may hold them.  (An empty recorder bag once blamed on this range was DDS
+discovery taking up to 2.6 s: see ``simulation.discovery_settle_s``.)"""
 
 COOLDOWN_S = 10.0
 """A domain id released by a test (of any pytest run) is not claimed again for this long [s]: the last

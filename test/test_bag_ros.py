@@ -206,18 +206,20 @@ def test_recorder_process_stopped_by_a_signal_closes_the_bag_with_every_sample(r
         assert "parameters of /pmr_diagnostician" in config.source
 
 
-def _wait_until_flushed(path, topic_name: str, count: int, timeout_s: float) -> None:
+def _wait_until_flushed(path, topic_names: list[str], count: int, timeout_s: float) -> None:
+    """Wait until ``count`` messages of every one of ``topic_names`` are on disk (flushes go topic by topic)."""
     deadline = time.monotonic() + timeout_s
-    seen = 0
+    seen: dict[str, int] = {}
     while time.monotonic() < deadline:
         try:
-            seen = open_bag(path).counts.get(topic_name, 0)
+            counts = open_bag(path).counts
+            seen = {name: counts.get(name, 0) for name in topic_names}
         except Exception:  # noqa: BLE001 - a chunk being written may not parse yet
-            seen = 0
-        if seen >= count:
+            seen = {}
+        if seen and min(seen.values()) >= count:
             return
         time.sleep(0.2)
-    raise AssertionError(f"only {seen} of {count} messages on {topic_name} reached the disk in {timeout_s} s")
+    raise AssertionError(f"not all {count} messages of each topic reached the disk in {timeout_s} s: {seen}")
 
 
 @pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
@@ -226,9 +228,9 @@ def test_recorder_killed_with_sigkill_leaves_everything_before_its_last_flush(ro
     path = tmp_path / "killed"
     proc = _start_recorder(ros, tmp_path, path, "--storage", storage)
     _publish_to_recorder(ros, samples, publish_config=True)
-    # Wait until the recorder's flushes (every 0.2 s) put every message on disk -- read back
+    # Wait until the recorder's flushes (every 0.2 s) put every message of every topic on disk -- read back
     # from the file while it is being written -- then kill it without warning.
-    _wait_until_flushed(path, topic("measured_output").resolved(), samples, timeout_s=60.0)
+    _wait_until_flushed(path, [*SIGNAL_TOPICS, topic("clock").resolved()], samples, timeout_s=60.0)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     assert not (path / "metadata.yaml").exists()
@@ -255,7 +257,7 @@ def test_run_with_bag_stopped_by_a_signal_closes_the_bag(ros_domain, children, t
         text=True,
     )
     children.append(proc)
-    _wait_until_flushed(path, topic("measured_output").resolved(), 1000, timeout_s=120.0)
+    _wait_until_flushed(path, [topic("measured_output").resolved()], 1000, timeout_s=120.0)
     proc.send_signal(stop)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err, err[-2000:]
@@ -306,7 +308,7 @@ def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros, t
     proc = ros.start(
         [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"], tmp_path / "run.log"
     )
-    _wait_until_flushed(path, topic("measured_output").resolved(), 9000, timeout_s=120.0)
+    _wait_until_flushed(path, list(SIGNAL_TOPICS), 9000, timeout_s=120.0)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     recorded = open_bag(path)

@@ -26,6 +26,7 @@ from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.diagnosis import diagnose_stretches  # noqa: E402
 from pmr_ros.core.stretch import Stretch  # noqa: E402
 from pmr_ros.node_set import NodeSetOptions, run_node_set  # noqa: E402
+from pmr_ros.nodes.bag_player import discovery_settle_s  # noqa: E402
 from pmr_ros.nodes.plant import PlantNode  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
 from pmr_ros.ros.convert import signal_message  # noqa: E402
@@ -571,3 +572,5 @@ def test_a_private_node_set_skips_the_discovery_settle_time():
     config = load_config()
     assert NodeSetOptions(private=True).parameters(config)["simulation.discovery_settle_s"] == 0.0
     assert "simulation.discovery_settle_s" not in NodeSetOptions(private=False).parameters(config)
+    # pmr-ros replay gives its consumers the same time to be discovered
+    assert discovery_settle_s() == config.simulation.discovery_settle_s > 0

@@ -67,7 +67,8 @@ def register(sub) -> None:
         type=nonnegative_int,
         default=10,
         metavar="S",
-        help="wait up to S seconds for subscribers of r, u and y before starting (default: 10)",
+        help="wait up to S seconds for subscribers of r, u and y before starting, and at least "
+        "simulation.discovery_settle_s (3 s) for DDS to discover every one of them (default: 10; 0: start at once)",
     )
     p.add_argument(
         "--linger",
@@ -115,8 +116,15 @@ def handle(args: argparse.Namespace) -> int:
 
 def _wait_for_peers(node, executor, wait_s: float) -> None:
     """Wait for subscribers of r, u, y and for each of them to report progress; say who never did."""
+    from ..nodes.bag_player import discovery_settle_s
+
     signals = node.signal_topics()
     spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
+    # consumers started before the replay (a diagnostician and a recorder) are discovered one by one, in up to
+    # seconds: one found first must not start the replay before the others are known
+    settled = time.monotonic() + min(discovery_settle_s(), wait_s)
+    while time.monotonic() < settled:
+        spin()
     if not node.wait_for_subscribers(signals, wait_s, spin):
         missing = ", ".join(node.resolve_topic_name(node.topics[n].name) for n in signals if node.subscribers(n) == 0)
         print(f"pmr-ros replay: no subscriber on {missing} after {wait_s:g} s; replaying anyway", file=sys.stderr)

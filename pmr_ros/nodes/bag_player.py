@@ -47,6 +47,11 @@ def default_max_ahead() -> int:
     return int(parameters()["simulation.max_samples_ahead"].default)
 
 
+def discovery_settle_s() -> float:
+    """The declared ``simulation.discovery_settle_s``: how long a producer gives DDS to discover running nodes [s]."""
+    return float(parameters()["simulation.discovery_settle_s"].default)
+
+
 def replayed_topics(bag: Bag, include_outputs: bool = False, namespace: str = "/") -> dict[str, Topic]:
     """The bag's contract topics to publish: recorded name (in ``namespace``) -> contract topic.
 
