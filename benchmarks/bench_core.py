@@ -3,6 +3,7 @@
 - closed-loop steps per second of plant + PRBS + MPC on Wood-Berry (target >= 3,000)
 - median QP solve time of the MPC (dual active set), when a constraint binds and when forced every step
 - diagnosis time for 8,192 samples of the 2x2 (target <= 50 ms)
+- a bumpless model switch of the MPC (QP rebuilt, state from the kept input history), and the control impact
 
 Run: .venv/bin/python benchmarks/bench_core.py
 """
@@ -16,6 +17,7 @@ import time
 from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.impact import loop_figures
 from pmr_ros.core.mpc import LinearMpc
 from pmr_ros.core.plant import FoptdPlant
 from pmr_ros.core.prbs import PrbsGenerator
@@ -64,6 +66,32 @@ def main() -> None:
                 f"diagnosis of 8,192 samples ({label}, {method}): median {1e3 * statistics.median(times):.1f} ms, "
                 f"best {1e3 * min(times):.1f} ms{target}"
             )
+
+    switch_and_impact()
+
+
+def switch_and_impact() -> None:
+    """Time of a live model switch after a run, and of one simulation of the control impact."""
+    for label, cfg in (("2x2", load_config()), ("3x3", load_config("config/three_by_three.yaml"))):
+        _, mpc = closed_loop_rate(cfg, 2000, always_solve_qp=False)
+        truth = cfg.plant("full")
+        times = []
+        for _ in range(10):
+            t0 = time.perf_counter()
+            mpc.switched(truth)
+            times.append(time.perf_counter() - t0)
+        print(
+            f"model switch ({label}, {mpc.applied_inputs.shape[0]} inputs of history): median "
+            f"{1e3 * statistics.median(times):.1f} ms"
+        )
+        t0 = time.perf_counter()
+        loop_figures(cfg, truth, samples=cfg.impact.samples)
+        elapsed = time.perf_counter() - t0
+        elements = int(cfg.model.present.sum())
+        print(
+            f"control impact ({label}): one simulation of {cfg.impact.samples} samples {elapsed:.2f} s; "
+            f"{elements + 2} per diagnosis with every element mismatched"
+        )
 
 
 if __name__ == "__main__":

@@ -137,6 +137,18 @@ class _Listener(Node):
         return estimated and recorded
 
 
+def node_parameter_values(config: PmrConfig) -> dict[str, Any]:
+    """The dotted parameter values every node of the set gets: the effective configuration.
+
+    With a ``plant`` block the ``mismatch`` block and ``run.scenario`` are left out: they do not
+    apply, and a node given both refuses them (as a params file giving both is refused).
+    """
+    flat = flatten_parameters(config.parameters)
+    if config.explicit_plant is not None:
+        flat = {k: v for k, v in flat.items() if not k.startswith("mismatch.") and k != "run.scenario"}
+    return flat
+
+
 def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None, namespace: str = "/") -> list[Node]:
     """The four nodes on ``context`` in ``namespace``, all with the full parameter set of ``config``.
 
@@ -147,7 +159,7 @@ def build_nodes(config: PmrConfig, context: Context, extra: dict | None = None, 
     from .nodes.pmr_diagnostician import PmrDiagnosticianNode
     from .nodes.prbs_setpoint import PrbsSetpointNode
 
-    flat = flatten_parameters(config.parameters)
+    flat = node_parameter_values(config)
     flat.update(extra or {})
     params = parameter_overrides(flat)
     nodes: list[Node] = []

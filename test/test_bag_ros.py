@@ -67,6 +67,18 @@ def _player(ros, bag, **kwargs):
     return ros.add(BagPlayerNode(bag, context=ros.context, **kwargs))
 
 
+def test_replay_leaves_the_diagnosticians_outputs_out_but_not_the_controllers_model():
+    from types import SimpleNamespace
+
+    from pmr_ros.nodes.bag_player import replayed_topics
+
+    keys = ("setpoint", "diagnostics", "estimates", "proposed_model", "active_model")
+    bag = SimpleNamespace(topics={topic(k).resolved("/column_a"): topic(k).type for k in keys})
+    default = {t.key for t in replayed_topics(bag, namespace="/column_a").values()}
+    assert default == {"setpoint", "active_model"}
+    assert {t.key for t in replayed_topics(bag, include_outputs=True, namespace="/column_a").values()} == set(keys)
+
+
 @pytest.mark.parametrize("namespace", ["/", "/column_b"])
 def test_replaying_the_reference_bag_into_a_live_diagnostician_gives_the_expected_verdicts(ros, namespace):
     bag = open_bag(REFERENCE)

@@ -20,6 +20,7 @@ from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E4
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import ConfigError, config_dir, flatten_parameters, load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
+from pmr_ros.contract.proposal import close_diagnosis  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.diagnosis import diagnose_stretches  # noqa: E402
@@ -70,11 +71,12 @@ def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run
 
 
 def _batch_diagnosis(config, r, u, y, dither=None):
-    """What the diagnostician computes from these samples: verdicts and data-quality figures."""
-    return diagnose_stretches(
+    """What the diagnostician computes from these samples: verdicts, data-quality figures, the control impact."""
+    diagnosis = diagnose_stretches(
         [Stretch(r, u, y, dither)], model=config.model, pmr=config.pmr, parametric=config.parametric,
         quality=config.quality,
     )  # fmt: skip
+    return close_diagnosis(diagnosis, config).diagnosis
 
 
 def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
@@ -86,6 +88,7 @@ def test_node_set_and_batch_give_the_same_r_u_y_sample_for_sample(full_run):
     config = full_run.config
     expected = _batch_diagnosis(config, batch.r, batch.u, batch.y)
     assert all(e.data_quality is not None for e in expected)
+    assert all(e.impact is not None for e in expected)  # every element of the full scenario is a mismatch
     # one process, one machine: the verdicts read back from /diagnostics are bit-identical to the batch's
     assert full_run.diagnosis.elements == expected.elements
 
@@ -117,7 +120,9 @@ def test_parameters_have_descriptors_and_invalid_changes_are_refused(ros):
     desc = node.describe_parameter("diagnostician.window_samples")
     assert desc.description and desc.integer_range[0].from_value == 1 and not desc.read_only
     assert "< 1" in node.describe_parameter("pmr.overlap").additional_constraints
-    assert not node.has_parameter("prbs.clock_period") and not node.has_parameter("mpc.control_horizon")
+    # the control impact simulates the configured controller and setpoints; the plant's noise is not its business
+    assert node.has_parameter("prbs.clock_period") and node.has_parameter("mpc.control_horizon")
+    assert not node.has_parameter("noise.std") and not node.has_parameter("simulation.real_time_rate_hz")
     result = node.set_parameters([Parameter("system.gain", value=[1.0, 2.0, 3.0])])[0]
     assert not result.successful and "system.gain = [1.0, 2.0, 3.0]: needs 4 entries" in result.reason
     result = node.set_parameters([Parameter("pmr.method", value="bayes")])[0]
@@ -189,6 +194,7 @@ SMALL = {
     "diagnostician.min_samples": 500,
     "diagnostician.max_lag_samples": 16,
     "diagnostician.stale_timeout_s": 0.3,
+    "impact.samples": 0,  # these tests are about the data; the impact's simulations would outlast the 0.3 s
 }
 
 
@@ -200,9 +206,10 @@ def _record():
 class Harness:
     """A diagnostician fed r, u, y over the real topics by a test node; collects /diagnostics."""
 
-    def __init__(self, ros) -> None:
+    def __init__(self, ros, **overrides) -> None:
         flat = flatten_parameters(load_config().parameters)
         flat.update(SMALL)
+        flat.update(overrides)
         self.diag = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
         self.feeder = ros.create_node("feeder")
         self.config = self.diag.config
@@ -367,10 +374,12 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     assert np.array_equal(result.record.r, simulate(config).r)
 
 
-def test_diagnostician_subscribes_to_r_u_y_only(ros):
+def test_diagnostician_subscribes_to_r_u_y_and_the_active_model_only(ros):
     node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=_params()))
+    # r, u, y, and the controller's active model when it publishes one (any controller that publishes r, u, y
+    # can be watched; pmr_ros's own tells when it switches models)
     assert {s.topic_name for s in node.subscriptions} == {
-        topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output")
+        topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output", "active_model")
     }
 
 
@@ -438,6 +447,28 @@ def test_a_diagnosis_runs_off_the_executor_thread_and_holds_the_progress_while_t
         release.set()
     assert h.diag.wait_idle(30.0)
     assert spin_until(h.executor, lambda: h.diag.progress.reports > reports, 30.0)
+
+
+def test_the_impact_and_the_proposal_are_computed_on_the_worker_thread(ros, monkeypatch):
+    import threading
+
+    from pmr_ros.contract import proposal
+    from pmr_ros.nodes import pmr_diagnostician
+
+    threads = []
+
+    def close_window(outcome, config):
+        threads.append(threading.current_thread().name)
+        return proposal.close_window(outcome, config)
+
+    monkeypatch.setattr(pmr_diagnostician, "close_window", close_window)
+    h = Harness(ros, **{"impact.samples": 500, "diagnostician.stale_timeout_s": 60.0})
+    h.send_samples(range(1000))
+    verdicts = [d for d, _ in h.statuses() if d.status == "ok"]
+    assert verdicts and verdicts[-1].impact is not None  # the full scenario's mismatches, with their impact
+    assert h.diag.last_proposal is not None and "(samples 400..999)" in h.diag.last_proposal
+    executor = threading.current_thread().name  # the test spins the executor on this thread
+    assert threads and all(name.startswith("pmr_diagnosis") and name != executor for name in threads), threads
 
 
 def _node_set(ros, config, extra):

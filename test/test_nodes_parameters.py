@@ -15,10 +15,11 @@ def test_each_node_declares_the_blocks_it_uses():
     }
     system = {q.name for q in schema.blocks()["system"].parameters}
     assert all(system <= declared for declared in names.values())
+    # the diagnostician simulates the configured MPC and setpoints for the control impact
     assert (
-        "mpc.prediction_horizon" in names["mpc_controller"]
-        and "mpc.prediction_horizon" not in names["pmr_diagnostician"]
+        "mpc.prediction_horizon" in names["mpc_controller"] and "mpc.prediction_horizon" in names["pmr_diagnostician"]
     )
+    assert "prbs.amplitude" in names["pmr_diagnostician"] and "mpc.u_max" not in names["wood_berry_plant"]
     assert "pmr.method" in names["pmr_diagnostician"] and "pmr.method" not in names["wood_berry_plant"]
     assert "run.seed" in names["prbs_setpoint"] and "run.samples" not in names["prbs_setpoint"]
     assert "mismatch.gain_pct" in names["wood_berry_plant"] and "mismatch.gain_pct" not in names["mpc_controller"]

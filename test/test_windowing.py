@@ -148,3 +148,20 @@ def test_a_window_too_large_for_memory_is_refused_naming_the_parameter(monkeypat
         "1.98 TB of memory (samples 1.5 TB, diagnosis 480 GB); 24 GB available"
     )
     windowing.check_window_memory(wood_berry, "x")  # 16384 samples: 21 MB
+
+
+def test_after_a_model_switch_only_the_samples_from_it_count():
+    from pmr_ros.contract.windowing import window_stretches
+
+    config = _config("full")
+    record = _record("full")
+    aligner = _aligner(config)
+    _feed(aligner, record, 12000, GAPS)
+    pieces = window_stretches(aligner, WINDOW, since=6000)
+    assert pieces[0].first == 6000 and all(p.first >= 6000 for p in pieces)
+    full = {p.first: p for p in aligner.stretches(WINDOW)}
+    np.testing.assert_array_equal(pieces[0].y, full[5420].y[6000 - 5420 :])  # the rows of those samples
+    assert window_stretches(aligner, WINDOW, since=20000) == []
+    outcome = evaluate_window(aligner, config, since=6000)
+    assert outcome.kind == INSUFFICIENT and "since the model switch at sample 6000" in outcome.reason
+    assert window_info(aligner, WINDOW, since=6000)["first_sample"] == 6000

@@ -19,6 +19,7 @@ from ..config import PmrConfig, load_config, parse_config
 from ..config.schema import parameter
 from ..contract.alignment import SIGNALS, AddResult, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
+from ..contract.proposal import close_diagnosis
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis, compare_diagnoses
@@ -422,7 +423,7 @@ def diagnose_bag(
         notes=[note] if note else [],
         namespace=namespace,
     )
-    result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method)
+    result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method, config=config)
     others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
     if others:
         result.warnings.insert(
@@ -432,7 +433,13 @@ def diagnose_bag(
     return result
 
 
-def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None) -> dict[str, Any]:
+def _with_impact(recorded: Diagnosis, mine: Diagnosis, config: PmrConfig | None) -> Diagnosis:
+    """The offline diagnosis with its control impact when the live node recorded one (the same computation)."""
+    has_impact = recorded.impact is not None or any(e.impact is not None for e in recorded)
+    return close_diagnosis(mine, config).diagnosis if has_impact and config is not None else mine
+
+
+def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: PmrConfig | None) -> dict[str, Any]:
     """One recorded verdict against the offline outcome of its window."""
     first, last = verdict.window or (0, 0)
     entry: dict[str, Any] = {"first_sample": first, "last_sample": last, "recorded_status": verdict.diagnosis.status}
@@ -443,15 +450,18 @@ def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None) -> dict[st
     if mine.kind != VERDICT:
         entry["equal"] = False
         return entry
-    entry["differences"] = compare_diagnoses(
-        verdict.diagnosis.to_dict()["elements"], mine.diagnosis.to_dict()["elements"]
-    )
+    offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
+    entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], offline.to_dict()["elements"])
     entry["equal"] = not entry["differences"]
     return entry
 
 
 def compare(
-    outcomes: list[WindowOutcome], recorded: list[RecordedVerdict], method: str | None = None
+    outcomes: list[WindowOutcome],
+    recorded: list[RecordedVerdict],
+    method: str | None = None,
+    *,
+    config: PmrConfig | None = None,
 ) -> list[dict[str, Any]]:
     """For every verdict the live node recorded for a window, whether the offline one for that window agrees.
 
@@ -463,6 +473,8 @@ def compare(
     :func:`~pmr_ros.core.results.compare_diagnoses` finds no difference:
     verdicts, flags, delays and strings equal, floats within its tolerance
     (the same data diagnosed on another machine differ in the last digits).
+    With ``config``, a recorded verdict that carries the control impact is
+    compared with the offline one's, computed the same way.
     """
     offline = {}
     for outcome in outcomes:
@@ -475,5 +487,5 @@ def compare(
             continue
         if method is not None and verdict.diagnosis.method != method:
             continue
-        out.append(_comparison(verdict, offline.get(window)))
+        out.append(_comparison(verdict, offline.get(window), config))
     return out

@@ -5,7 +5,7 @@ controller's model with every ``mismatch`` element replaced by its estimate
 (:mod:`pmr_ros.core.update`), each change noted beside the element; the
 control impact of the mismatches (:mod:`pmr_ros.core.impact`) is computed
 whenever a parametric diagnosis has a ``mismatch`` verdict and ``impact.samples``
-is not 0.
+is not 0 (both by :mod:`pmr_ros.contract.proposal`, as the live diagnostician does).
 """
 
 from __future__ import annotations
@@ -15,13 +15,12 @@ import os
 from pathlib import Path
 
 from ..config import PmrConfig
-from ..config.write import model_params_text, write_params_file
-from ..core.impact import control_impact
+from ..config.write import write_params_file
+from ..contract.proposal import close_diagnosis, model_file_text
 from ..core.results import Diagnosis
-from ..core.update import ModelUpdate, NotCorrectable, corrected_model
 from . import CommandError
 
-__all__ = ["add_model_arguments", "check_model_output", "close_the_loop", "model_file_text"]
+__all__ = ["add_model_arguments", "check_model_output", "close_the_loop"]
 
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,19 +44,6 @@ def check_model_output(args: argparse.Namespace) -> None:
         raise CommandError(f"--write-model {path}: cannot write there (no such folder or no permission)")
 
 
-def model_file_text(config: PmrConfig, update: ModelUpdate, diagnosis: Diagnosis) -> str:
-    """The corrected model's params file (the configuration's other blocks kept, simulation truth left out)."""
-    header = [
-        f"Corrected model of {config.model.name or 'the system'} written by pmr-ros from a {diagnosis.method} "
-        f"diagnosis of {diagnosis.samples} samples (configuration {config.source}).",
-        "Elements with a mismatch verdict take their estimates; ok and inconclusive elements are the model's own.",
-        *(f"changed {change.comment()}" for change in update.changes),
-        *(() if update.changes else ("no element has a mismatch verdict: the model is unchanged",)),
-    ]
-    notes = {change.name: change.note() for change in update.changes}
-    return model_params_text(update.model, settings=config.parameters, header=header, notes=notes)
-
-
 def close_the_loop(args: argparse.Namespace, config: PmrConfig, diagnosis: Diagnosis) -> Diagnosis:
     """The diagnosis with its control impact; writes ``--write-model`` if asked.
 
@@ -67,14 +53,11 @@ def close_the_loop(args: argparse.Namespace, config: PmrConfig, diagnosis: Diagn
         ``--write-model`` with a diagnosis that cannot give a corrected model.
     """
     path = getattr(args, "write_model", None)
-    try:
-        update = corrected_model(config.model, diagnosis)
-    except NotCorrectable as exc:
+    closed = close_diagnosis(diagnosis, config)
+    if closed.update is None:
         if path is not None:
-            raise CommandError(f"--write-model {path}: {exc}", code=3) from None
+            raise CommandError(f"--write-model {path}: {closed.why_not}", code=3) from None
         return diagnosis
-    if config.impact.active and update.changes:
-        diagnosis = control_impact(diagnosis, loop=config, update=update, samples=config.impact.samples)
     if path is not None:
-        write_params_file(path, model_file_text(config, update, diagnosis))
-    return diagnosis
+        write_params_file(path, model_file_text(config, closed.update, closed.diagnosis))
+    return closed.diagnosis

@@ -57,7 +57,10 @@ def register(sub) -> None:
     )
     add_namespace_argument(p, "publish into this node set's namespace (default: the root namespace)")
     p.add_argument(
-        "--all-topics", action="store_true", help="also replay /diagnostics and /pmr/estimates (left out by default)"
+        "--all-topics",
+        action="store_true",
+        help="also replay the diagnostician's outputs, diagnostics, pmr/estimates and pmr/proposed_model (left out by "
+        "default)",
     )
     p.add_argument(
         "--wait",

@@ -23,8 +23,19 @@ from . import (
     run_overrides,
     writable_file,
 )
+from .adapt import (
+    ADAPT_STALL_TIMEOUT_S,
+    adapt_config,
+    adaptation_lines,
+    adapted_report,
+    check_adapt,
+    run_adapted,
+)
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 from .record import add_storage_arguments, start_recording
+
+STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
+"""How long the node set may go without progress: its final verdict comes with the control impact."""
 
 
 def register(sub) -> None:
@@ -69,6 +80,13 @@ def register(sub) -> None:
         "(with --visible); default: the root namespace",
     )
     add_model_arguments(p)
+    p.add_argument(
+        "--adapt",
+        action="store_true",
+        help="close the loop live (node set, parametric): run N = run.samples samples, apply the diagnostician's "
+        "proposed model to the running controller, run on, diagnose the new model on N samples after the switch; "
+        "an update that makes things worse is rolled back. 3 N samples in all",
+    )
     p.set_defaults(handler=handle)
 
 
@@ -95,12 +113,41 @@ def run_memory(config, *, batch: bool) -> dict[str, int]:
 
 def _check_before_running(args: argparse.Namespace, config) -> None:
     """Everything that can be refused before the run: option clashes, memory, the --json path."""
+    check_adapt(args)
+    if args.adapt and config.pmr.method != "parametric":
+        raise CommandError("--adapt needs pmr.method parametric (a corrected model); the configuration has classic")
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     source = "command line" if args.samples is not None else config.source
     check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
     if args.json:
         writable_file(args.json, "--json")
+
+
+def _run_nodes(args: argparse.Namespace, config, recording):
+    """The node set's run (and the adapter of ``--adapt``, else None); the recording is closed after it."""
+    run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
+    extra = recording.nodes if recording else None
+
+    def options(**kwargs):
+        return NodeSetOptions(private=not args.visible, namespace=args.namespace or "/", **kwargs)
+
+    try:
+        if args.adapt:
+            return run_adapted(config, options, run_node_set, extra_nodes=extra)
+        return run_node_set(config, options(extra_nodes=extra, stall_timeout_s=STALL_TIMEOUT_S)), None
+    except NodeSetError as exc:
+        raise CommandError(str(exc), code=1) from None
+    finally:
+        if recording is not None:
+            recording.close()
+
+
+def _on_model(config, adapter):
+    """The configuration with the controller's model at the end of an adapted run (for --write-model)."""
+    from ..contract.model_topics import with_system
+
+    return with_system(config, adapter.models[-1][1], f"{config.source} (the controller's model at the end)")
 
 
 def handle(args: argparse.Namespace) -> int:
@@ -115,6 +162,8 @@ def handle(args: argparse.Namespace) -> int:
     _check_before_running(args, config)
     diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
     sys.stdout.write(format_table(report))
+    for line in adaptation_lines(report):
+        print(line)
     if args.json:
         _write_json(report, args.json)
     return 0 if diagnosis.status == "ok" else EXIT_INSUFFICIENT
@@ -142,27 +191,34 @@ def _batch_run(args: argparse.Namespace, config) -> tuple:
 
 
 def _node_set_run(args: argparse.Namespace, config) -> tuple:
-    """The node set's run (and its recording with ``--bag``); the diagnosis and the report."""
+    """The node set's run (adapted with ``--adapt``, recorded with ``--bag``); the diagnosis and the report."""
     from ..report import build_report
 
-    run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
-    recording = start_recording(args, config) if args.bag else None
-    try:
-        options = NodeSetOptions(
-            private=not args.visible,
-            extra_nodes=recording.nodes if recording else None,
-            namespace=args.namespace or "/",
-        )
-        result = run_node_set(config, options)
-    except NodeSetError as exc:
-        raise CommandError(str(exc), code=1) from None
-    finally:
-        if recording is not None:
-            recording.close()
-    diagnosis = close_the_loop(args, config, result.diagnosis)
+    recording = start_recording(args, adapt_config(config) if args.adapt else config) if args.bag else None
+    result, adapter = _run_nodes(args, config, recording)
+    adaptation = None
+    if adapter is not None:
+        final, adaptation = adapted_report(adapter)
+        diagnosis = close_the_loop(args, _on_model(config, adapter), final)
+    else:
+        diagnosis = close_the_loop(args, config, result.diagnosis)
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "nodes"
-    report["node_set"] = {
+    if adaptation is not None:
+        report["adaptation"] = adaptation
+    report["node_set"] = _node_set_section(result)
+    if recording is not None:
+        report["bag"] = {
+            "path": str(recording.writer.path),
+            "storage": recording.writer.storage,
+            "messages": recording.writer.counts,
+        }
+    return diagnosis, report
+
+
+def _node_set_section(result) -> dict:
+    """The report's ``node_set`` object: the levels, messages and window of the final verdicts, the timing."""
+    return {
         "levels": result.info["levels"],
         "messages": result.info["messages"],
         "window": {k: result.info.get(k) for k in ("window_samples", "first_sample", "last_sample")},
@@ -171,13 +227,6 @@ def _node_set_run(args: argparse.Namespace, config) -> tuple:
         "samples_per_second": result.samples_per_second,
         "diagnostician_warnings": result.warnings,
     }
-    if recording is not None:
-        report["bag"] = {
-            "path": str(recording.writer.path),
-            "storage": recording.writer.storage,
-            "messages": recording.writer.counts,
-        }
-    return diagnosis, report
 
 
 def _write_json(report: dict, path: str) -> None:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.adaptation import AdaptSettings
 from ..core.classic import PmrSettings
 from ..core.data_quality import QualitySettings
 from ..core.impact import ImpactSettings
@@ -116,6 +117,8 @@ class PmrConfig:
         Where it came from (a file, or a node's parameters).
     data : DataSettings
         How a historian export is read and cleaned (``pmr-ros diagnose FILE.csv``).
+    adapt : AdaptSettings
+        When ``pmr-ros run --adapt`` rolls a model update back.
     explicit_plant : TransferMatrix or None
         The ``plant`` block: the true plant of a simulation, when given.
     warnings : tuple of str
@@ -136,6 +139,7 @@ class PmrConfig:
     simulation: SimulationSettings
     diagnostician: DiagnosticianSettings
     impact: ImpactSettings
+    adapt: AdaptSettings
     data: DataSettings
     source: str
     parameters: dict[str, Any]
@@ -446,6 +450,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         ),
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
+        adapt=AdaptSettings(ise_rise_tolerance_pct=v["adapt.ise_rise_tolerance_pct"]),
         data=data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")]),
         source=source,
         parameters=v.tree,

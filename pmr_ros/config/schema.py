@@ -81,6 +81,9 @@ class Parameter:
     unit, doc : str
     nodes : tuple of str
         The executables that declare it.
+    live : tuple of str
+        The executables that accept a change of it at runtime (the block's
+        ``live``); for the others it is read-only once the node started.
     """
 
     name: str
@@ -97,6 +100,7 @@ class Parameter:
     unit: str = ""
     doc: str = ""
     nodes: tuple[str, ...] = ()
+    live: tuple[str, ...] = ()
 
     @property
     def required(self) -> bool:
@@ -302,7 +306,7 @@ class Block:
     optional: bool = False
 
 
-def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...]) -> Parameter:
+def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...], live: tuple[str, ...] = ()) -> Parameter:
     kind = entry.get("type")
     if kind not in KINDS:
         raise ValueError(f"{SCHEMA_FILE}: {block}.{key}: type {kind!r} is not one of {', '.join(KINDS)}")
@@ -321,6 +325,7 @@ def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...]) -> Par
         unit=str(entry.get("unit", "")),
         doc=str(entry.get("doc", "")),
         nodes=tuple(entry.get("nodes", nodes)),
+        live=live,
     )
 
 
@@ -331,8 +336,8 @@ def blocks() -> dict[str, Block]:
     doc = load_yaml(path)
     out = {}
     for name, entry in doc.items():
-        nodes = tuple(entry.get("nodes", ()))
-        params = tuple(_parameter(name, key, spec, nodes) for key, spec in entry["parameters"].items())
+        nodes, live = tuple(entry.get("nodes", ())), tuple(entry.get("live", ()))
+        params = tuple(_parameter(name, key, spec, nodes, live) for key, spec in entry["parameters"].items())
         out[name] = Block(name, str(entry.get("doc", "")), nodes, params, bool(entry.get("optional", False)))
     return out
 

@@ -6,7 +6,11 @@ flattened to dotted KeyValues (``parametric.gain_mismatch_pct``,
 (floats as their shortest round-tripping ``repr``, so lossless; lists and
 None as JSON; strings as they are), plus the diagnosis's ``status``
 (``ok``, ``insufficient_data`` or ``stale``), ``reason`` and the window
-(``window_samples``, ``first_sample``, ``last_sample``).  The functions here
+(``window_samples``, ``first_sample``, ``last_sample``) and, when the control
+impact was computed, what all the mismatches together do to control
+(``impact_all.ise_ratio``, ``impact_all.input_movement_ratio``: the
+diagnosis's :attr:`~pmr_ros.core.results.Diagnosis.impact`; each element's own
+figures are its ``impact.*``).  The functions here
 build those pairs and read them back into the core's :class:`Diagnosis`; they
 only read attributes (``header.stamp.sec``, ``status[].values``), so they work
 alike on rclpy messages from the wire and ``rosbags`` messages from a bag.
@@ -24,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..config.files import flatten_parameters, nested
-from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ImpactResult, ParametricResult
 
 __all__ = [
     "LEVELS",
@@ -34,6 +38,7 @@ __all__ = [
     "WINDOW_KEYS",
     "decode_value",
     "diagnosis_from_array",
+    "diagnosis_pairs",
     "element_pairs",
     "encode_value",
     "estimate_pairs",
@@ -63,6 +68,9 @@ without their own namespaces, or a stray publisher): the samples cannot be told 
 NO_VERDICT = ("insufficient_data", STALE, CONFLICT)
 """``status`` values of statuses without numbers."""
 
+IMPACT_KEY = "impact_all"
+"""Prefix of the KeyValues of the diagnosis-wide control impact (all mismatches together)."""
+
 MESSAGE_KEY = "summary"
 """The element's one-line summary travels as the status message, not as a KeyValue."""
 
@@ -89,6 +97,24 @@ def element_pairs(element: ElementDiagnosis) -> dict[str, str]:
     flat = flatten_parameters(element.to_dict())
     flat.pop(MESSAGE_KEY, None)
     return {key: encode_value(value) for key, value in flat.items()}
+
+
+def diagnosis_pairs(diagnosis: Diagnosis) -> dict[str, str]:
+    """The diagnosis-wide KeyValues every status carries beside the element's: the impact of all mismatches together.
+
+    Empty when the impact was not computed.
+    """
+    if diagnosis.impact is None:
+        return {}
+    flat = flatten_parameters({IMPACT_KEY: diagnosis.to_dict()["impact"]})
+    return {key: encode_value(value) for key, value in flat.items()}
+
+
+def _impact_from(common: Mapping[str, Any]) -> ImpactResult | None:
+    values = {key.split(".", 1)[1]: v for key, v in common.items() if key.startswith(f"{IMPACT_KEY}.")}
+    if not values:
+        return None
+    return ImpactResult(float(values["ise_ratio"]), float(values["input_movement_ratio"]), int(values.get("rank", 0)))
 
 
 def estimate_pairs(element: ElementDiagnosis) -> dict[str, float]:
@@ -216,7 +242,8 @@ def _status_element(
         }
         return _legacy_element(values, name, models), common
     values = {key: decode_value(text) for key, text in raw.items()}
-    common = {key: values.pop(key) for key in STATUS_KEYS if key in values}
+    wide = [key for key in values if key in STATUS_KEYS or key.startswith(f"{IMPACT_KEY}.")]
+    common = {key: values.pop(key) for key in wide}
     return ElementDiagnosis.from_dict(nested(values)), common
 
 
@@ -262,7 +289,12 @@ def diagnosis_from_array(
     window = {k: common[k] for k in WINDOW_KEYS if k in common}
     samples = int(window.get("window_samples", 0) or 0)
     diagnosis = Diagnosis(
-        method, "ok" if state == "ok" else "insufficient_data", str(common.get("reason", "")), samples, elements
+        method,
+        "ok" if state == "ok" else "insufficient_data",
+        str(common.get("reason", "")),
+        samples,
+        elements,
+        impact=_impact_from(common),
     )
     return diagnosis, {"levels": levels, "messages": messages, "status": state, **window}
 

@@ -74,18 +74,25 @@ def offer_signal(
 
 
 def window_info(
-    aligner: SampleAligner, window_samples: int, samples: int | None = None, first: int | None = None
+    aligner: SampleAligner,
+    window_samples: int,
+    samples: int | None = None,
+    first: int | None = None,
+    *,
+    since: int = 0,
 ) -> dict:
     """``window_samples``, ``first_sample``, ``last_sample`` of the current window [samples].
 
     Without ``samples`` and ``first``: the complete samples the window holds
-    (the newest ``window_samples``, in one or more stretches); the last sample
-    is always the newest complete one.
+    (the newest ``window_samples`` from sample ``since`` on, in one or more
+    stretches); the last sample is always the newest complete one.
     """
     if aligner.stretch_last is None:
         return {"window_samples": 0}
     if samples is None or first is None:
-        pieces = aligner.stretches(window_samples)
+        pieces = window_stretches(aligner, window_samples, since=since)
+        if not pieces:
+            return {"window_samples": 0}
         samples, first = sum(p.samples for p in pieces), pieces[0].first
     return {"window_samples": samples, "first_sample": first, "last_sample": aligner.stretch_last}
 
@@ -199,13 +206,29 @@ class UsefulData:
         return reason
 
 
-def useful_data(aligner: SampleAligner, config: PmrConfig) -> UsefulData:
+def window_stretches(aligner: SampleAligner, window_samples: int, *, since: int = 0) -> list[AlignedStretch]:
+    """The window's stretches (the newest ``window_samples`` complete samples), cut to samples ``since`` on.
+
+    ``since``: the first sample of the controller's current model (data before
+    a model switch are diagnosed against the model they ran with, not this one).
+    """
+    out = []
+    for piece in aligner.stretches(window_samples):
+        if piece.last < since:
+            continue
+        cut = max(since - piece.first, 0)
+        out.append(piece if cut == 0 else AlignedStretch(since, piece.r[cut:], piece.u[cut:], piece.y[cut:]))
+    return out
+
+
+def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) -> UsefulData:
     """The stretches of the window (``diagnostician.window_samples``) long enough to add to a diagnosis.
 
     A stretch shorter than the model's settling plus one Welch segment adds
-    nothing to the spectra; it is left out, not an error.
+    nothing to the spectra; it is left out, not an error.  Only samples from
+    ``since`` on count (see :func:`window_stretches`).
     """
-    pieces = aligner.stretches(config.diagnostician.window_samples)
+    pieces = window_stretches(aligner, config.diagnostician.window_samples, since=since)
     data = [Stretch(p.r, p.u, p.y, window_dither(config, p.first, p.samples)) for p in pieces]
     shortest = shortest_useful_stretch(data, model=config.model, pmr=config.pmr, parametric=config.parametric)
     keep = [j for j, d in enumerate(data) if d.samples >= shortest]
@@ -221,7 +244,7 @@ def _without_verdict(kind: str, reason: str, config: PmrConfig, window: dict, st
     return WindowOutcome(kind, diagnosis, reason, window, stamp)
 
 
-def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
+def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) -> WindowOutcome:
     """Diagnose the window's unbroken stretches together, as the diagnostician does.
 
     Parameters
@@ -232,22 +255,25 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig) -> WindowOutcome:
         (``window_samples``: the newest complete samples diagnosed, in one or
         more stretches; ``min_samples``: the fewest samples, in stretches that
         add to the diagnosis, for a verdict).
+    since : int
+        The first sample the controller ran on ``config.model`` (after a model
+        switch): earlier samples are left out.
     """
     window_samples, min_samples = config.diagnostician.window_samples, config.diagnostician.min_samples
     stamp = (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
     stale = aligner.lagging()
     if stale:
-        return _without_verdict(STALE, stale, config, window_info(aligner, window_samples), stamp)
-    data = useful_data(aligner, config)
+        return _without_verdict(STALE, stale, config, window_info(aligner, window_samples, since=since), stamp)
+    data = useful_data(aligner, config, since=since)
     if data.samples < min_samples:
-        return _without_verdict(
-            INSUFFICIENT, data.shortfall(min_samples), config, window_info(aligner, window_samples), stamp
-        )
+        reason = data.shortfall(min_samples) + (f" since the model switch at sample {since}" if since else "")
+        return _without_verdict(INSUFFICIENT, reason, config, window_info(aligner, window_samples, since=since), stamp)
     if not data.stretches:  # one stretch, too short for a Welch segment: the core says why
         diagnosis = diagnose_stretches(
             data.all_stretches, model=config.model, pmr=config.pmr, parametric=config.parametric
         )
-        return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window_info(aligner, window_samples), stamp)
+        window = window_info(aligner, window_samples, since=since)
+        return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)
     diagnosis = diagnose_stretches(
         data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric, quality=config.quality
     )

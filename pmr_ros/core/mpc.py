@@ -22,7 +22,16 @@ it break down) (``statistics`` counts how often).
 Disturbance model (:mod:`pmr_ros.core.disturbance`): every output carries an
 estimated step ``d`` (the DMC/IMC output bias ``y - yhat``), and an integrating
 output a ramp ``d + j p`` as well, so a constant unmeasured input disturbance
-leaves no offset and no ramp on any output.  Shapes
+leaves no offset and no ramp on any output.
+
+Model switch (:meth:`LinearMpc.switched`): a controller on a new model takes
+over at a sample boundary without a bump.  Its QP is built for the new model;
+its model state is the new model driven by the inputs applied so far (the
+newest :data:`HISTORY_TIME_CONSTANTS` slowest time constants plus the longest
+delay of them, which the controller keeps); the last input, the disturbance
+slopes and the prediction of the current output (model output plus step
+estimate) carry over.  At a steady state the new controller therefore makes
+no move at all, whatever the new model.  Shapes
 (:mod:`pmr_ros.core.mpc_design`): extra MVs rest at their input targets
 (``input_target``, weighted by ``input_target_weight``) as far as the
 setpoints allow; with more CVs than MVs the outputs settle at the
@@ -50,7 +59,14 @@ from .mpc_design import (
 )
 from .qp import DenseQp
 
-__all__ = ["LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
+__all__ = ["HISTORY_TIME_CONSTANTS", "LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
+
+HISTORY_TIME_CONSTANTS = 16.0
+"""Applied inputs kept for a model switch: this many of the model's slowest time constants plus its longest delay.
+
+A FOPTD state forgets what came before to ``exp(-16)`` (1e-7); a new model
+twice as slow still to ``exp(-8)``.  An integrating state never forgets, but
+what it missed is a constant, which the carried-over step estimate absorbs."""
 
 
 @dataclass(frozen=True)
@@ -200,6 +216,7 @@ class LinearMpc:
         self._qp = DenseQp(self._hessian, self._constraints)
         self._fallback: osqp.OSQP | None = None  # set up on first need
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
+        self._history = np.zeros((max(model.settling_samples(HISTORY_TIME_CONSTANTS), Np), n_in))
         self.reset()
 
     def _weights(self) -> QpWeights:
@@ -234,6 +251,86 @@ class LinearMpc:
         self._u_prev = np.zeros(self.model.n_inputs)
         self._step = np.zeros(self.model.n_outputs)
         self._slope = np.zeros(self.estimator.n_ramps)
+        self._history[:] = 0.0
+        self._applied = 0  # inputs applied since the reset
+
+    @property
+    def applied_inputs(self) -> np.ndarray:
+        """The inputs applied so far, oldest first, at most the history kept [input unit].
+
+        Returns
+        -------
+        ndarray, shape (min(steps, kept), n_inputs)
+        """
+        kept = self._history.shape[0]
+        if self._applied <= kept:
+            return self._history[: self._applied].copy()
+        return np.roll(self._history, -(self._applied % kept), axis=0)
+
+    def switch_problem(self, model: TransferMatrix) -> str | None:
+        """Why this controller cannot switch to ``model`` (other channels or sample time), or None."""
+        old = self.model
+        if (model.output_names, model.input_names) != (old.output_names, old.input_names):
+            return (
+                f"the new model's channels ({', '.join(model.output_names)}; {', '.join(model.input_names)}) are not "
+                f"the controller's ({', '.join(old.output_names)}; {', '.join(old.input_names)})"
+            )
+        if model.sample_time != old.sample_time:
+            return f"the new model's sample time {model.sample_time:g} is not the controller's {old.sample_time:g}"
+        return None
+
+    def switched(self, model: TransferMatrix) -> LinearMpc:
+        """A controller on ``model``, same tuning, that takes over from this one without a bump.
+
+        Its QP is built for ``model``, then it :meth:`take_over` this one's
+        state.  Call it between two steps: the new controller computes the next
+        sample.
+
+        Parameters
+        ----------
+        model : TransferMatrix
+            The new model; same outputs, inputs and sample time.
+
+        Returns
+        -------
+        LinearMpc
+
+        Raises
+        ------
+        ValueError
+            Other channels or another sample time (:meth:`switch_problem`), or a
+            model the tuning cannot control (a singular QP).
+        """
+        problem = self.switch_problem(model)
+        if problem:
+            raise ValueError(problem)
+        new = LinearMpc(model, self.tuning, always_solve_qp=self.always_solve_qp)
+        new.take_over(self)
+        return new
+
+    def take_over(self, previous: LinearMpc) -> None:
+        """Continue where ``previous`` (same channels) stopped, without a bump.
+
+        The model state becomes this model driven by ``previous``'s
+        :attr:`applied_inputs` from rest; the last input, the slope estimates
+        of the integrating outputs both have, the statistics and the prediction
+        of the current output (model output plus step estimate) carry over, so
+        the innovation of the next measurement is the same for both.
+        """
+        inputs = previous.applied_inputs
+        x = np.zeros(self._A.shape[0])
+        for u in inputs:
+            x = self._ss.advance(x, u)
+        self._x = x
+        self._u_prev = previous._u_prev.copy()
+        held = inputs[-self._history.shape[0] :]
+        self._history[: held.shape[0]] = held
+        self._applied = held.shape[0]
+        step, slope = previous.disturbance
+        self._step = step + (previous.model_output - self.model_output)
+        slopes = dict(zip(previous.estimator.integrating.tolist(), slope, strict=True))
+        self._slope = np.array([slopes.get(int(i), 0.0) for i in self.estimator.integrating])
+        self.statistics = previous.statistics
 
     @property
     def matrices(self) -> MpcMatrices:
@@ -293,6 +390,8 @@ class LinearMpc:
         u, applied = self.apply_move(self._u_prev, move, dither)
         self._x = self.advance_model(self._x, applied)
         self._u_prev = u
+        self._history[self._applied % self._history.shape[0]] = applied
+        self._applied += 1
         return applied
 
     def advance_model(self, x: np.ndarray, applied: np.ndarray) -> np.ndarray:

@@ -37,8 +37,9 @@ from ..ros.flow import ProgressGate, cdr_stamp_ns
 from ..ros.topics import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
-DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates")
-"""Contract keys not replayed by default (a live diagnostician makes its own)."""
+DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates", "proposed_model")
+"""Contract keys not replayed by default (a live diagnostician makes its own).  The controller's
+``active_model`` is replayed like its u: a live diagnostician follows the recorded model switches."""
 
 
 def default_max_ahead() -> int:
@@ -72,7 +73,12 @@ def replayed_topics(bag: Bag, include_outputs: bool = False, namespace: str = "/
 
 
 def samples(bag: Bag, topics: set[str], clock_topic: str) -> Iterator[list[BagMessage]]:
-    """The bag's messages of ``topics`` grouped by sample: each group starts at a clock message."""
+    """The bag's messages of ``topics`` grouped by sample: each group starts at a clock message.
+
+    But the first when messages came before the first clock (the controller's
+    latched ``pmr/active_model``, published at its start): they make a group of
+    their own.
+    """
     group: list[BagMessage] = []
     for message in bag.messages(topics):
         if message.topic == clock_topic and group:
@@ -90,7 +96,7 @@ class BagPlayerNode(Node):
     ----------
     bag : Bag
     include_outputs : bool
-        Also replay /diagnostics and pmr/estimates.
+        Also replay the diagnostician's outputs (diagnostics, pmr/estimates, pmr/proposed_model).
     publish_config : bool
         Publish the recorded run configuration (latched) first.
     max_ahead : int, optional
@@ -223,12 +229,25 @@ class BagPlayerNode(Node):
             pace.wait(count, group[0].log_time_ns)
             for message in group:
                 self._send(message.topic, message.data)
-            self.gate.published(cdr_stamp_ns(group[0].data))
+            stamp = self._sample_stamp(group)
+            if stamp is None:
+                continue  # what came before the first sample (the controller's latched model): no sample
+            self.gate.published(stamp)
             count += 1
             if after_sample is not None:
                 after_sample(count)
         self.wait_for_acks(2.0)
         return count
+
+    def _sample_stamp(self, group: list[BagMessage]) -> int | None:
+        """The stamp of the sample a group of messages is [ns]; None for messages before the first sample.
+
+        Read from the group's first clock or r, u, y message (each opens with its
+        stamp); a latched model topic recorded before the first clock has none.
+        """
+        stamped = {self.clock_topic, *self.signal_topics()}
+        first = next((m for m in group if m.topic in stamped), None)
+        return None if first is None else cdr_stamp_ns(first.data)
 
     def _hold_back(
         self, rate: float | None, spin: Callable[[float], None] | None, should_stop: Callable[[], bool] | None

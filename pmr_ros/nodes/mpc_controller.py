@@ -4,6 +4,15 @@ The controller answers sample k once both y(k) and r(k) have arrived (in
 either order), steps :class:`~pmr_ros.core.mpc.LinearMpc` once per sample in
 index order and publishes u(k) with the same stamp.  In real-time mode a late
 setpoint is replaced by the newest earlier one.
+
+A new model is accepted at runtime as one atomic change of the ``system``
+parameters (``set_parameters_atomically``; the block is ``live`` for this node
+in ``config/parameters.yaml``): validated like a params file, refused with the
+reason in one line when invalid or of other channels or sample time (the
+controller stays on its model), else its QP is built at once and it takes
+over at the next sample without a bump (:meth:`~pmr_ros.core.mpc.LinearMpc.take_over`).
+The active model is published latched on ``pmr/active_model`` at start and at
+every switch, stamped with the first sample it computes.
 """
 
 from __future__ import annotations
@@ -12,13 +21,15 @@ from typing import Any
 
 import numpy as np
 
+from ..config import PmrConfig
 from ..contract.alignment import check_signal, sample_index
 from ..contract.layout import read_signal
+from ..contract.model_topics import active_model_text
 from ..contract.topics import topic
 from ..core.mpc import LinearMpc
 from ..core.prbs import dither_generator
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.convert import signal_message
+from ..ros.convert import signal_message, text_message
 
 NODE_NAME = "mpc_controller"
 
@@ -39,9 +50,43 @@ class MpcControllerNode(ConfiguredNode):
         self._y: dict[int, np.ndarray] = {}
         self._latest_r: np.ndarray | None = None
         self._labels = {"r": f"r on {topic('setpoint').name}", "y": f"y on {topic('measured_output').name}"}
+        self.revision = 0
+        self._pending: LinearMpc | None = None
+        self._model_pub = self.contract_publisher("active_model")
+        self._publish_model(0)
         self._pub = self.contract_publisher("manipulated_input")
         self._r_sub = self.contract_subscription("setpoint", lambda msg: self._on_signal("r", msg))
         self._y_sub = self.contract_subscription("measured_output", lambda msg: self._on_signal("y", msg))
+
+    def check_configuration(self, config: PmrConfig, names: list[str]) -> str | None:
+        """A new model: its QP built now (refused if it cannot be), switched to at the next sample."""
+        problem = self.controller.switch_problem(config.model)
+        if problem:
+            return problem
+        try:
+            candidate = LinearMpc(config.model, self.controller.tuning)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            return f"the controller cannot be built on the new model: {exc}"
+        self._pending = candidate
+        return None
+
+    def on_configuration_changed(self, names: list[str]) -> None:
+        """The new model waits for the next sample boundary (see :meth:`_switch`)."""
+        self.get_logger().info(f"new model accepted ({', '.join(names)}): switching at sample {self.next_sample}")
+
+    def _switch(self, k: int) -> None:
+        """Hand over to the pending controller before computing sample ``k``."""
+        candidate, self._pending = self._pending, None
+        if candidate is None:
+            return
+        candidate.take_over(self.controller)
+        self.controller, self.model = candidate, candidate.model
+        self.revision += 1
+        self._publish_model(k)
+
+    def _publish_model(self, first_sample: int) -> None:
+        text = active_model_text(self.model, first_sample=first_sample, revision=self.revision)
+        self._model_pub.publish(text_message("active_model", text))
 
     def _on_signal(self, signal: str, msg: Any) -> None:
         stamp, names, values = read_signal(msg)
@@ -70,6 +115,7 @@ class MpcControllerNode(ConfiguredNode):
                 self.get_logger().warning(
                     f"samples {self.next_sample}..{k - 1} never completed (r and y); continuing at sample {k}"
                 )
+            self._switch(k)
             dither = None if self.dither is None else self.dither.value(k)
             u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither)
             self.next_sample = k + 1

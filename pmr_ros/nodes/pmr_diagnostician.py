@@ -23,6 +23,15 @@ suspends the verdicts (level ERROR, ``status: conflict``, the window
 restarted) until no such message came for ``diagnostician.stale_timeout_s``.
 In real time, where nobody waits for it, every lost sample is counted and
 reported with its topic and stamps.
+
+With a verdict it closes the loop (:func:`pmr_ros.contract.proposal.close_window`,
+on the worker thread with the diagnosis): the control impact of the mismatches
+goes into the statuses (each element's ``impact.*``, all together
+``impact_all.*``), and when a mismatch verdict stands the corrected model is
+published, latched, on ``pmr/proposed_model``.  It follows the controller's
+model: a new one on ``pmr/active_model`` becomes its own (the same validated
+parameter change as ``set_parameters``) and only samples from the switch on
+are diagnosed against it.
 """
 
 from __future__ import annotations
@@ -34,16 +43,20 @@ from typing import Any
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from rclpy.parameter import Parameter
 
+from ..config import ConfigError, PmrConfig, flatten_parameters
+from ..config.write import system_tree
 from ..contract.alignment import SIGNALS, SampleAligner, sample_index
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
+from ..contract.model_topics import read_active_model
+from ..contract.proposal import ClosedWindow, close_window
 from ..contract.topics import SIGNAL_TOPICS, topic
 from ..contract.windowing import (
     STALE,
     VERDICT,
     Offer,
-    WindowOutcome,
     check_window_memory,
     evaluate_window,
     offer_signal,
@@ -51,8 +64,9 @@ from ..contract.windowing import (
 )
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message
+from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message, text_message
 from ..ros.flow import ProgressReporter, stamp_ns
+from ..ros.parameters import ros_value
 from ..ros.worker import SerialWorker
 
 NODE_NAME = "pmr_diagnostician"
@@ -78,7 +92,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
     progress : ProgressReporter
         Its reports on ``pmr/progress`` (lockstep flow control).
     worker : SerialWorker
-        Runs the diagnoses and publishes the statuses, off the executor's thread.
+        Runs the diagnoses (with the control impact and the proposal) and
+        publishes their results, off the executor's thread.
+    model_since : int
+        The first sample the controller ran on the current model (0 until a switch).
+    last_proposal : str or None
+        The newest proposed model published.
     """
 
     def __init__(self, **kwargs: Any) -> None:
@@ -96,9 +115,13 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
         self._stale_reported: float | None = None
+        self.model_since = 0
+        self.last_proposal: str | None = None
         self.worker = SerialWorker("pmr_diagnosis", self._job_failed)
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
+        self._proposal_pub = self.contract_publisher("proposed_model")
+        self._model_sub = self.contract_subscription("active_model", self._on_active_model)
         self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
         self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
         self._own_timers: list[Any] = []
@@ -143,6 +166,26 @@ class PmrDiagnosticianNode(ConfiguredNode):
             al.max_lag_samples = self.config.diagnostician.max_lag_samples
         self._start_timers()
         self.get_logger().info(f"parameters changed: {', '.join(names)}")
+
+    def _on_active_model(self, msg: Any) -> None:
+        """The controller switched models: take the new one, diagnose only the samples from its first on."""
+        source = f"{self.resolve_topic_name(topic('active_model').name)} of the controller"
+        try:
+            active = read_active_model(msg.data, source)
+        except ConfigError as exc:
+            self._warn(f"ignored: {exc}")
+            return
+        if active.system == system_tree(self.config.model):
+            return
+        flat = flatten_parameters({"system": active.system})
+        result = self.set_parameters_atomically([Parameter(name, value=ros_value(v)) for name, v in flat.items()])
+        if not result.successful:
+            self._warn(f"the controller's model (revision {active.revision}) cannot be followed: {result.reason}")
+            return
+        self.model_since = active.first_sample
+        self.get_logger().info(
+            f"following the controller's model revision {active.revision} from sample {active.first_sample}"
+        )
 
     # -- input ---------------------------------------------------------------
     def _callback(self, signal: str) -> Callable[[Any], None]:
@@ -250,7 +293,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     # -- output --------------------------------------------------------------
     def _window_info(self) -> dict[str, int]:
-        return window_info(self.aligner, self.config.diagnostician.window_samples)
+        return window_info(self.aligner, self.config.diagnostician.window_samples, since=self.model_since)
 
     def _submit_without_verdict(self, reason: str, state: str) -> None:
         window = self._window_info()
@@ -273,11 +316,19 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.last_published = msg
         self._diag_pub.publish(msg)
 
-    def _publish_outcome(self, outcome: WindowOutcome) -> None:
+    def _diagnose(self, snapshot: SampleAligner, config: PmrConfig, since: int) -> None:
+        """The worker's job: diagnose the window, close the loop on a verdict, publish it all."""
+        self._publish_outcome(close_window(evaluate_window(snapshot, config, since=since), config), config)
+
+    def _publish_outcome(self, closed: ClosedWindow, config: PmrConfig) -> None:
+        outcome = closed.outcome
         state = STALE_STATUS if outcome.kind == STALE else None
         self._publish(outcome.diagnosis, outcome.window, outcome.stamp_s, state)
         if outcome.kind == VERDICT:
-            self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, self.config.model.name))
+            self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, config.model.name))
+        if closed.proposal is not None:
+            self.last_proposal = closed.proposal
+            self._proposal_pub.publish(text_message("proposed_model", closed.proposal))
 
     def _republish(self) -> None:
         def again() -> None:
@@ -293,14 +344,16 @@ class PmrDiagnosticianNode(ConfiguredNode):
         """Diagnose the current window (or say why not) and publish the statuses.
 
         The window is copied now; the diagnosis (:func:`pmr_ros.contract.windowing.evaluate_window`,
-        shared with the offline diagnosis of a bag) runs on the worker thread.
+        shared with the offline diagnosis of a bag), its control impact and the
+        proposal (:func:`pmr_ros.contract.proposal.close_window`) run on the
+        worker thread, with the configuration and model switch of this moment.
         """
         conflict = self._active_conflict()
         if conflict is not None:
             self._submit_without_verdict(conflict, CONFLICT)
             return
-        snapshot, config = self.aligner.snapshot(), self.config
-        self.worker.submit(lambda: self._publish_outcome(evaluate_window(snapshot, config)))
+        snapshot, config, since = self.aligner.snapshot(), self.config, self.model_since
+        self.worker.submit(lambda: self._diagnose(snapshot, config, since))
 
     def wait_idle(self, timeout_s: float = 30.0) -> bool:
         """Block until every diagnosis due so far is published (tests); whether it was."""

@@ -40,8 +40,10 @@ class ConfiguredNode(Node):
     executable : str
         The executable whose parameters the node declares (``nodes`` in ``config/parameters.yaml``).
     live_parameters : bool
-        Valid runtime changes are accepted (the diagnostician); otherwise every
-        parameter is read-only (the node built its simulation from them at start).
+        Valid runtime changes are accepted (the diagnostician); otherwise only
+        the parameters whose block lists the executable as ``live`` accept a
+        change (``mpc_controller``: the ``system`` block, a new model), and every
+        other one is read-only (the node built its simulation from them at start).
     sim_time : bool
         The node lives on the plant's clock: ``use_sim_time`` defaults to true
         (a value given explicitly, e.g. ``-p use_sim_time:=false``, is kept),
@@ -75,14 +77,14 @@ class ConfiguredNode(Node):
         except ConfigError:
             Node.destroy_node(self)  # refused at start: nothing left in the graph (not the subclass's, half-built)
             raise
-        if live_parameters:
+        if live_parameters or any(executable in spec.live for spec in node_parameters(executable)):
             self.add_on_set_parameters_callback(self._on_set_parameters)
 
     def _configure(self, executable: str) -> None:
         """Declare the executable's parameters and build :attr:`config` from what was given."""
         self._check_overrides()
         for spec in node_parameters(executable):
-            self._declare(spec, read_only=not self._live_parameters)
+            self._declare(spec, read_only=not (self._live_parameters or executable in spec.live))
         # what was given, as a params file would give it: the declared defaults fill the rest
         self._given = {n: plain_value(p.value) for n, p in self._parameter_overrides.items() if n in self._declared}
         self.config: PmrConfig = self._build(self._current())
@@ -126,10 +128,19 @@ class ConfiguredNode(Node):
         except ConfigError as exc:
             self.get_logger().warning(f"parameter change refused: {exc}")
             return SetParametersResult(successful=False, reason=str(exc))
+        problem = self.check_configuration(config, sorted(ours))
+        if problem:
+            reason = f"{self._source}: {problem}"
+            self.get_logger().warning(f"parameter change refused: {reason}")
+            return SetParametersResult(successful=False, reason=reason)
         self.config = config
         self._given.update(ours)
         self.on_configuration_changed(sorted(ours))
         return SetParametersResult(successful=True)
+
+    def check_configuration(self, config: PmrConfig, names: list[str]) -> str | None:
+        """Hook of live nodes: why ``config`` (valid as a params file) cannot be taken now, in one line, or None."""
+        return None
 
     def on_configuration_changed(self, names: list[str]) -> None:
         """Hook of live nodes: ``self.config`` now holds the new values."""

@@ -22,8 +22,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..contract.layout import CONFLICT, STALE, element_pairs, encode_value, estimate_pairs
+from ..contract.layout import CONFLICT, STALE, diagnosis_pairs, element_pairs, encode_value, estimate_pairs
+from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
+from .topics import message_class
 
 __all__ = [
     "LEVEL_NAMES",
@@ -34,6 +36,7 @@ __all__ = [
     "estimates_message",
     "signal_message",
     "stamp_from_seconds",
+    "text_message",
 ]
 
 LEVEL_NAMES = {
@@ -65,6 +68,11 @@ def signal_message(
     msg.name = list(names)
     msg.position = [float(v) for v in values]
     return msg
+
+
+def text_message(key: str, text: str) -> Any:
+    """A message of contract topic ``key`` whose type is ``std_msgs/String`` (the model topics)."""
+    return message_class(topic(key))(data=text)
 
 
 def clock_message(seconds: float) -> Clock:
@@ -109,7 +117,12 @@ def diagnosis_statuses(
         default: the diagnosis's status (``ok`` or ``insufficient_data``, WARN).
     """
     state = state or diagnosis.status
-    common = {"status": state, "reason": diagnosis.reason, **{k: encode_value(v) for k, v in window.items()}}
+    common = {
+        "status": state,
+        "reason": diagnosis.reason,
+        **{k: encode_value(v) for k, v in window.items()},
+        **diagnosis_pairs(diagnosis),
+    }
     statuses = []
     for name, element in diagnosis.elements.items():
         if state == "ok":

@@ -1,0 +1,121 @@
+"""Closing the loop in the node set: the corrected model re-run, and the live update with its rollback."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pmr_ros.bag.reader import open_bag
+from pmr_ros.cli import main
+from pmr_ros.config import load_config
+from pmr_ros.config.write import system_tree
+from pmr_ros.contract.layout import read_signal
+from pmr_ros.contract.model_topics import read_active_model
+from pmr_ros.contract.topics import topic
+
+WINDOW = 8192
+
+
+def _run(tmp_path: Path, name: str, *args: str) -> dict:
+    out = tmp_path / f"{name}.json"
+    assert main(["run", "--samples", str(WINDOW), "--json", str(out), *args]) == 0
+    return json.loads(out.read_text())
+
+
+def _on_plant(path: Path, truth, seed: int) -> Path:
+    """The written model's file with the true plant as its plant block: new data from the same plant."""
+    doc = yaml.safe_load(path.read_text())
+    params = doc["/**"]["ros__parameters"]
+    plant = system_tree(truth)
+    params["plant"] = {k: plant[k] for k in ("gain", "time_constant", "delay", "element_type")}
+    params["run"] = {**params.get("run", {}), "seed": seed}
+    params["run"].pop("scenario", None)
+    out = path.with_name(f"{path.stem}_on_plant.yaml")
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return out
+
+
+@pytest.mark.parametrize("system", [None, "config/three_by_three.yaml"], ids=["wood_berry", "three_by_three"])
+def test_the_written_model_of_a_node_set_run_rediagnoses_without_mismatch(tmp_path, ros_domain, system):
+    config = load_config(system)
+    truth = config.plant("full")
+    written = tmp_path / "corrected.yaml"
+    first = _run(tmp_path, "first", "--write-model", str(written), *(["--config", system] if system else []))
+    assert first["path"] == "nodes" and any(e["verdict"] == "mismatch" for e in first["elements"].values())
+    corrected = load_config(written).model
+    # within the diagnosis specification of the true plant: dK 3 pp, dtau 5 pp, dD exact
+    np.testing.assert_allclose(corrected.gain / truth.gain, 1.0, atol=0.03)
+    np.testing.assert_allclose(corrected.time_constant / truth.time_constant, 1.0, atol=0.05)
+    np.testing.assert_array_equal(corrected.delay_samples, truth.delay_samples)
+    again = _run(tmp_path, "again", "--config", str(_on_plant(written, truth, seed=7)))
+    assert again["path"] == "nodes"
+    assert [n for n, e in again["elements"].items() if e["verdict"] == "mismatch"] == [], again["elements"]
+
+
+@pytest.mark.parametrize("system", [None, "config/three_by_three.yaml"], ids=["wood_berry", "three_by_three"])
+def test_adapt_finds_the_mismatch_updates_the_controller_and_tracks_better(tmp_path, ros_domain, capsys, system):
+    report = _run(tmp_path, "adapt", "--adapt", *(["--config", system] if system else []))
+    adaptation = report["adaptation"]
+    before = adaptation["before"]["elements"]
+    assert all(e["verdict"] == "mismatch" for e in before.values() if e["model"]["kind"] != "none")
+    assert {c["element"] for c in adaptation["changes"]} == set(before)
+    assert adaptation["before_window"] == [0, WINDOW - 1]
+    assert adaptation["after_window"][0] >= adaptation["switch_sample"] > WINDOW - 1
+    assert [n for n, e in report["elements"].items() if e["verdict"] == "mismatch"] == [], report["elements"]
+    tracking = adaptation["tracking"]
+    assert tracking["after"]["ise_per_sample"] < tracking["before"]["ise_per_sample"]
+    assert not adaptation["worse"] and not adaptation["rolled_back"]
+    truth = load_config(system).plant("full")
+    updated = {c["element"]: c["after"] for c in adaptation["changes"]}
+    for j, name in enumerate(truth.element_names()):
+        i, k = divmod(j, truth.n_inputs)
+        np.testing.assert_allclose(updated[name]["gain"] / truth.gain[i, k], 1.0, atol=0.03)
+        assert updated[name]["delay_samples"] == truth.delay_samples[i, k]
+    printed = capsys.readouterr().out
+    assert "live model update (--adapt)" in printed and "the update stays" in printed
+
+
+def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
+    from pmr_ros.commands.adapt import adapted_report, run_adapted
+    from pmr_ros.node_set import NodeSetOptions, run_node_set
+
+    config = load_config(overrides={"run": {"samples": WINDOW}})
+
+    def wrong(block: dict) -> dict:
+        """The proposal with every gain 40 % low: a deliberately wrong model."""
+        return {**block, "gain": [0.6 * g for g in block["gain"]]}
+
+    def options(**kwargs):
+        return NodeSetOptions(private=True, **kwargs)
+
+    _, adapter = run_adapted(config, options, run_node_set, proposal_filter=wrong)
+    final, adaptation = adapted_report(adapter)
+    assert adaptation["worse"] and adaptation["rolled_back"]
+    assert "a larger mismatch" in " ".join(adaptation["reasons"])
+    assert adaptation["rollback_sample"] > adaptation["after_window"][1]
+    assert any(e.verdict == "mismatch" for e in final)  # the wrong model's verdicts, reported
+    # the controller is back on the model it started with
+    assert adapter.models[-1][1] == system_tree(config.model) and len(adapter.models) == 3
+
+
+def test_adapt_in_a_namespace_updates_that_sets_controller_and_records_its_model_topics(tmp_path, ros_domain):
+    bag = tmp_path / "adapted"
+    report = _run(tmp_path, "adapt_ns", "--adapt", "--namespace", "column_a", "--bag", str(bag))
+    adaptation = report["adaptation"]
+    assert adaptation["switch_sample"] > WINDOW - 1 and not adaptation["worse"] and not adaptation["rolled_back"]
+    recorded = open_bag(bag)
+    assert recorded.topics and all(name.startswith("/column_a/") for name in recorded.topics), recorded.topics
+    on_wire = recorded.messages({topic("active_model").resolved("/column_a")})
+    models = [read_active_model(recorded.decode(m).data, "bag") for m in on_wire]
+    assert [m.revision for m in models] == [0, 1] and models[1].first_sample == adaptation["switch_sample"]
+    proposals = [recorded.decode(m).data for m in recorded.messages({topic("proposed_model").resolved("/column_a")})]
+    assert proposals and "(samples 0..8191)" in proposals[0]
+    # the recording covers the whole adapted run (3 windows), every sample of y
+    y = [
+        read_signal(recorded.decode(m))[0] for m in recorded.messages({topic("measured_output").resolved("/column_a")})
+    ]
+    assert [round(stamp) for stamp in y] == list(range(3 * WINDOW))
