@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from pmr_ros.bag.offline import diagnose_bag
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
@@ -119,3 +120,10 @@ def test_adapt_in_a_namespace_updates_that_sets_controller_and_records_its_model
         read_signal(recorded.decode(m))[0] for m in recorded.messages({topic("measured_output").resolved("/column_a")})
     ]
     assert [round(stamp) for stamp in y] == list(range(3 * WINDOW))
+    # offline, the bag is diagnosed as the live diagnostician did: against the model the controller switched to,
+    # on the samples from the switch on
+    offline = diagnose_bag(recorded)
+    assert offline.comparisons and offline.all_equal, offline.comparisons
+    final = offline.final_diagnosis
+    assert {e.name: e.verdict for e in final} == {n: e["verdict"] for n, e in report["elements"].items()}
+    assert not any(e.verdict == "mismatch" for e in final)

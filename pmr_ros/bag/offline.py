@@ -15,10 +15,12 @@ from collections import Counter
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..config import PmrConfig, load_config, parse_config
+from ..config import ConfigError, PmrConfig, load_config, parse_config
 from ..config.schema import parameter
+from ..config.write import system_tree
 from ..contract.alignment import SIGNALS, AddResult, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
+from ..contract.model_topics import read_active_model
 from ..contract.proposal import close_diagnosis
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
@@ -295,6 +297,8 @@ class _Replay:
         self.warnings: list[str] = []
         self.counts = dict.fromkeys(SIGNALS, 0)
         self.drops = DropCounts()
+        self.model_since = 0
+        """The first sample of the model the controller ran on last (after a recorded model switch)."""
 
     def offer(self, signal: str, message: Any) -> None:
         """One recorded message of ``signal`` (decoded)."""
@@ -312,9 +316,22 @@ class _Replay:
         self.drops.note(self.labels[signal], offer.result)
         if offer.newly_lagging:
             self.warnings.append(offer.newly_lagging)
-            self.outcomes.append(evaluate_window(self.aligner, self.config))
+            self.outcomes.append(evaluate_window(self.aligner, self.config, since=self.model_since))
         if offer.update_due:
-            self.outcomes.append(evaluate_window(self.aligner, self.config))
+            self.outcomes.append(evaluate_window(self.aligner, self.config, since=self.model_since))
+
+    def follow(self, text: str, source: str) -> None:
+        """A recorded ``pmr/active_model``: as the live diagnostician, diagnose against it from its first sample on."""
+        try:
+            active = read_active_model(text, source)
+            if active.system == system_tree(self.config.model):
+                return
+            model = parse_config({**self.config.parameters, "system": active.system}, source).model
+        except ConfigError as exc:
+            self.warnings.append(f"ignored: {exc}")
+            return
+        self.config = replace(self.config, model=model)
+        self.model_since = active.first_sample
 
     def finish(self) -> bool:
         """Diagnose the window at the end of the data if no update fell on it; whether one was added."""
@@ -322,7 +339,7 @@ class _Replay:
         if last is None or (self.outcomes and self.outcomes[-1].window.get("last_sample") == last):
             return False
         # The data end between two updates (a killed recording, a short bag): diagnose what there is, too.
-        self.outcomes.append(evaluate_window(self.aligner, self.config))
+        self.outcomes.append(evaluate_window(self.aligner, self.config, since=self.model_since))
         return True
 
 
@@ -330,8 +347,12 @@ def _replay(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
     """Feed the r, u, y of the node set in ``namespace`` through the live diagnostician's aligner and schedule."""
     replay = _Replay(config, namespace)
     by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
-    for message in bag.messages(set(by_topic)):
-        replay.offer(by_topic[message.topic], bag.decode(message))
+    models = topic("active_model").resolved(namespace)
+    for message in bag.messages({*by_topic, models}):
+        if message.topic == models:
+            replay.follow(bag.decode(message).data, f"{models} in {bag.path}")
+        else:
+            replay.offer(by_topic[message.topic], bag.decode(message))
     return replay
 
 
