@@ -20,7 +20,7 @@ from ..config.schema import parameter
 from ..config.write import system_tree
 from ..contract.alignment import SIGNALS, AddResult, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
-from ..contract.model_topics import read_active_model
+from ..contract.model_topics import read_active_model, with_system
 from ..contract.proposal import close_diagnosis
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
@@ -326,7 +326,8 @@ class _Replay:
             active = read_active_model(text, source)
             if active.system == system_tree(self.config.model):
                 return
-            model = parse_config({**self.config.parameters, "system": active.system}, source).model
+            # the model alone: the judged settings (method, --min-samples) stay as they are
+            model = with_system(self.config, active.system, source).model
         except ConfigError as exc:
             self.warnings.append(f"ignored: {exc}")
             return
