@@ -310,7 +310,9 @@ def test_an_interaction_is_judged_by_its_share_of_the_row_with_the_search_counte
     settings = _settings()
     # 3.5 sd from zero: beyond a single 95 % interval, not beyond the Bonferroni level of 30 candidates
     assert interaction_verdict(3.5 * 2.0, 2.0, candidates=1, settings=settings) == "mismatch"
-    assert interaction_verdict(3.0 * 2.0, 2.0, candidates=30, settings=settings) == "ok"
+    # not a mismatch at the Bonferroni level, and its plain interval [2.1, 9.9] holds shares beyond 2 x 3 %
+    assert interaction_verdict(3.0 * 2.0, 2.0, candidates=30, settings=settings) == "inconclusive"
+    assert interaction_verdict(1.0, 2.0, candidates=30, settings=settings) == "ok"  # [-2.9, 4.9]: within 2 x 3 %
     assert interaction_verdict(2.0, 0.2, candidates=30, settings=settings) == "ok"  # certain but below 3 %
     assert interaction_verdict(1.0, 20.0, candidates=30, settings=settings) == "inconclusive"
     lag = _lag_column()

@@ -23,6 +23,9 @@ from pmr_ros.core.stretch import Stretch
 
 SEEDS = tuple(range(1, 7))
 SAMPLES = 8192
+CASE_SAMPLES = {"saturation": SAMPLES, "disturbance": 2 * SAMPLES}
+"""Per case: the slow disturbance needs the benchmark's longer record for its intervals to rule out twice the
+tolerance in most elements (at 8,192 samples 41 % of the no-mismatch elements stay inconclusive, 20 seeds)."""
 
 
 def _bench():
@@ -44,7 +47,7 @@ def studies(wood_berry):
     for case in ("saturation", "disturbance"):
         config = bench.case_config(case, wood_berry)
         for scenario in ("none", "full"):
-            out[case, scenario] = bench.run_case(config, scenario, SEEDS, SAMPLES)
+            out[case, scenario] = bench.run_case(config, scenario, SEEDS, CASE_SAMPLES[case])
     return out
 
 

@@ -36,6 +36,10 @@ class ParametricSettings:
     max_interval_pct : float
         An interval wider than +/- this [percentage points] cannot support a
         verdict: the parameter is inconclusive.
+    ok_band_factor : float
+        A parameter is ``ok`` only when its interval lies within +/- this
+        times its tolerance: an interval that cannot rule out a change of
+        (by default) twice the tolerance is inconclusive, not a confident ok.
     delay_confidence_min : float
         The delay verdict needs this confidence; below it, inconclusive.
     coherence_min : float
@@ -72,6 +76,7 @@ class ParametricSettings:
     gain_tolerance_pct: float
     tau_tolerance_pct: float
     max_interval_pct: float
+    ok_band_factor: float
     delay_confidence_min: float
     coherence_min: float
     excitation_min: float

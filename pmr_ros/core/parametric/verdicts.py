@@ -3,8 +3,9 @@
 Three rules, each its own function so that each can be hardened alone:
 
 * :func:`parameter_verdict`: a parameter is ``mismatch`` when its interval
-  excludes zero and the estimate exceeds the practical tolerance,
-  ``inconclusive`` when the interval is too wide, else ``ok``;
+  excludes zero and the estimate exceeds the practical tolerance, ``ok`` when
+  its interval lies within ``parametric.ok_band_factor`` (2) tolerances of
+  zero, else ``inconclusive`` (:func:`undecided_reason` says why);
 * :func:`trust_reasons`: numbers that cannot be trusted whatever their
   intervals -- a delay at the edge of its search range (the true one may lie
   beyond, and the gain and time constant then bend to mimic it), or a fit
@@ -42,18 +43,30 @@ __all__ = [
     "search_candidates",
     "separation_reason",
     "trust_reasons",
+    "undecided_reason",
 ]
 
 TEMPLATE_SHAPES = 2
 """Effectively independent template time constants counted per delay candidate in the Bonferroni bound."""
 
 
-def parameter_verdict(value: float, interval: tuple[float, float], *, tolerance: float, max_halfwidth: float) -> str:
+def parameter_verdict(
+    value: float,
+    interval: tuple[float, float],
+    *,
+    tolerance: float,
+    ok_band_factor: float,
+    max_halfwidth: float,
+    ok_interval: tuple[float, float] | None = None,
+) -> str:
     """The verdict of one parameter.
 
     ``mismatch`` when the interval excludes zero *and* the estimate exceeds the
-    practical tolerance; else ``inconclusive`` when the interval is wider than
-    ``+/- max_halfwidth``; else ``ok``.
+    practical tolerance; ``ok`` when the interval lies within
+    ``+/- ok_band_factor x tolerance`` and is no wider than ``+/- max_halfwidth``
+    (it rules out a change large enough to matter); else ``inconclusive``.  An
+    ``ok`` whose interval still holds a change of twice the tolerance would be
+    confidently wrong whenever that change is the truth.
 
     Parameters
     ----------
@@ -61,15 +74,57 @@ def parameter_verdict(value: float, interval: tuple[float, float], *, tolerance:
         The estimate [%].
     interval : (float, float)
         Its confidence interval [%].
-    tolerance, max_halfwidth : float
-        [%] and [percentage points].
+    tolerance : float
+        Practical tolerance [%].
+    ok_band_factor : float
+        ``ok`` needs the interval within this many tolerances of zero.
+    max_halfwidth : float
+        [percentage points].
+    ok_interval : (float, float), optional
+        The interval the ``ok`` rule reads, when it is not ``interval``: an
+        empty cell's search over templates widens the interval that tests for a
+        mismatch (the best of many candidates), not the one that bounds its size.
+
+    Examples
+    --------
+    >>> parameter_verdict(4.0, (-1.0, 9.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
+    'inconclusive'
+    >>> parameter_verdict(1.0, (-2.0, 4.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
+    'ok'
     """
     low, high = interval
     if (low > 0 or high < 0) and abs(value) > tolerance:
         return "mismatch"
-    if (high - low) / 2.0 > max_halfwidth:
-        return "inconclusive"
-    return "ok"
+    ok_low, ok_high = interval if ok_interval is None else ok_interval
+    band = ok_band_factor * tolerance
+    if -band <= ok_low and ok_high <= band and (high - low) / 2.0 <= max_halfwidth:
+        return "ok"
+    return "inconclusive"
+
+
+def undecided_reason(
+    label: str, interval: tuple[float, float], *, tolerance: float, settings: ParametricSettings
+) -> str:
+    """Why a parameter whose verdict is ``inconclusive`` by :func:`parameter_verdict` is so, in words.
+
+    Parameters
+    ----------
+    label : str
+        The parameter, e.g. ``"gain"``.
+    interval : (float, float)
+        Its confidence interval [%].
+    tolerance : float
+        Its practical tolerance [%].
+    """
+    low, high = interval
+    text = f"{label} interval [{low:+.1f}, {high:+.1f}] %"
+    if (high - low) / 2.0 > settings.max_interval_pct:
+        return f"{text} too wide (> ±{settings.max_interval_pct:g} pp)"
+    band = settings.ok_band_factor * tolerance
+    return (
+        f"{text} holds both no change and one beyond ±{band:g} % ({settings.ok_band_factor:g}x the tolerance): "
+        "more data or excitation to decide"
+    )
 
 
 def delay_confidence(profile: Mapping[int, float], chosen: int, scale: float) -> float:
@@ -217,7 +272,11 @@ def _tau(
     low, high = _mixture(fit, c, settings, tau=True)
     interval = (100.0 * math.expm1(low), 100.0 * math.expm1(high))
     verdict = parameter_verdict(
-        tau, interval, tolerance=settings.tau_tolerance_pct, max_halfwidth=settings.max_interval_pct
+        tau,
+        interval,
+        tolerance=settings.tau_tolerance_pct,
+        ok_band_factor=settings.ok_band_factor,
+        max_halfwidth=settings.max_interval_pct,
     )
     return tau, interval, verdict
 
@@ -240,14 +299,21 @@ def element_result(
     low, high = _mixture(fit, c, settings, tau=False)
     gain_interval = (100.0 * (low - 1.0), 100.0 * (high - 1.0))
     gain_verdict = parameter_verdict(
-        gain, gain_interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
+        gain,
+        gain_interval,
+        tolerance=settings.gain_tolerance_pct,
+        ok_band_factor=settings.ok_band_factor,
+        max_halfwidth=settings.max_interval_pct,
     )
     tau, tau_interval, tau_verdict = _tau(fit, c, settings)
     delay, confidence, delay_verdict = _delay(fit, c, settings)
     reasons = [] if delay_verdict != "inconclusive" else [f"delay uncertain (confidence {100 * confidence:.0f} %)"]
-    for label, verdict, interval in (("gain", gain_verdict, gain_interval), ("τ", tau_verdict, tau_interval)):
+    for label, verdict, interval, tolerance in (
+        ("gain", gain_verdict, gain_interval, settings.gain_tolerance_pct),
+        ("τ", tau_verdict, tau_interval, settings.tau_tolerance_pct),
+    ):
         if verdict == "inconclusive" and interval is not None:
-            reasons.append(f"{label} interval [{interval[0]:+.1f}, {interval[1]:+.1f}] % too wide")
+            reasons.append(undecided_reason(label, interval, tolerance=tolerance, settings=settings))
     distrust = trust_reasons(fit, c, settings)
     if distrust:
         gain_verdict, delay_verdict = "inconclusive", "inconclusive"
@@ -288,8 +354,14 @@ def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, set
     """
     z = float(norm.ppf(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
     interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
+    z_one = _z(settings)
     return parameter_verdict(
-        share_pct, interval, tolerance=settings.gain_tolerance_pct, max_halfwidth=settings.max_interval_pct
+        share_pct,
+        interval,
+        tolerance=settings.gain_tolerance_pct,
+        ok_band_factor=settings.ok_band_factor,
+        max_halfwidth=settings.max_interval_pct,
+        ok_interval=(share_pct - z_one * sd_pct, share_pct + z_one * sd_pct),
     )
 
 
@@ -319,7 +391,11 @@ def interaction_result(
     if reasons:
         verdict = "inconclusive"
     elif verdict == "inconclusive":
-        reasons.append(f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: too uncertain")
+        band = settings.ok_band_factor * settings.gain_tolerance_pct
+        reasons.append(
+            f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: cannot rule out one "
+            f"beyond ±{band:g} % ({settings.ok_band_factor:g}x the gain tolerance)"
+        )
     if verdict == "mismatch" and confidence < settings.delay_confidence_min:
         warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
     return ParametricResult(
