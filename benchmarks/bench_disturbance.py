@@ -13,7 +13,8 @@ mismatch (``run.scenario`` full / none):
 Printed per case, over the seeds: the parametric method's confidently-wrong share of element
 diagnoses (a ``mismatch`` on a parameter that did not change, ``ok`` on one that changed by more
 than twice its tolerance, or a mismatch of the wrong sign), the coverage of its 95 % intervals
-(gain and time constant of the elements that are not inconclusive), the inconclusive share of the
+(gain and time constant of the elements that are not inconclusive, and of all elements with numbers),
+the inconclusive share of the
 elements, and the classic method's false-alarm rate (a flag on a property that did not change) and
 miss rate; then the data-quality figures (the saturated share of u1, the low-frequency ratio of each
 output's residual) and how often their warnings appeared.  The test ``test/test_disturbance.py``
@@ -92,6 +93,9 @@ class Score:
         Parametric element diagnoses that are inconclusive.
     covered, intervals : int
         Gain and time-constant intervals of conclusive elements that hold the truth, and how many there were.
+    covered_all, intervals_all : int
+        The same over every element with numbers, inconclusive or not: the intervals' own calibration, which
+        the conclusive ones alone do not show (a decisive verdict is selected by its interval).
     classic_false_alarms, classic_unchanged : int
         Classic flags on properties that did not change, and how many such properties there were.
     classic_misses, classic_changed : int
@@ -106,6 +110,8 @@ class Score:
     inconclusive: int = 0
     covered: int = 0
     intervals: int = 0
+    covered_all: int = 0
+    intervals_all: int = 0
     classic_false_alarms: int = 0
     classic_unchanged: int = 0
     classic_misses: int = 0
@@ -114,7 +120,15 @@ class Score:
 
     def add(self, other: Score) -> None:
         """Add ``other``'s counts to these."""
-        for name in ("elements", "confidently_wrong", "inconclusive", "covered", "intervals"):
+        for name in (
+            "elements",
+            "confidently_wrong",
+            "inconclusive",
+            "covered",
+            "intervals",
+            "covered_all",
+            "intervals_all",
+        ):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         for name in ("classic_false_alarms", "classic_unchanged", "classic_misses", "classic_changed"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
@@ -155,7 +169,7 @@ def score_parametric(diagnosis: Diagnosis, truth: Mismatch, *, gain_tolerance: f
         score.elements += 1
         for key in WARNING_KEYS:
             score.warnings[key] = score.warnings.get(key, 0) + int(any(key in w for w in e.warnings))
-        if p is None or e.verdict == "inconclusive":
+        if p is None:
             score.inconclusive += 1
             continue
         dk, dt, dd = (
@@ -163,6 +177,13 @@ def score_parametric(diagnosis: Diagnosis, truth: Mismatch, *, gain_tolerance: f
             float(truth.time_constant_pct[e.row, e.column]),
             int(truth.delay_samples[e.row, e.column]),
         )
+        for interval, change in ((p.gain_mismatch_pct_interval, dk), (p.tau_mismatch_pct_interval, dt)):
+            if interval is not None:
+                score.intervals_all += 1
+                score.covered_all += int(_covers(interval, change))
+        if e.verdict == "inconclusive":
+            score.inconclusive += 1
+            continue
         wrong = _wrong(p.gain_verdict, p.gain_mismatch_pct, dk, gain_tolerance)
         wrong |= _wrong(p.tau_verdict, p.tau_mismatch_pct, dt, tau_tolerance)
         wrong |= p.delay_verdict in ("ok", "mismatch") and p.delay_mismatch_samples != dd
@@ -276,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{args.samples} samples, Wood-Berry, parametric method (classic flags beside it)"
     )
     head = (
-        f"{'case':12s} {'scenario':8s} {'conf. wrong':>11s} {'coverage':>9s} {'inconcl.':>9s} "
+        f"{'case':12s} {'scenario':8s} {'conf. wrong':>11s} {'coverage':>9s} {'(all)':>7s} {'inconcl.':>9s} "
         f"{'classic false alarms':>21s} {'classic misses':>15s} {'warned: limit / low-freq':>25s}  time"
     )
     print(head)
@@ -289,7 +310,8 @@ def main(argv: list[str] | None = None) -> int:
             warned = " / ".join(_pct(s.warnings.get(k, 0), s.elements) for k in WARNING_KEYS)
             print(
                 f"{case:12s} {scenario:8s} {_pct(s.confidently_wrong, s.elements):>11s} "
-                f"{_pct(s.covered, s.intervals):>9s} {_pct(s.inconclusive, s.elements):>9s} "
+                f"{_pct(s.covered, s.intervals):>9s} {_pct(s.covered_all, s.intervals_all):>7s} "
+                f"{_pct(s.inconclusive, s.elements):>9s} "
                 f"{_pct(s.classic_false_alarms, s.classic_unchanged):>21s} "
                 f"{_pct(s.classic_misses, s.classic_changed):>15s} {warned:>25s}  {elapsed:.0f} s"
             )

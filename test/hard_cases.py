@@ -163,6 +163,8 @@ class Score:
     inconclusive : int
     intervals, covered : int
         Intervals of parameters that are not inconclusive, and those that cover the truth.
+    intervals_all, covered_all : int
+        The same over every parameter with an interval, inconclusive or not (the intervals' own calibration).
     wrong_examples : list of str
     """
 
@@ -171,6 +173,8 @@ class Score:
     inconclusive: int = 0
     intervals: int = 0
     covered: int = 0
+    intervals_all: int = 0
+    covered_all: int = 0
     wrong_examples: list = field(default_factory=list)
 
     def add(self, other: Score) -> None:
@@ -180,6 +184,8 @@ class Score:
         self.inconclusive += other.inconclusive
         self.intervals += other.intervals
         self.covered += other.covered
+        self.intervals_all += other.intervals_all
+        self.covered_all += other.covered_all
         self.wrong_examples.extend(other.wrong_examples)
 
 
@@ -194,6 +200,9 @@ def _parameter(score: Score, label: str, verdict: str | None, estimate, interval
     if verdict is None:
         return
     score.verdicts += 1
+    if interval is not None:
+        score.intervals_all += 1
+        score.covered_all += int(interval[0] <= truth <= interval[1])
     if verdict == "inconclusive":
         score.inconclusive += 1
         return

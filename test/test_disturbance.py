@@ -160,6 +160,23 @@ def test_score_counts_confidently_wrong_verdicts_coverage_and_classic_false_alar
     diagnosis = Diagnosis("parametric", "ok", "", 100, elements)
     p = bench.score_parametric(diagnosis, truth, gain_tolerance=3.0, tau_tolerance=5.0)
     assert (p.elements, p.confidently_wrong, p.inconclusive, p.covered, p.intervals) == (2, 1, 0, 3, 4)
+    assert (p.covered_all, p.intervals_all) == (3, 4)
+    # G12 inconclusive: left out of the conclusive coverage, still in the coverage of all intervals
+    undecided = replace(elements["G12"], parametric=replace(elements["G12"].parametric, gain_verdict="inconclusive"))
+    q = bench.score_parametric(
+        Diagnosis("parametric", "ok", "", 100, {**elements, "G12": undecided}),
+        truth,
+        gain_tolerance=3.0,
+        tau_tolerance=5.0,
+    )
+    assert (q.inconclusive, q.confidently_wrong, q.covered, q.intervals, q.covered_all, q.intervals_all) == (
+        1,
+        0,
+        2,
+        2,
+        3,
+        4,
+    )
     c = bench.score_classic(diagnosis, truth, gain_tolerance=3.0, tau_tolerance=5.0)
     # unchanged: G11 tau, G11 delay, G12 gain -> the gain flag on G12 is a false alarm; changed beyond 2 x tolerance:
     # G11 gain (flagged), G12 delay (not flagged: a miss); G12's tau moved 8 % < 10 %: neither
