@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
-from scipy.signal import csd
+from hard_cases import SKOGESTAD_LV
+from scipy.signal import csd, freqz
 
 from pmr_ros.config import load_config
 from pmr_ros.core.classic import gain_bin
+from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.delay import hamon_hannan_delay, search_limit_reason
 from pmr_ros.core.implicit import implicit_row, instrument_factor, row_layout
 from pmr_ros.core.model import TransferMatrix
 from pmr_ros.core.parametric import ParametricSettings
-from pmr_ros.core.parametric.fit import RowFit, column_models, interaction_delay_range
+from pmr_ros.core.parametric.fit import RowData, RowFit, column_models, interaction_delay_range, leakage_offset
 from pmr_ros.core.parametric.guard import fitted_bins
 from pmr_ros.core.parametric.lsq import RowParameters, RowProblem
 from pmr_ros.core.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
@@ -392,3 +395,71 @@ def test_complex_products_from_real_ones_equal_numpy():
     b = rng.standard_normal((7, 5, 4)) + 1j * rng.standard_normal((7, 5, 4))
     np.testing.assert_allclose(hermitian_product(a, b), np.conj(np.swapaxes(a, 1, 2)) @ b, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(product(np.swapaxes(a, 1, 2), b), np.swapaxes(a, 1, 2) @ b, rtol=1e-12, atol=1e-12)
+
+
+# -- the Welch segments' leakage --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("kind", "pole_model", "reference", "delay"),
+    [
+        ("ratio", math.exp(-1 / 15), 15.0, 2),
+        ("ratio", math.exp(-1 / 8), 8.0, -1),
+        ("lag", 0.0, 6.0, 3),
+        ("delay", 0.0, 1.0, 1),
+    ],
+)
+def test_a_columns_time_domain_response_is_its_coefficient(kind, pole_model, reference, delay):
+    """``ColumnModel.response`` has the frequency response ``lin shape(w) z^-d`` (scipy.signal.freqz)."""
+    column = ColumnModel(kind, pole_model, reference, (-3.0, 3.0), (-3, 5), False)
+    impulse = np.zeros(2048)
+    impulse[64] = 1.0
+    response = column.response(impulse, lin=1.3, s=0.2, delay=delay)
+    omega = np.linspace(0.01, 3.0, 40)
+    _, measured = freqz(response, worN=omega)
+    _, reference_impulse = freqz(impulse, worN=omega)
+    shape, _ = column.shapes(np.exp(-1j * omega), np.array([0.2]))
+    expected = 1.3 * shape[0] * np.exp(-1j * omega) ** delay
+    np.testing.assert_allclose(measured / reference_impulse, expected, rtol=1e-9, atol=1e-9)
+    # started at steady state: a constant input gives the coefficient's gain at once
+    step = column.response(np.ones((50, 2)), lin=1.3, s=0.2, delay=delay)
+    np.testing.assert_allclose(step, 1.3, rtol=1e-12)
+
+
+def test_instrument_cross_of_the_regressors_themselves_is_the_rows_spectra(wood_berry):
+    record = simulate(wood_berry, samples=4096, seed=2)
+    spectra = record_spectra([Stretch(record.r, record.u, record.y)], wood_berry.model, WelchSettings("hann", 256, 0.5))
+    for i in range(2):
+        np.testing.assert_allclose(spectra.instrument_cross(i, lambda x: x), spectra.row(i).zx, rtol=1e-12, atol=1e-14)
+
+
+def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_without_noise():
+    """Noise-free, ``S_zy - offset = sum_k theta_k S_zx_k`` at the truth.
+
+    Without the offset the segments' edges leave a residual (the leakage) that biased an ill-conditioned
+    column's ratios by one to two deviations.
+    """
+    config = SKOGESTAD_LV.config()
+    config = replace(config, noise_std=np.zeros_like(config.noise_std))
+    record = simulate(config, samples=8192, seed=1, scenario="full")
+    welch = config.parametric.welch(config.model, 8192, config.pmr)
+    spectra = record_spectra([Stretch(record.r, record.u, record.y)], config.model, welch)
+    factor = instrument_factor(spectra.rr)
+    layout = row_layout(config.model, 0, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
+    row = spectra.row(0)
+    bins = np.arange(1, 60)
+    data = RowData(row, factor, layout.columns, bins, spectra.omega, spectra.equivalent_segments, 1.0, spectra, 0)
+    columns = column_models(config.model, layout, max_delay_samples=config.pmr.max_delay_samples)
+    truth = config.mismatch.for_scenario("full")
+    params = RowParameters(
+        1.0 + truth.gain_pct[0] / 100.0, np.log1p(truth.time_constant_pct[0] / 100.0), truth.delay_samples[0].copy()
+    )
+    problem = RowProblem(data.system(np.zeros((spectra.omega.size, 2), dtype=complex)), columns)
+    theta = problem.coefficients(params, np.exp(-1j * spectra.omega)).theta
+    product = np.einsum("fzk,fk->fz", row.zx[:, :, layout.columns], theta)
+    scale = np.abs(row.zy[bins]).max()
+    leakage = np.abs(row.zy[bins] - product[bins]).max() / scale
+    offset = leakage_offset(data, problem, params)
+    left = np.abs(row.zy[bins] - offset[bins] - product[bins]).max() / scale
+    assert leakage > 1e-3  # what the fit saw before
+    assert left < 1e-3 * leakage

@@ -2,7 +2,8 @@
 
 A reduced run of ``benchmarks/bench_hard_cases.py`` (which prints the full
 figures over 20 seeds): on the Ogunnaike-Ray column, whose MPC moves u1 and
-u2 together, and on a model with a ~0 gain, the confidently wrong parameter
+u2 together, on the ill-conditioned Skogestad LV column and on a model with a
+~0 gain, the confidently wrong parameter
 verdicts stay within a 5 % rate and the intervals of the decisive ones cover
 the truth at a 90 % rate (binomial bounds, test/binomial.py).  On Wood-Berry
 with the paper's mismatch every verdict stays decisive and right.
@@ -10,6 +11,7 @@ with the paper's mismatch every verdict stays decisive and right.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from binomial import max_failures, min_successes
 from hard_cases import CASES, Score, run, score
@@ -20,7 +22,7 @@ from pmr_ros.core.diagnosis import diagnose
 SEEDS = range(1, 5)
 
 
-@pytest.mark.parametrize("name", ["ogunnaike_ray", "near_zero_gain"])
+@pytest.mark.parametrize("name", ["ogunnaike_ray", "skogestad_lv", "near_zero_gain"])
 @pytest.mark.parametrize("mismatch", [False, True], ids=["none", "full"])
 def test_no_confidently_wrong_verdicts_and_calibrated_intervals_on_hard_cases(name, mismatch):
     case = CASES[name]
@@ -79,3 +81,26 @@ def test_wood_berry_full_scenario_verdicts_stay_decisive_and_right(wood_berry):
                 "mismatch" if truth.delay_samples[i, k] else "ok",
             ), (seed, element.name)
             assert p.delay_mismatch_samples == truth.delay_samples[i, k]
+
+
+def test_the_lv_columns_estimates_are_not_biased_by_the_welch_segments_leakage():
+    """The LV column's row 1 is not biased by the Welch segments' leakage.
+
+    Every parameter was 0.6-1.4 pp low (one to two deviations; coverage 83 %) before the leakage
+    correction (parametric.fit.leakage_offset); the mean error in deviations is now small.
+    """
+    case = CASES["skogestad_lv"]
+    config = case.config()
+    truth = config.mismatch.for_scenario("full")
+    errors = []
+    for seed in range(1, 7):
+        diagnosis = run(case, seed, mismatch=True, config=config)
+        for name in ("G11", "G12"):
+            p, k = diagnosis.elements[name].parametric, diagnosis.elements[name].column
+            for value, interval, injected in (
+                (p.gain_mismatch_pct, p.gain_mismatch_pct_interval, truth.gain_pct[0, k]),
+                (p.tau_mismatch_pct, p.tau_mismatch_pct_interval, truth.time_constant_pct[0, k]),
+            ):
+                errors.append((value - injected) / ((interval[1] - interval[0]) / 3.92))
+    # 24 errors in deviations, correlated within a seed: their mean was -1.4 before, about -0.35 after
+    assert abs(np.mean(errors)) < 0.8, np.round(errors, 2)

@@ -45,7 +45,7 @@ interaction on an integrating output is taken to integrate as well.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -320,19 +320,41 @@ class RecordSpectra:
         """Instruments: setpoints and moving dither columns."""
         return int(self._z.ffts.shape[2])
 
-    def row(self, i: int) -> RowSpectra:
-        """The cross-spectra of row ``i``'s regression."""
-        differenced = bool(self.differenced[i])
+    def _row_segments(self, i: int, transform: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
+        """Segment FFTs, shape (F, K, q), of ``[y_i, x_i1 .. x_in]`` or of ``transform(x_i)`` per stretch.
+
+        Each stretch as :meth:`row` takes it: filtered whole, differenced in an
+        integrating row, its warm-up dropped, then cut into the instruments' segments.
+        """
         blocks = []
         for u, y, warmup in self._data:
-            block = np.column_stack([y[:, i], row_regressors(self.model, u, i)])
-            if differenced:
+            x = row_regressors(self.model, u, i)
+            block = np.column_stack([y[:, i], x]) if transform is None else transform(x)
+            if self.differenced[i]:
                 block = np.diff(block, axis=0, prepend=block[:1])
             blocks.append(block[warmup:])
         seg, _ = stretch_segments(blocks, self.settings)
+        return np.transpose(seg.ffts, (1, 0, 2))
+
+    def instrument_cross(self, i: int, transform: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """Cross-spectra of the instruments with ``transform`` of row ``i``'s regressors, shape (F, n_z, q).
+
+        ``transform`` maps a stretch's regressors (N, n_in), filtered in the
+        time domain over the whole stretch, to q signals (N, q); they are cut
+        into the same segments as :meth:`row`'s.  A filter ``H`` applied in the
+        time domain gives ``S_{z, H x}`` without the leakage of a Welch segment's
+        edges, which ``H(w) S_{z x}`` has (:func:`~pmr_ros.core.parametric.fit.leakage_offset`).
+        """
+        Z = np.transpose(self._z.ffts, (1, 0, 2))
+        X = self._row_segments(i, transform)
+        return hermitian_product(Z, X) / X.shape[1]
+
+    def row(self, i: int) -> RowSpectra:
+        """The cross-spectra of row ``i``'s regression."""
+        differenced = bool(self.differenced[i])
         Z = np.transpose(self._z.ffts, (1, 0, 2))  # (F, K, n_z)
-        X = np.transpose(seg.ffts, (1, 0, 2))  # (F, K, 1 + n_in)
-        K = seg.segments
+        X = self._row_segments(i, None)  # (F, K, 1 + n_in)
+        K = X.shape[1]
         zc = hermitian_product(Z, X) / K
         cc = hermitian_product(X, X) / K
         return RowSpectra(

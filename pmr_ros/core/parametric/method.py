@@ -95,6 +95,8 @@ def _fit(
         omega=spectra.omega,
         equivalent_segments=spectra.equivalent_segments,
         bin_correlation=spectra.settings.bin_correlation,
+        record=spectra,
+        row=i,
     )
     columns = column_models(model, fitted, max_delay_samples=classic.max_delay_samples)
     fit = fit_row(

@@ -47,6 +47,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter, lfilter_zi
 
 from ..products import hermitian_product
 from ..spectra import RowSpectra
@@ -131,6 +132,49 @@ class ColumnModel:
     def pole(self, s: float) -> float:
         """``a = exp(-Ts / tau)`` for ``tau = tau_reference exp(s)`` (Ts = 1 sample)."""
         return math.exp(-1.0 / (self.tau_reference * math.exp(s)))
+
+    def response(self, x: np.ndarray, *, lin: float, s: float, delay: int) -> np.ndarray:
+        """The coefficient ``lin * shape(q; s) * q^-delay`` applied to ``x`` in the time domain.
+
+        The same filter as :meth:`shapes` (times ``lin`` and the delay) gives in
+        the frequency domain; started at steady state for ``x[0]``.  A negative
+        delay is an advance: the last samples repeat the last value.
+
+        Parameters
+        ----------
+        x : ndarray, shape (N,) or (N, q)
+            Signal(s), one per column, along axis 0.
+        lin : float
+            The linear parameter (``rho`` or ``gamma``).
+        s : float
+            ``log(tau / tau_reference)`` (ignored without a time constant).
+        delay : int
+            [samples].
+
+        Returns
+        -------
+        ndarray, shape of ``x``
+
+        Examples
+        --------
+        >>> column = ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-2, 2), False)
+        >>> column.response(np.arange(5.0), lin=2.0, s=0.0, delay=1).tolist()
+        [0.0, 0.0, 2.0, 4.0, 6.0]
+        """
+        x = np.asarray(x, dtype=float)
+        if self.has_tau:
+            a, ah = self.pole(s), self.pole_model
+            numerator = lin * (1.0 - a) / (1.0 - ah) * np.array([1.0, -ah])
+            denominator = np.array([1.0, -a])
+            zi = np.multiply.outer(lfilter_zi(numerator, denominator), x[0])
+            out = lfilter(numerator, denominator, x, axis=0, zi=zi)[0]
+        else:
+            out = lin * x
+        if delay > 0:
+            out = np.concatenate([np.repeat(out[:1], delay, axis=0), out[:-delay]])
+        elif delay < 0:
+            out = np.concatenate([out[-delay:], np.repeat(out[-1:], -delay, axis=0)])
+        return out
 
     def shapes(self, z_inv: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Shapes without delay and their derivative in ``s``, shape (len(s), F).
