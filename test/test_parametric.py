@@ -221,30 +221,29 @@ def test_an_element_that_is_not_excited_is_inconclusive():
 
 
 def test_verdict_rule():
-    def verdict(value, interval, **kwargs):
-        return parameter_verdict(value, interval, tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0, **kwargs)
+    def verdict(interval, **kwargs):
+        return parameter_verdict(interval, tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0, **kwargs)
 
-    assert verdict(10.0, (9.0, 11.0)) == "mismatch"
-    assert verdict(2.0, (1.0, 3.0)) == "ok"  # real but below the practical tolerance
-    assert verdict(1.0, (-5.9, 5.9)) == "ok"  # rules out a change of twice the tolerance
-    assert verdict(4.0, (-1.0, 9.0)) == "inconclusive"  # holds 0 and +9 %: ok would be wrong if +9 is the truth
-    assert verdict(-1.0, (-6.1, 4.1)) == "inconclusive"
-    assert verdict(4.0, (-20.0, 28.0)) == "inconclusive"  # too wide to say
-    assert verdict(-40.0, (-70.0, -10.0)) == "mismatch"  # wide, but certainly off
-    assert verdict(5.0, (2.0, 8.0)) == "mismatch"
+    assert verdict((9.0, 11.0)) == "mismatch"
+    assert verdict((-70.0, -10.0)) == "mismatch"  # wide, but certainly beyond the tolerance
+    assert verdict((3.1, 8.0)) == "mismatch"
+    assert verdict((2.0, 8.0)) == "inconclusive"  # excludes 0, but may be within the tolerance
+    assert verdict((1.0, 3.0)) == "ok"  # real but below the practical tolerance
+    assert verdict((-5.9, 5.9)) == "ok"  # rules out a change of twice the tolerance
+    assert verdict((-1.0, 9.0)) == "inconclusive"  # holds 0 and +9 %: ok would be wrong if +9 is the truth
+    assert verdict((-6.1, 4.1)) == "inconclusive"
+    assert verdict((-20.0, 28.0)) == "inconclusive"  # too wide to say
     # a wide band (large tolerance) is still capped by max_halfwidth
-    assert parameter_verdict(0.0, (-16.0, 16.0), tolerance=10.0, ok_band_factor=2.0, max_halfwidth=15.0) == (
-        "inconclusive"
-    )
+    assert parameter_verdict((-16.0, 16.0), tolerance=10.0, ok_band_factor=2.0, max_halfwidth=15.0) == "inconclusive"
     # the ok rule may read a narrower interval than the mismatch test (an empty cell's search)
-    assert verdict(2.0, (-5.0, 9.0), ok_interval=(-1.0, 5.0)) == "ok"
+    assert verdict((-5.0, 9.0), ok_interval=(-1.0, 5.0)) == "ok"
 
 
 def test_undecided_reason_says_what_the_interval_cannot_rule_out(wood_berry):
     settings = wood_berry.parametric
     assert undecided_reason("gain", (-1.0, 9.0), tolerance=3.0, settings=settings) == (
-        "gain interval [-1.0, +9.0] % holds both no change and one beyond ±6 % (2x the tolerance): "
-        "more data or excitation to decide"
+        "gain interval [-1.0, +9.0] % lies neither beyond the tolerance ±3 % (mismatch) nor within ±6 % "
+        "(2x the tolerance: ok): more data or excitation to decide"
     )
     assert undecided_reason("τ", (-20.0, 28.0), tolerance=5.0, settings=settings) == (
         "τ interval [-20.0, +28.0] % too wide (> ±15 pp)"

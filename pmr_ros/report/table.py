@@ -96,7 +96,7 @@ def format_parametric_table(report: dict[str, Any]) -> str:
         texts = [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", []), *_data_warnings(e)]
         notes += [f"{name}: {text}" for text in texts]
     lines.append("")
-    lines.append("! mismatch (interval excludes 0 and beyond tolerance), ? inconclusive; dD = D - Dhat [samples]")
+    lines.append("! mismatch (whole interval beyond the tolerance), ? inconclusive; dD = D - Dhat [samples]")
     if any(e["model"]["kind"] == "none" for e in report["elements"].values()):
         lines.append(
             "no model: an empty cell; K [interval] and delay of the plant's interaction there (! one the model lacks)"

@@ -31,8 +31,8 @@ class ParametricSettings:
     confidence_level : float
         Of the intervals (0.95).
     gain_tolerance_pct, tau_tolerance_pct : float
-        Practical tolerance: a mismatch is flagged only when the interval
-        excludes zero and the estimate exceeds this [%].
+        Practical tolerance [%]: a mismatch is flagged only when the whole
+        interval lies beyond it.
     max_interval_pct : float
         An interval wider than +/- this [percentage points] cannot support a
         verdict: the parameter is inconclusive.

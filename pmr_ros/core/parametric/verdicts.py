@@ -2,8 +2,8 @@
 
 Three rules, each its own function so that each can be hardened alone:
 
-* :func:`parameter_verdict`: a parameter is ``mismatch`` when its interval
-  excludes zero and the estimate exceeds the practical tolerance, ``ok`` when
+* :func:`parameter_verdict`: a parameter is ``mismatch`` when its whole
+  interval lies beyond the practical tolerance, ``ok`` when
   its interval lies within ``parametric.ok_band_factor`` (2) tolerances of
   zero, else ``inconclusive`` (:func:`undecided_reason` says why);
 * :func:`trust_reasons`: numbers that cannot be trusted whatever their
@@ -51,7 +51,6 @@ TEMPLATE_SHAPES = 2
 
 
 def parameter_verdict(
-    value: float,
     interval: tuple[float, float],
     *,
     tolerance: float,
@@ -61,19 +60,20 @@ def parameter_verdict(
 ) -> str:
     """The verdict of one parameter.
 
-    ``mismatch`` when the interval excludes zero *and* the estimate exceeds the
-    practical tolerance; ``ok`` when the interval lies within
-    ``+/- ok_band_factor x tolerance`` and is no wider than ``+/- max_halfwidth``
-    (it rules out a change large enough to matter); else ``inconclusive``.  An
-    ``ok`` whose interval still holds a change of twice the tolerance would be
-    confidently wrong whenever that change is the truth.
+    ``mismatch`` when the whole interval lies beyond the practical tolerance
+    (the change is larger than the tolerance with the interval's confidence);
+    ``ok`` when the interval lies within ``+/- ok_band_factor x tolerance`` and
+    is no wider than ``+/- max_halfwidth`` (it rules out a change large enough
+    to matter); else ``inconclusive``.  Both are confident statements: an
+    ``ok`` whose interval still held a change of twice the tolerance, or a
+    ``mismatch`` whose interval still held no change (an interval that merely
+    excludes zero, two parameters per element, a slight bias), would be
+    confidently wrong far more often than the interval's level says.
 
     Parameters
     ----------
-    value : float
-        The estimate [%].
     interval : (float, float)
-        Its confidence interval [%].
+        The parameter's confidence interval [%].
     tolerance : float
         Practical tolerance [%].
     ok_band_factor : float
@@ -87,13 +87,15 @@ def parameter_verdict(
 
     Examples
     --------
-    >>> parameter_verdict(4.0, (-1.0, 9.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
+    >>> parameter_verdict((-1.0, 9.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
     'inconclusive'
-    >>> parameter_verdict(1.0, (-2.0, 4.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
+    >>> parameter_verdict((-2.0, 4.0), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
     'ok'
+    >>> parameter_verdict((3.5, 6.5), tolerance=3.0, ok_band_factor=2.0, max_halfwidth=15.0)
+    'mismatch'
     """
     low, high = interval
-    if (low > 0 or high < 0) and abs(value) > tolerance:
+    if low > tolerance or high < -tolerance:
         return "mismatch"
     ok_low, ok_high = interval if ok_interval is None else ok_interval
     band = ok_band_factor * tolerance
@@ -122,8 +124,8 @@ def undecided_reason(
         return f"{text} too wide (> ±{settings.max_interval_pct:g} pp)"
     band = settings.ok_band_factor * tolerance
     return (
-        f"{text} holds both no change and one beyond ±{band:g} % ({settings.ok_band_factor:g}x the tolerance): "
-        "more data or excitation to decide"
+        f"{text} lies neither beyond the tolerance ±{tolerance:g} % (mismatch) nor within ±{band:g} % "
+        f"({settings.ok_band_factor:g}x the tolerance: ok): more data or excitation to decide"
     )
 
 
@@ -272,7 +274,6 @@ def _tau(
     low, high = _mixture(fit, c, settings, tau=True)
     interval = (100.0 * math.expm1(low), 100.0 * math.expm1(high))
     verdict = parameter_verdict(
-        tau,
         interval,
         tolerance=settings.tau_tolerance_pct,
         ok_band_factor=settings.ok_band_factor,
@@ -299,7 +300,6 @@ def element_result(
     low, high = _mixture(fit, c, settings, tau=False)
     gain_interval = (100.0 * (low - 1.0), 100.0 * (high - 1.0))
     gain_verdict = parameter_verdict(
-        gain,
         gain_interval,
         tolerance=settings.gain_tolerance_pct,
         ok_band_factor=settings.ok_band_factor,
@@ -356,7 +356,6 @@ def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, set
     interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
     z_one = _z(settings)
     return parameter_verdict(
-        share_pct,
         interval,
         tolerance=settings.gain_tolerance_pct,
         ok_band_factor=settings.ok_band_factor,
