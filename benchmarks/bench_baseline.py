@@ -15,11 +15,9 @@ import argparse
 import os
 
 import numpy as np
+from bench_disturbance import run_case  # the same simulation and diagnosis (this folder is on sys.path)
 
 from pmr_ros.config import config_dir, load_config
-from pmr_ros.core.batch import simulate_many
-from pmr_ros.core.diagnosis import diagnose_stretches
-from pmr_ros.core.stretch import Stretch
 
 
 def _spread(values: list[float], digits: int, sign: bool = True) -> str:
@@ -35,17 +33,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     config = load_config(config_dir() / "wood_berry.yaml")
     truth = config.mismatch.for_scenario("full")
-    records = simulate_many(config, [("full", seed) for seed in range(1, args.seeds + 1)], args.samples)
+    _, diagnoses = run_case(config, "full", range(1, args.seeds + 1), args.samples)
     per: dict[str, dict[str, list]] = {}
-    for record in records:
-        diagnosis = diagnose_stretches(
-            [Stretch(record.r, record.u, record.y)],
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            method="parametric",
-            quality=config.quality,
-        )
+    for diagnosis in diagnoses:
         for e in diagnosis:
             c, p = e.classic, e.parametric
             row = per.setdefault(e.name, {})
