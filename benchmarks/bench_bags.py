@@ -17,9 +17,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from pmr_ros.bag.offline import diagnose_bag
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.bag.writer import BagWriter
+from pmr_ros.service.bag_diagnosis import diagnose_bag
 
 REFERENCE = Path(__file__).resolve().parents[1] / "bags" / "wood_berry_full"
 

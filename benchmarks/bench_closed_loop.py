@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from pmr_ros.config import parse_config
-from pmr_ros.core.batch import run_lockstep
-from pmr_ros.core.mpc import LinearMpc
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.sim.batch import run_lockstep
 
 
 def scaled_system(n_out: int, n_in: int, seed: int = 0) -> dict:

@@ -15,12 +15,12 @@ import statistics
 import time
 
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.impact import loop_figures
-from pmr_ros.core.mpc import LinearMpc
-from pmr_ros.core.plant import FoptdPlant
-from pmr_ros.core.prbs import PrbsGenerator
+from pmr_ros.core.loop.impact import loop_figures
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.excitation import PrbsGenerator
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 
 def closed_loop_rate(config, samples: int, always_solve_qp: bool) -> tuple[float, LinearMpc]:

@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose_stretches
+from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.data import load_plant_data
 
 TAGS = {"r": ("XC101.SP", "XC102.SP"), "u": ("FC201.OP", "FC202.OP"), "y": ("XI101.PV", "XI102.PV")}

@@ -35,12 +35,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from pmr_ros.config import PmrConfig, config_dir, load_config
-from pmr_ros.core.batch import simulate_many
-from pmr_ros.core.diagnosis import diagnose_stretches
-from pmr_ros.core.model import Mismatch
-from pmr_ros.core.plant import OutputDisturbance
+from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import Diagnosis, ElementDiagnosis
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.sim.batch import simulate_many
+from pmr_ros.core.sim.model import Mismatch
+from pmr_ros.core.sim.true_plant import OutputDisturbance
 
 CASES = ("baseline", "saturation", "disturbance", "strong_disturbance")
 """The hard cases of this benchmark."""
@@ -247,7 +247,7 @@ def run_case(config: PmrConfig, scenario: str, seeds: Sequence[int], samples: in
     }
     for record in records:
         d = diagnose_stretches(
-            [Stretch(record.r, record.u, record.y, record.dither)],
+            [Record(record.r, record.u, record.y, record.dither)],
             model=config.model,
             pmr=config.pmr,
             parametric=config.parametric,

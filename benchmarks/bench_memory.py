@@ -3,10 +3,10 @@
     .venv/bin/python benchmarks/bench_memory.py [--samples N]
 
 * simulation and diagnosis: the peak ``tracemalloc`` sees, per sample, for the
-  shipped 2x2 and 3x3 systems, beside :func:`pmr_ros.core.memory.simulation_bytes`
-  and :func:`~pmr_ros.core.memory.diagnosis_bytes`;
+  shipped 2x2 and 3x3 systems, beside :func:`pmr_ros.core.sim.memory.simulation_bytes`
+  and :func:`~pmr_ros.core.sim.memory.diagnosis_bytes`;
 * a live window: the resident memory an aligner holding N complete samples
-  adds, per sample, beside :func:`~pmr_ros.core.memory.window_bytes`;
+  adds, per sample, beside :func:`~pmr_ros.core.sim.memory.window_bytes`;
 * the node set: the peak resident memory of ``pmr-ros run`` (four nodes in
   one process) at N and 4N samples; the difference per sample is what each
   sample costs (window, diagnosis, middleware).
@@ -25,9 +25,9 @@ import numpy as np
 
 from pmr_ros.config import config_dir, load_config
 from pmr_ros.contract.alignment import SampleAligner
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.memory import diagnosis_bytes, simulation_bytes, window_bytes
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.memory import diagnosis_bytes, simulation_bytes, window_bytes
 
 
 def traced_peak(run) -> tuple[int, object]:

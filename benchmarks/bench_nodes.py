@@ -63,7 +63,7 @@ class Listener:
         from rclpy.executors import SingleThreadedExecutor
 
         from pmr_ros.contract.topics import topic
-        from pmr_ros.ros.topics import message_class, qos_profile
+        from pmr_ros.ros.messages import message_class, qos_profile
 
         self.last_sample, self.first_y, self.final, self.final_at, self.newest_y = last_sample, None, None, None, -1
         self.node = rclpy.create_node("bench_listener", context=context)

@@ -28,9 +28,9 @@ import numpy as np
 import yaml
 
 from pmr_ros.config import PmrConfig, load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.results import Diagnosis
+from pmr_ros.core.sim.closed_loop import simulate
 
 
 def industrial_system(n_out: int, n_in: int, *, empty: float = 0.5, seed: int = 0) -> dict:

@@ -15,9 +15,9 @@ import time
 
 from pmr_ros.cli import main as cli_main
 from pmr_ros.config import load_config
-from pmr_ros.core.batch import run_lockstep
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.model import SCENARIOS
+from pmr_ros.core.sim.batch import run_lockstep
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import SCENARIOS
 
 
 def one_point(samples: int, seeds: int) -> None:

@@ -25,12 +25,12 @@ from rclpy.node import Node
 from .config import PmrConfig, flatten_parameters, load_config
 from .contract.layout import CONFLICT, diagnosis_from_array, read_estimates, read_signal
 from .contract.topics import SIGNAL_TOPICS, topic
-from .core.closed_loop import RunRecord
+from .core.records import Record
 from .core.results import Diagnosis
 from .ros.flow import ProgressReporter, stamp_ns
+from .ros.messages import message_class, qos_profile
 from .ros.parameters import parameter_overrides
 from .ros.signals import stop_requests
-from .ros.topics import message_class, qos_profile
 
 if TYPE_CHECKING:
     from .nodes.pmr_diagnostician import PmrDiagnosticianNode
@@ -55,7 +55,7 @@ class NodeSetRun:
         Levels and messages per element and the diagnosed window.
     estimates : dict or None
         The final estimates topic message (element -> quantity -> value).
-    record : RunRecord or None
+    record : Record or None
         r, u, y as received from the topics (``record=True``).
     wall_time_s : float
         From the first published sample to the final verdicts.
@@ -67,7 +67,7 @@ class NodeSetRun:
     diagnosis: Diagnosis
     info: dict
     estimates: dict | None
-    record: RunRecord | None
+    record: Record | None
     wall_time_s: float
     warnings: list[str] = field(default_factory=list)
 
@@ -305,7 +305,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
             _spin_until_done(executor, nodes, listener, watch, stop)
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
             record_out = (
-                RunRecord(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"]) if options.record else None
+                Record(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"]) if options.record else None
             )
             estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
             return NodeSetRun(

@@ -36,8 +36,8 @@ import yaml
 from simulated import diagnose_record
 
 from pmr_ros.config import PmrConfig, load_config
-from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.results import Diagnosis
+from pmr_ros.core.sim.closed_loop import simulate
 
 WIDE_LIMITS = {"u_min": -20.0, "u_max": 20.0, "du_max": 5.0}
 """MPC input limits far outside what the setpoints ask for (mpc.u_min, u_max, du_max)."""

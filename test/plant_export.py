@@ -13,16 +13,16 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from pmr_ros.core.closed_loop import RunRecord
-from pmr_ros.core.plant import FoptdPlant
-from pmr_ros.core.prbs import PrbsGenerator
+from pmr_ros.core.records import Record
+from pmr_ros.core.sim.excitation import PrbsGenerator
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 PI_GAIN = np.array([0.375, -0.075])
 PI_RESET_MIN = np.array([8.29, 23.6])
 START = "2024-03-01T00:00:00Z"
 
 
-def pi_loop(config, samples: int, seed: int) -> RunRecord:
+def pi_loop(config, samples: int, seed: int) -> Record:
     """The Wood-Berry column under two PI loops (pairing 1-1, 2-2), PRBS setpoints, the configured mismatch."""
     plant = FoptdPlant(config.plant(), config.noise_std, seed, disturbance=config.disturbance)
     r = PrbsGenerator(config.prbs, seed).sequence(samples)
@@ -38,7 +38,7 @@ def pi_loop(config, samples: int, seed: int) -> RunRecord:
         last_error = error
         u[k] = u_now
         plant.advance(u[k])
-    return RunRecord(r, u, y)
+    return Record(r, u, y)
 
 
 TAGS = {"r": ("XC101.SP", "XC102.SP"), "u": ("FC201.OP", "FC202.OP"), "y": ("XI101.PV", "XI102.PV")}
@@ -69,7 +69,7 @@ class Dirt:
     dropped: list[int]
 
 
-def clean_frame(record: RunRecord, *, jitter_s: float = 0.0, seed: int = 0) -> pd.DataFrame:
+def clean_frame(record: Record, *, jitter_s: float = 0.0, seed: int = 0) -> pd.DataFrame:
     """The run as a historian would export it: ISO stamps every minute, one column per tag, mode AUTO."""
     n = record.r.shape[0]
     rng = np.random.default_rng(seed)
@@ -83,7 +83,7 @@ def clean_frame(record: RunRecord, *, jitter_s: float = 0.0, seed: int = 0) -> p
     return frame
 
 
-def dirty_frame(record: RunRecord, *, seed: int = 0) -> tuple[pd.DataFrame, Dirt]:
+def dirty_frame(record: Record, *, seed: int = 0) -> tuple[pd.DataFrame, Dirt]:
     """:func:`clean_frame` with realistic dirt, and where it is.
 
     Sentinels, "Bad" and empty cells, a frozen tag, the controller off for a

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from pmr_ros.config import PmrConfig
-from pmr_ros.core.closed_loop import RunRecord
-from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import Diagnosis
 
 
-def diagnose_record(record: RunRecord, config: PmrConfig, *, method: str, with_dither: bool = False) -> Diagnosis:
+def diagnose_record(record: Record, config: PmrConfig, *, method: str, with_dither: bool = False) -> Diagnosis:
     """``diagnose`` of ``record`` with ``config``'s model and settings; its MV dither as instruments if asked."""
     return diagnose(
         record.r,

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import yaml
 
-from pmr_ros.bag.offline import diagnose_bag
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
@@ -17,6 +16,7 @@ from pmr_ros.config.write import system_tree
 from pmr_ros.contract.layout import read_signal
 from pmr_ros.contract.model_topics import read_active_model
 from pmr_ros.contract.topics import topic
+from pmr_ros.service.bag_diagnosis import diagnose_bag
 
 WINDOW = 8192
 
@@ -81,8 +81,9 @@ def test_adapt_finds_the_mismatch_updates_the_controller_and_tracks_better(tmp_p
 
 
 def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
-    from pmr_ros.commands.adapt import adapted_report, run_adapted
     from pmr_ros.node_set import NodeSetOptions, run_node_set
+    from pmr_ros.nodes.adapter import ModelAdapter
+    from pmr_ros.service.adapted_run import adapted_report, run_adapted
 
     config = load_config(overrides={"run": {"samples": WINDOW}})
 
@@ -93,7 +94,7 @@ def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
     def options(**kwargs):
         return NodeSetOptions(private=True, **kwargs)
 
-    _, adapter = run_adapted(config, options, run_node_set, proposal_filter=wrong)
+    _, adapter = run_adapted(config, options, run_node_set, adapter_type=ModelAdapter, proposal_filter=wrong)
     final, adaptation = adapted_report(adapter)
     assert adaptation["worse"] and adaptation["rolled_back"]
     assert "a larger mismatch" in " ".join(adaptation["reasons"])

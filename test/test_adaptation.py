@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pmr_ros.config import load_config
-from pmr_ros.core.adaptation import (
+from pmr_ros.core.loop.adaptation import (
     Adaptation,
     AdaptSettings,
     TrackingFigures,
@@ -114,7 +114,7 @@ def test_the_adaptation_serialises_every_figure():
 
 
 def test_an_adapted_run_is_three_windows_diagnosed_every_quarter():
-    from pmr_ros.commands.adapt import adapt_config, adapt_parameters
+    from pmr_ros.service.adapted_run import adapt_config, adapt_parameters
 
     config = load_config(overrides={"run": {"samples": 8192}})
     assert (

@@ -33,7 +33,7 @@ def test_a_snapshot_does_not_change_when_messages_keep_coming():
 
 def test_a_snapshot_is_diagnosed_as_the_aligner_would_have_been():
     config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
-    from pmr_ros.core.closed_loop import simulate
+    from pmr_ros.core.sim.closed_loop import simulate
 
     rec = simulate(config)
     settings = {"window_samples": 600, "min_samples": 500}

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 import yaml
 
-from pmr_ros.bag.offline import bag_configuration, compare, diagnose_bag, required_topics
+from pmr_ros.bag.offline import bag_configuration, required_topics
 from pmr_ros.bag.reader import open_bag
-from pmr_ros.bag.schema import (
+from pmr_ros.bag.storage import (
     CUSTOM_DATA_KEYS,
     RUN_CONFIG_KEY,
     BagError,
@@ -35,6 +35,7 @@ from pmr_ros.contract.layout import diagnosis_from_array, level_name, read_estim
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
 from pmr_ros.core.results import compare_diagnoses
+from pmr_ros.service.bag_diagnosis import compare, diagnose_bag
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"

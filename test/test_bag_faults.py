@@ -15,18 +15,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pmr_ros.bag.offline import compare, diagnose_bag, judged_config
 from pmr_ros.bag.reader import open_bag
-from pmr_ros.bag.reindex import reindex
-from pmr_ros.bag.schema import BagError, RunConfig, typestore
+from pmr_ros.bag.repair import reindex
+from pmr_ros.bag.storage import BagError, RunConfig, typestore
 from pmr_ros.bag.writer import BagWriter
 from pmr_ros.cli import main
 from pmr_ros.config import load_config, parse_config
 from pmr_ros.contract.layout import element_pairs, encode_value, read_signal
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import STALE, VERDICT
-from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.results import Diagnosis
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.service.bag_diagnosis import compare, diagnose_bag, judged_config
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
@@ -142,7 +142,7 @@ def test_a_late_publishers_backlog_recorded_after_r_and_y_still_gives_a_verdict(
 
 
 def _batch_diagnosis(r, u, y) -> Diagnosis:
-    from pmr_ros.core.diagnosis import diagnose
+    from pmr_ros.core.pmr.diagnosis import diagnose
 
     config = load_config()
     return diagnose(r, u, y, model=config.model, pmr=config.pmr, parametric=config.parametric)

@@ -15,15 +15,15 @@ import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from ros_fixtures import console_script  # noqa: E402
 
-from pmr_ros.bag.offline import diagnose_bag  # noqa: E402
 from pmr_ros.bag.reader import open_bag  # noqa: E402
-from pmr_ros.bag.schema import RUN_CONFIG_KEY  # noqa: E402
+from pmr_ros.bag.storage import RUN_CONFIG_KEY  # noqa: E402
 from pmr_ros.cli import main  # noqa: E402
 from pmr_ros.config import flatten_parameters, parse_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.results import compare_diagnoses  # noqa: E402
 from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
+from pmr_ros.service.bag_diagnosis import diagnose_bag  # noqa: E402
 
 pytestmark = pytest.mark.ros
 

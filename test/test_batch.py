@@ -7,9 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pmr_ros.core.batch import run_lockstep, simulate_many
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.mpc import LinearMpc
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.sim.batch import run_lockstep, simulate_many
+from pmr_ros.core.sim.closed_loop import simulate
 
 RUNS = [("none", 1), ("gain", 2), ("time_constant", 3), ("delay", 1), ("full", 2), ("full", 7)]
 
@@ -56,13 +56,13 @@ def test_mpc_matrices_are_read_only_copies(wood_berry):
 
 
 def test_worker_pools_start_from_a_fork_server():
-    from pmr_ros.core.batch import worker_context
+    from pmr_ros.core.sim.batch import worker_context
 
     assert worker_context().get_start_method() == "forkserver"
 
 
 def test_mv_dither_is_added_to_u_and_the_lockstep_batch_equals_simulate(wood_berry):
-    from pmr_ros.core.prbs import ExcitationSettings
+    from pmr_ros.core.sim.excitation import ExcitationSettings
 
     amplitude = np.array([0.2, 0.1])
     config = replace(wood_berry, excitation=ExcitationSettings(amplitude, 5))
@@ -98,7 +98,7 @@ def test_lockstep_equals_simulate_on_a_non_square_system_with_a_level_and_dither
 
 
 def test_an_output_disturbance_enters_simulate_and_the_lockstep_batch_alike_and_only_when_on(wood_berry):
-    from pmr_ros.core.plant import DisturbanceStream, OutputDisturbance
+    from pmr_ros.core.sim.true_plant import DisturbanceStream, OutputDisturbance
 
     disturbance = OutputDisturbance(np.array([0.3, 0.0]), 0.97)
     config = replace(wood_berry, disturbance=disturbance)

@@ -131,7 +131,7 @@ def test_every_default_comes_from_the_declaration(tmp_path):
 
 def test_declared_scenarios_are_the_cores():
     from pmr_ros.config import schema
-    from pmr_ros.core.model import SCENARIOS
+    from pmr_ros.core.sim.model import SCENARIOS
 
     assert schema.parameter("run.scenario").choices == SCENARIOS
 

@@ -18,7 +18,7 @@ from pmr_ros.contract.topics import (  # noqa: E402
     resolve_name,
     topic,
 )
-from pmr_ros.ros.topics import message_class, qos_profile  # noqa: E402
+from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
 
 KEYS = ("setpoint", "measured_output", "manipulated_input", "clock", "diagnostics", "estimates")
 
@@ -91,7 +91,7 @@ def test_unknown_topic_key_is_a_clear_error():
 
 
 def test_rclpy_and_rosbags_qos_come_from_one_mapping():
-    from pmr_ros.bag.schema import rosbags_qos
+    from pmr_ros.bag.storage import rosbags_qos
 
     for t in load_contract().values():
         profile, recorded = qos_profile(t.qos), rosbags_qos(t.qos)

@@ -1,4 +1,4 @@
-"""Data-quality figures (pmr_ros.core.data_quality): saturation, slow disturbances, and how results carry them."""
+"""Data-quality figures (pmr_ros.core.pmr.data_quality): saturation, slow disturbances, and how results carry them."""
 
 from __future__ import annotations
 
@@ -15,8 +15,7 @@ from pmr_ros.bag.reader import open_bag
 from pmr_ros.bag.writer import BagWriter
 from pmr_ros.contract.layout import diagnosis_from_array, status_values
 from pmr_ros.contract.topics import topic
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.data_quality import (
+from pmr_ros.core.pmr.data_quality import (
     RecordQuality,
     assess,
     element_warnings,
@@ -24,19 +23,20 @@ from pmr_ros.core.data_quality import (
     residual_spectra,
     saturation,
 )
-from pmr_ros.core.diagnosis import diagnose, diagnose_stretches, with_data_quality
-from pmr_ros.core.plant import OutputDisturbance
+from pmr_ros.core.pmr.diagnosis import diagnose, diagnose_stretches, with_data_quality
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import DataQuality, Diagnosis, compare_diagnoses
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.true_plant import OutputDisturbance
 from pmr_ros.report.table import format_table
 from pmr_ros.ros import convert
 
 SAMPLES = 8192
 
 
-def _stretch(u: np.ndarray) -> Stretch:
+def _stretch(u: np.ndarray) -> Record:
     zeros = np.zeros((u.shape[0], 2))
-    return Stretch(zeros, u, zeros)
+    return Record(zeros, u, zeros)
 
 
 # -- saturation ----------------------------------------------------------------------------------
@@ -89,7 +89,7 @@ def disturbed(wood_berry):
 def test_residual_spectrum_is_the_disturbance_spectrum_whatever_the_loop_and_the_mismatch(disturbed):
     config, record = disturbed
     omega, residual = residual_spectra(
-        [Stretch(record.r, record.u, record.y)], model=config.model, welch=config.pmr.welch
+        [Record(record.r, record.u, record.y)], model=config.model, welch=config.pmr.welch
     )
     # one-sided densities (fs = 1): white noise 2 sigma^2; AR(1) of std s: 2 s^2 (1 - p^2) / |1 - p e^-jw|^2
     p, s, white = 0.97, np.array([0.3, 0.0]), 0.1
@@ -109,7 +109,7 @@ def test_assess_finds_the_disturbed_row_and_the_saturated_input(disturbed):
     # u2's limits at +/- 0.3, "at" within 0.1 x 0.6 of them: as if it had been held near them
     limits = {"u_min": np.array([-2.0, -0.3]), "u_max": np.array([2.0, 0.3]), "limit_tolerance": 0.1}
     settings = replace(config.quality, **limits)
-    stretch = Stretch(record.r, record.u, record.y)
+    stretch = Record(record.r, record.u, record.y)
     quality = assess([stretch], model=config.model, welch=config.pmr.welch, settings=settings)
     # the closed form of the disturbed row: the AR(1) + white spectrum's lowest 3 bins over its median, about 380
     omega = np.linspace(0, np.pi, config.pmr.segment_length // 2 + 1)
@@ -154,7 +154,7 @@ def test_element_warnings_name_the_input_the_output_the_figure_and_the_threshold
 def diagnosed(disturbed):
     config, record = disturbed
     return config, diagnose_stretches(
-        [Stretch(record.r, record.u, record.y)],
+        [Record(record.r, record.u, record.y)],
         model=config.model,
         pmr=config.pmr,
         parametric=config.parametric,
@@ -229,7 +229,7 @@ def test_the_verdict_table_lists_the_data_warnings_for_either_method(disturbed, 
     for method in ("parametric", "classic"):
         if method == "classic":
             diagnosis = diagnose_stretches(
-                [Stretch(record.r, record.u, record.y)],
+                [Record(record.r, record.u, record.y)],
                 model=config.model,
                 pmr=config.pmr,
                 parametric=config.parametric,

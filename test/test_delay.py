@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pmr_ros.core.delay import hamon_hannan_delay, informative_band, minimum_phase
+from pmr_ros.core.pmr.delay import hamon_hannan_delay, informative_band, minimum_phase
 
 OMEGA = np.linspace(0, np.pi, 257)
 Z1 = np.exp(-1j * OMEGA)

@@ -11,27 +11,22 @@ from hard_cases import SKOGESTAD_LV
 from scipy.signal import csd, freqz
 
 from pmr_ros.config import load_config
-from pmr_ros.core.classic import gain_bin
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.delay import hamon_hannan_delay, search_limit_reason
-from pmr_ros.core.implicit import implicit_row, instrument_factor, row_layout
-from pmr_ros.core.model import TransferMatrix
-from pmr_ros.core.parametric import ParametricSettings
-from pmr_ros.core.parametric.fit import RowData, RowFit, column_models, interaction_delay_range, leakage_offset
-from pmr_ros.core.parametric.guard import fitted_bins
-from pmr_ros.core.parametric.lsq import RowParameters, RowProblem
-from pmr_ros.core.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
-from pmr_ros.core.parametric.search import column_grids, column_search, move_delay, sweep_columns
-from pmr_ros.core.parametric.verdicts import (
-    element_result,
-    interaction_result,
-    interaction_verdict,
-    search_candidates,
-    trust_reasons,
-)
+from pmr_ros.core.pmr.classic import gain_bin
+from pmr_ros.core.pmr.delay import hamon_hannan_delay, search_limit_reason
+from pmr_ros.core.pmr.implicit import implicit_row, instrument_factor, row_layout
+from pmr_ros.core.pmr.parametric import ParametricSettings
+from pmr_ros.core.pmr.parametric.fit import RowData, RowFit, column_models, interaction_delay_range, leakage_offset
+from pmr_ros.core.pmr.parametric.guard import fitted_bins
+from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict, search_candidates
+from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
+from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
+from pmr_ros.core.pmr.parametric.search import column_grids, column_search, move_delay, sweep_columns
+from pmr_ros.core.pmr.parametric.verdicts import element_result, trust_reasons
+from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
-from pmr_ros.core.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import TransferMatrix
 from pmr_ros.report.table import format_classic_table, format_parametric_table
 
 MIXED = TransferMatrix(
@@ -69,7 +64,7 @@ def test_row_spectra_are_welch_cross_spectra_of_the_differenced_row():
     n = 6000
     r, u, y = rng.standard_normal((n, 2)), rng.standard_normal((n, 3)), np.cumsum(rng.standard_normal((n, 2)), axis=0)
     welch = WelchSettings("hann", 256, 0.5)
-    spectra = record_spectra([Stretch(r, u, y)], MIXED, welch)
+    spectra = record_spectra([Record(r, u, y)], MIXED, welch)
     assert spectra.differenced.tolist() == [False, True] and spectra.n_instruments == 2
     warmup = MIXED.settling_samples()
     level = spectra.row(1)
@@ -388,7 +383,7 @@ def test_results_of_every_kind_round_trip_and_read():
 
 
 def test_complex_products_from_real_ones_equal_numpy():
-    from pmr_ros.core.products import hermitian_product, product
+    from pmr_ros.core.pmr.products import hermitian_product, product
 
     rng = np.random.default_rng(5)
     a = rng.standard_normal((7, 5, 3)) + 1j * rng.standard_normal((7, 5, 3))
@@ -428,7 +423,7 @@ def test_a_columns_time_domain_response_is_its_coefficient(kind, pole_model, ref
 
 def test_instrument_cross_of_the_regressors_themselves_is_the_rows_spectra(wood_berry):
     record = simulate(wood_berry, samples=4096, seed=2)
-    spectra = record_spectra([Stretch(record.r, record.u, record.y)], wood_berry.model, WelchSettings("hann", 256, 0.5))
+    spectra = record_spectra([Record(record.r, record.u, record.y)], wood_berry.model, WelchSettings("hann", 256, 0.5))
     for i in range(2):
         np.testing.assert_allclose(spectra.instrument_cross(i, lambda x: x), spectra.row(i).zx, rtol=1e-12, atol=1e-14)
 
@@ -443,7 +438,7 @@ def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_wit
     config = replace(config, noise_std=np.zeros_like(config.noise_std))
     record = simulate(config, samples=8192, seed=1, scenario="full")
     welch = config.parametric.welch(config.model, 8192, config.pmr)
-    spectra = record_spectra([Stretch(record.r, record.u, record.y)], config.model, welch)
+    spectra = record_spectra([Record(record.r, record.u, record.y)], config.model, welch)
     factor = instrument_factor(spectra.rr)
     layout = row_layout(config.model, 0, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
     row = spectra.row(0)

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from binomial import max_failures, min_successes
 
-from pmr_ros.core.batch import simulate_many
-from pmr_ros.core.diagnosis import diagnose_stretches
-from pmr_ros.core.model import Mismatch
+from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.sim.batch import simulate_many
+from pmr_ros.core.sim.model import Mismatch
 
 SEEDS = tuple(range(1, 7))
 SAMPLES = 8192
@@ -97,7 +97,7 @@ def reference(wood_berry):
         for method in ("parametric", "classic"):
             out.append(
                 diagnose_stretches(
-                    [Stretch(record.r, record.u, record.y)],
+                    [Record(record.r, record.u, record.y)],
                     model=wood_berry.model,
                     pmr=wood_berry.pmr,
                     parametric=wood_berry.parametric,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 
-from pmr_ros.bag.schema import typestore  # noqa: E402
+from pmr_ros.bag.storage import typestore  # noqa: E402
 from pmr_ros.ros.flow import ProgressGate, ProgressReporter, cdr_stamp_ns, stamp_ns  # noqa: E402
 from pmr_ros.ros.worker import SerialWorker  # noqa: E402
 

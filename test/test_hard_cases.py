@@ -16,8 +16,8 @@ import pytest
 from binomial import max_failures, min_successes
 from hard_cases import CASES, Score, run, score
 
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
 
 SEEDS = range(1, 5)
 

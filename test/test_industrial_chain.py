@@ -20,7 +20,7 @@ from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
 from pmr_ros.contract.topics import topic
-from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.sim.closed_loop import simulate
 
 pytestmark = pytest.mark.ros
 

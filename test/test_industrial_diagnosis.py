@@ -26,8 +26,8 @@ import yaml
 from simulated import diagnose_record
 
 from pmr_ros.config import load_config
-from pmr_ros.core.batch import simulate_many
-from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.sim.batch import simulate_many
+from pmr_ros.core.sim.closed_loop import simulate
 
 SEEDS = (1, 2, 3)
 

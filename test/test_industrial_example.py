@@ -10,13 +10,13 @@ import pytest
 from scipy.signal import csd
 
 from pmr_ros.config import config_dir, load_config
-from pmr_ros.core.batch import run_lockstep
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.model import SCENARIOS
-from pmr_ros.core.mpc import LinearMpc
-from pmr_ros.core.mpc_analysis import loop_spectral_radius
-from pmr_ros.core.mpc_design import steady_state_gain
-from pmr_ros.core.plant import FoptdPlant
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.mpc.design import steady_state_gain
+from pmr_ros.core.mpc.stability import loop_spectral_radius
+from pmr_ros.core.sim.batch import run_lockstep
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import SCENARIOS
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 
 @pytest.fixture(scope="module")

@@ -15,12 +15,12 @@ from pmr_ros.config.schema import parameter
 from pmr_ros.config.write import system_tree
 from pmr_ros.contract.layout import diagnosis_from_array, status_values
 from pmr_ros.contract.model_topics import active_model_text, read_active_model, system_parameters, with_system
-from pmr_ros.contract.proposal import close_diagnosis, model_file_text
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.results import compare_diagnoses
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.ros import convert
 from pmr_ros.ros.parameters import parameter_overrides, ros_value
+from pmr_ros.service.closing import close_diagnosis, model_file_text
 
 WINDOW = {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
 
@@ -91,7 +91,7 @@ def _system_change(model):
 
 def test_the_controller_takes_a_new_model_atomically_and_refuses_a_bad_one(ros_context):
     from pmr_ros.contract.topics import topic
-    from pmr_ros.ros.topics import message_class, qos_profile
+    from pmr_ros.ros.messages import message_class, qos_profile
 
     config = load_config()
     node = _controller(ros_context, config)

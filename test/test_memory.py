@@ -9,9 +9,9 @@ import pytest
 
 from pmr_ros.config import config_dir, load_config
 from pmr_ros.contract.alignment import SampleAligner
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.memory import (
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.memory import (
     DIAGNOSIS_BYTES_PER_CHANNEL,
     available_bytes,
     diagnosis_bytes,

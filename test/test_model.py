@@ -4,7 +4,7 @@ import control
 import numpy as np
 import pytest
 
-from pmr_ros.core.model import SCENARIOS, Mismatch, TransferMatrix, element_name
+from pmr_ros.core.sim.model import SCENARIOS, Mismatch, TransferMatrix, element_name
 
 
 def _element(K=12.8, tau=16.7, theta=3.0, ts=1.0):

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from pmr_ros.config import load_config
-from pmr_ros.core.mpc import LinearMpc
-from pmr_ros.core.plant import FoptdPlant
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 
 def _run(controller, plant, setpoints, *, switch_at=None, new_model=None):

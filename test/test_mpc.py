@@ -5,8 +5,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pmr_ros.core.mpc import LinearMpc
-from pmr_ros.core.plant import FoptdPlant
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 
 def _loop(model, plant_model, tuning, setpoints, noise=0.0, **mpc_kw):
@@ -78,9 +78,9 @@ def test_control_horizon_longer_than_prediction_is_refused(wood_berry):
 
 # --- industrial shapes: extra MVs, integrating CVs, empty cells, more CVs than MVs ----------------
 
-from pmr_ros.core.model import TransferMatrix  # noqa: E402
-from pmr_ros.core.mpc import MpcTuning  # noqa: E402
-from pmr_ros.core.mpc_design import steady_state_gain  # noqa: E402
+from pmr_ros.core.mpc.controller import MpcTuning  # noqa: E402
+from pmr_ros.core.mpc.design import steady_state_gain  # noqa: E402
+from pmr_ros.core.sim.model import TransferMatrix  # noqa: E402
 
 
 def _level_and_temperature():

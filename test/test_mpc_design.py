@@ -7,11 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pmr_ros.core.disturbance import DisturbanceEstimator, ramp_filter_gains
-from pmr_ros.core.model import Mismatch, TransferMatrix
-from pmr_ros.core.mpc import LinearMpc, MpcTuning
-from pmr_ros.core.mpc_analysis import closed_loop_matrix, loop_spectral_radius, neutral_modes
-from pmr_ros.core.mpc_design import (
+from pmr_ros.core.mpc.controller import LinearMpc, MpcTuning
+from pmr_ros.core.mpc.design import (
     QpWeights,
     condensed_qp,
     input_target_penalty,
@@ -21,7 +18,10 @@ from pmr_ros.core.mpc_design import (
     steady_state_gain,
     target_map,
 )
-from pmr_ros.core.plant import FoptdPlant
+from pmr_ros.core.mpc.estimator import DisturbanceEstimator, ramp_filter_gains
+from pmr_ros.core.mpc.stability import closed_loop_matrix, loop_spectral_radius, neutral_modes
+from pmr_ros.core.sim.model import Mismatch, TransferMatrix
+from pmr_ros.core.sim.true_plant import FoptdPlant
 
 
 def level_and_temperature() -> TransferMatrix:

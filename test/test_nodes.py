@@ -20,18 +20,18 @@ from ros_fixtures import claimed_domain, ros_environment, spin_until  # noqa: E4
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import ConfigError, config_dir, flatten_parameters, load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
-from pmr_ros.contract.proposal import close_diagnosis  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
-from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose_stretches  # noqa: E402
-from pmr_ros.core.stretch import Stretch  # noqa: E402
+from pmr_ros.core.pmr.diagnosis import diagnose_stretches  # noqa: E402
+from pmr_ros.core.records import Record  # noqa: E402
+from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
 from pmr_ros.node_set import NodeSetOptions, run_node_set  # noqa: E402
 from pmr_ros.nodes.bag_player import discovery_settle_s  # noqa: E402
 from pmr_ros.nodes.plant import PlantNode  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
 from pmr_ros.ros.convert import signal_message  # noqa: E402
+from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
 from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
-from pmr_ros.ros.topics import message_class, qos_profile  # noqa: E402
+from pmr_ros.service.closing import close_diagnosis  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -73,7 +73,7 @@ def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run
 def _batch_diagnosis(config, r, u, y, dither=None):
     """What the diagnostician computes from these samples: verdicts, data-quality figures, the control impact."""
     diagnosis = diagnose_stretches(
-        [Stretch(r, u, y, dither)], model=config.model, pmr=config.pmr, parametric=config.parametric,
+        [Record(r, u, y, dither)], model=config.model, pmr=config.pmr, parametric=config.parametric,
         quality=config.quality,
     )  # fmt: skip
     return close_diagnosis(diagnosis, config).diagnosis
@@ -452,8 +452,8 @@ def test_a_diagnosis_runs_off_the_executor_thread_and_holds_the_progress_while_t
 def test_the_impact_and_the_proposal_are_computed_on_the_worker_thread(ros, monkeypatch):
     import threading
 
-    from pmr_ros.contract import proposal
     from pmr_ros.nodes import pmr_diagnostician
+    from pmr_ros.service import closing as proposal
 
     threads = []
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pmr_ros.contract.alignment import SampleAligner, check_signal, sample_index
+from pmr_ros.contract.alignment import SampleAligner
+from pmr_ros.contract.samples import check_signal, sample_index
 
 NAMES = {"r": ("x_D", "x_B"), "u": ("reflux", "steam"), "y": ("x_D", "x_B")}
 LABELS = {"r": "r on /pmr/setpoint", "u": "u on /pmr/manipulated_input", "y": "y on /pmr/measured_output"}

@@ -16,12 +16,12 @@ from ros_fixtures import spin_until
 from pmr_ros.config import flatten_parameters, load_config
 from pmr_ros.contract.layout import diagnosis_from_array
 from pmr_ros.contract.topics import topic
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
 from pmr_ros.ros.convert import signal_message
+from pmr_ros.ros.messages import message_class, qos_profile
 from pmr_ros.ros.parameters import parameter_overrides
-from pmr_ros.ros.topics import message_class, qos_profile
 
 pytestmark = pytest.mark.ros
 

@@ -21,12 +21,12 @@ from ros_fixtures import console_script  # noqa: E402
 from pmr_ros.bag.reader import open_bag  # noqa: E402
 from pmr_ros.config import config_dir, load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array, read_signal  # noqa: E402
-from pmr_ros.contract.proposal import close_diagnosis  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
-from pmr_ros.core.closed_loop import simulate  # noqa: E402
-from pmr_ros.core.diagnosis import diagnose  # noqa: E402
+from pmr_ros.core.pmr.diagnosis import diagnose  # noqa: E402
 from pmr_ros.core.results import compare_diagnoses  # noqa: E402
-from pmr_ros.ros.topics import message_class, qos_profile  # noqa: E402
+from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
+from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
+from pmr_ros.service.closing import close_diagnosis  # noqa: E402
 
 pytestmark = pytest.mark.ros
 

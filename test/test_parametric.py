@@ -8,20 +8,20 @@ import pytest
 from binomial import max_failures, min_successes
 
 from pmr_ros.config import load_config
-from pmr_ros.core.batch import simulate_many, worker_context
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.parametric import diagnose_parametric
-from pmr_ros.core.parametric.ratio import ratio_shape
-from pmr_ros.core.parametric.verdicts import delay_confidence, parameter_verdict, undecided_reason
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.pmr.parametric import diagnose_parametric
+from pmr_ros.core.pmr.parametric.ratio import ratio_shape
+from pmr_ros.core.pmr.parametric.verdicts import delay_confidence, parameter_verdict, undecided_reason
+from pmr_ros.core.records import Record
+from pmr_ros.core.sim.batch import simulate_many, worker_context
+from pmr_ros.core.sim.closed_loop import simulate
 
 SEEDS = 50
 
 
 def _parametric(config, record, settings=None):
     """``(status, reason, element -> ParametricResult)`` of the parametric diagnosis of a record."""
-    stretch = Stretch(record.r, record.u, record.y, record.dither)
+    stretch = Record(record.r, record.u, record.y, record.dither)
     d = diagnose_parametric([stretch], model=config.model, classic=config.pmr, settings=settings or config.parametric)
     return d.status, d.reason, {name: e.parametric if e.parametric is not None else e for name, e in d.elements.items()}
 

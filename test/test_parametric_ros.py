@@ -10,8 +10,8 @@ from simulated import diagnose_record
 from pmr_ros import cli  # noqa: E402
 from pmr_ros.config import load_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array, read_estimates  # noqa: E402
-from pmr_ros.core.closed_loop import simulate  # noqa: E402
 from pmr_ros.core.results import ElementDiagnosis, ParametricResult  # noqa: E402
+from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
 from pmr_ros.ros.convert import diagnosis_statuses, diagnostic_array, element_level, estimates_message  # noqa: E402
 
 

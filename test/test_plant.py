@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from pmr_ros.core.model import TransferMatrix
-from pmr_ros.core.plant import (
+from pmr_ros.core.sim.model import TransferMatrix
+from pmr_ros.core.sim.true_plant import (
     DisturbanceStream,
     FoptdPlant,
     OutputDisturbance,

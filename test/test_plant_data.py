@@ -8,8 +8,8 @@ import pytest
 from plant_export import DATA_BLOCK, TAGS, as_parquet_frame, clean_frame, dirty_frame, pi_loop
 
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose, diagnose_stretches
+from pmr_ros.core.pmr.diagnosis import diagnose, diagnose_stretches
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.data import DataError, PlantData, load_plant_data, table_format
 from pmr_ros.data.clean import at_limit, frozen, mode_on, repeat_runs, runs
 from pmr_ros.data.columns import column_map

@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 from pmr_ros.config import load_config
-from pmr_ros.core.batch import worker_context
-from pmr_ros.core.classic import diagnose_classic
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.implicit import estimate_pmr
-from pmr_ros.core.record import InsufficientData, check_record, check_stretches
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.pmr.checks import InsufficientData, check_record, check_stretches
+from pmr_ros.core.pmr.classic import diagnose_classic
+from pmr_ros.core.pmr.implicit import estimate_pmr
+from pmr_ros.core.records import Record
+from pmr_ros.core.sim.batch import worker_context
+from pmr_ros.core.sim.closed_loop import simulate
 
 
 def diagnose(r, u, y, model, settings):
-    return diagnose_classic([Stretch(r, u, y)], model=model, settings=settings)
+    return diagnose_classic([Record(r, u, y)], model=model, settings=settings)
 
 
 SEEDS = range(1, 6)
@@ -25,7 +25,7 @@ SEEDS = range(1, 6)
 def test_noise_free_pmr_with_plant_equal_to_model_is_one_with_zero_delay():
     config = load_config(overrides={"noise": {"std": 0.0}, "run": {"scenario": "none"}})
     rec = simulate(config, samples=8192)
-    estimate = estimate_pmr([Stretch(rec.r, rec.u, rec.y)], model=config.model, welch=config.pmr.welch)
+    estimate = estimate_pmr([Record(rec.r, rec.u, rec.y)], model=config.model, welch=config.pmr.welch)
     informative = estimate.omega <= 1.0
     np.testing.assert_allclose(estimate.ratio[informative], 1.0, atol=1e-3)
     diagnosis = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
@@ -39,7 +39,7 @@ def test_noise_free_pmr_with_plant_equal_to_model_is_one_with_zero_delay():
 def test_noise_free_pmr_equals_the_true_ratio_under_mismatch():
     config = load_config(overrides={"noise": {"std": 0.0}})
     rec = simulate(config, samples=8192, scenario="full")
-    estimate = estimate_pmr([Stretch(rec.r, rec.u, rec.y)], model=config.model, welch=config.pmr.welch)
+    estimate = estimate_pmr([Record(rec.r, rec.u, rec.y)], model=config.model, welch=config.pmr.welch)
     w = estimate.omega[estimate.omega <= 0.4]
     truth = config.plant("full").discretize().frequency_response(w) / config.model.discretize().frequency_response(w)
     np.testing.assert_allclose(estimate.ratio[: w.size], np.moveaxis(truth, -1, 0), rtol=0.02, atol=0.02)
@@ -160,25 +160,25 @@ def test_a_record_with_gaps_gives_one_estimate_from_all_its_stretches(wood_berry
     rec = simulate(config, samples=16384)
     whole = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
     cuts = np.linspace(0, 16384, 5).astype(int)
-    pieces = [Stretch(rec.r[a:b], rec.u[a:b], rec.y[a:b]) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+    pieces = [Record(rec.r[a:b], rec.u[a:b], rec.y[a:b]) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
     split = diagnose_classic(pieces, model=config.model, settings=config.pmr)
     assert split.status == "ok" and split.samples == 16384
     for name, element in whole.elements.items():
         # noise-free: each piece sees the same ratio; gains agree to the leakage of the extra start-ups
         assert split.elements[name].classic.gain_ratio == pytest.approx(element.classic.gain_ratio, abs=0.01), name
         assert split.elements[name].classic.delay_mismatch_samples == element.classic.delay_mismatch_samples
-    too_short = [Stretch(rec.r[:300], rec.u[:300], rec.y[:300])] * 3
+    too_short = [Record(rec.r[:300], rec.u[:300], rec.y[:300])] * 3
     with pytest.raises(InsufficientData, match="in 3 stretches"):
         check_stretches(too_short, model=config.model, welch=config.pmr.welch)
 
 
 def test_mv_dither_joins_the_setpoints_as_instruments(wood_berry):
-    from pmr_ros.core.prbs import ExcitationSettings
-    from pmr_ros.core.spectra import record_spectra
+    from pmr_ros.core.pmr.spectra import record_spectra
+    from pmr_ros.core.sim.excitation import ExcitationSettings
 
     config = replace(wood_berry, excitation=ExcitationSettings(np.array([0.3, 0.0]), 4))
     rec = simulate(config, samples=8192)
-    spectra = record_spectra([Stretch(rec.r, rec.u, rec.y, rec.dither)], config.model, config.pmr.welch)
+    spectra = record_spectra([Record(rec.r, rec.u, rec.y, rec.dither)], config.model, config.pmr.welch)
     assert spectra.rr.shape[1:] == (3, 3)  # r1, r2 and the dither of u1 (u2's is still: not an instrument)
-    plain = record_spectra([Stretch(rec.r, rec.u, rec.y)], config.model, config.pmr.welch)
+    plain = record_spectra([Record(rec.r, rec.u, rec.y)], config.model, config.pmr.welch)
     np.testing.assert_allclose(spectra.rr[:, :2, :2], plain.rr)

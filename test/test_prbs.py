@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import coherence
 
-from pmr_ros.core.prbs import (
+from pmr_ros.core.sim.excitation import (
     PrbsGenerator,
     PrbsSettings,
     is_primitive,

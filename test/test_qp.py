@@ -8,8 +8,8 @@ import pytest
 import scipy.sparse as sp
 
 from pmr_ros.config import config_dir, load_config
-from pmr_ros.core.mpc import LinearMpc
-from pmr_ros.core.qp import DenseQp
+from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.mpc.qp import DenseQp
 
 
 def _problem(rng, n=12, m=20):

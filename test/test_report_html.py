@@ -17,15 +17,15 @@ from shipped import system_only_params
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.implicit import implicit_estimate
-from pmr_ros.core.model import TransferMatrix
+from pmr_ros.core.pmr.curves import band_radius, estimate_sigma, fitted_ratio, pmr_curves
+from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.pmr.implicit import implicit_estimate
+from pmr_ros.core.pmr.spectra import WelchSettings, record_spectra
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import ElementDiagnosis, ElementModel, ParametricResult
-from pmr_ros.core.spectra import WelchSettings, record_spectra
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import TransferMatrix
 from pmr_ros.progress import ProgressBar
-from pmr_ros.report.curves import band_radius, estimate_sigma, fitted_ratio, pmr_curves
 from pmr_ros.report.figures import decimate
 
 SYSTEM_ONLY = system_only_params()  # the shipped Wood-Berry system block (config/wood_berry.yaml)
@@ -47,7 +47,7 @@ def test_the_band_is_bendat_and_piersols_for_one_input():
     u = np.cumsum(r, axis=0) * 0.2
     u -= np.convolve(u[:, 0], np.ones(50) / 50, mode="same")[:, None]  # r alone drives u, coloured
     y = 1.2 * model.element_outputs(u).reshape(n, 1) + rng.normal(size=(n, 1))
-    spectra = record_spectra([Stretch(r, u, y)], model, WelchSettings("hann", 256, 0.5))
+    spectra = record_spectra([Record(r, u, y)], model, WelchSettings("hann", 256, 0.5))
     estimate = implicit_estimate(spectra, test_empty=False)
     sigma = estimate_sigma(spectra, estimate, 0)[:, 0]
     gamma2 = estimate.coherence[:, 0]
@@ -65,7 +65,7 @@ def test_the_band_covers_the_true_ratio_and_the_fitted_curve_is_the_truth(wood_b
         record = simulate(wood_berry, samples=16384, seed=seed)
         diagnosis = diagnose(record.r, record.u, record.y, model=wood_berry.model, pmr=wood_berry.pmr,
                              parametric=wood_berry.parametric)  # fmt: skip
-        curves = pmr_curves([Stretch(record.r, record.u, record.y)], diagnosis, wood_berry)
+        curves = pmr_curves([Record(record.r, record.u, record.y)], diagnosis, wood_berry)
         assert set(curves) == {"G11", "G12", "G21", "G22"}
         for name, c in curves.items():
             truth = _truth(wood_berry, c.omega)[int(name[1]) - 1, int(name[2]) - 1]
@@ -94,7 +94,7 @@ def test_no_curves_without_a_verdict(wood_berry):
     record = simulate(wood_berry, samples=600, seed=1)
     diagnosis = diagnose(record.r, record.u, record.y, model=wood_berry.model, pmr=wood_berry.pmr,
                          parametric=wood_berry.parametric)  # fmt: skip
-    assert diagnosis.status != "ok" and pmr_curves([Stretch(record.r, record.u, record.y)], diagnosis, wood_berry) == {}
+    assert diagnosis.status != "ok" and pmr_curves([Record(record.r, record.u, record.y)], diagnosis, wood_berry) == {}
 
 
 def test_decimate_keeps_the_envelope():

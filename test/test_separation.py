@@ -10,15 +10,15 @@ import pytest
 from scipy.stats import norm
 
 from pmr_ros.config import load_config
-from pmr_ros.core.model import TransferMatrix
-from pmr_ros.core.parametric import ParametricSettings
-from pmr_ros.core.parametric.fit import RowFit
-from pmr_ros.core.parametric.guard import negligible_gains
-from pmr_ros.core.parametric.lsq import RowParameters, RowProblem
-from pmr_ros.core.parametric.ratio import ColumnModel, RowSystem
-from pmr_ros.core.parametric.separation import separation
-from pmr_ros.core.parametric.trials import Trials, alternatives, coupled_pairs, joint_profiles
-from pmr_ros.core.parametric.verdicts import mixture_interval, separation_reason
+from pmr_ros.core.pmr.parametric import ParametricSettings
+from pmr_ros.core.pmr.parametric.fit import RowFit
+from pmr_ros.core.pmr.parametric.guard import negligible_gains
+from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
+from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem
+from pmr_ros.core.pmr.parametric.separation import separation
+from pmr_ros.core.pmr.parametric.trials import Trials, alternatives, coupled_pairs, joint_profiles
+from pmr_ros.core.pmr.parametric.verdicts import mixture_interval, separation_reason
+from pmr_ros.core.sim.model import TransferMatrix
 
 LEVEL = ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-3, 3), True)
 """A column with a gain and a delay only (an integrating element's ratio)."""

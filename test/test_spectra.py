@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from pmr_ros.core.spectra import WelchSettings, cross_spectra
+from pmr_ros.core.pmr.spectra import WelchSettings, cross_spectra
 
 
 def test_cross_spectrum_ratio_recovers_filter_including_zero_frequency():
@@ -44,7 +44,7 @@ def test_welch_equals_scipy_csd_without_detrending():
 
 
 def test_segment_statistics_of_hann_at_half_overlap():
-    from pmr_ros.core.spectra import segment_spectra
+    from pmr_ros.core.pmr.spectra import segment_spectra
 
     s = WelchSettings("hann", 512, 0.5)
     # overlap correlation of Hann at 50 %: rho = 1/6, so K / (1 + 2 rho^2) for large K

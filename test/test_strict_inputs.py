@@ -111,7 +111,7 @@ def test_a_run_too_large_for_memory_is_refused_with_the_figure(capsys, path):
 
 
 def test_the_memory_check_uses_the_machines_available_memory(capsys, monkeypatch, tmp_path):
-    import pmr_ros.core.memory as memory
+    import pmr_ros.core.sim.memory as memory
 
     monkeypatch.setattr(memory, "available_bytes", lambda: 5_000_000)
     cfg = _with(tmp_path, {"run": {"samples": 16384}})

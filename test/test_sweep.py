@@ -13,10 +13,10 @@ import pytest
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
-from pmr_ros.core.classic import diagnose_classic
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.model import SCENARIOS
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.pmr.classic import diagnose_classic
+from pmr_ros.core.records import Record
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import SCENARIOS
 from pmr_ros.progress import ProgressBar, format_duration
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
@@ -145,7 +145,7 @@ def test_baseline_point_equals_a_plain_run(small_sweep, wood_berry):
     for scenario in SCENARIOS:
         record = simulate(wood_berry, samples=SAMPLES, seed=1, scenario=scenario)
         diagnosis = diagnose_classic(
-            [Stretch(record.r, record.u, record.y)], model=wood_berry.model, settings=wood_berry.pmr
+            [Record(record.r, record.u, record.y)], model=wood_berry.model, settings=wood_berry.pmr
         )
         for sweep in ("tau_G11", "tau_G21"):
             for row in (r for r in rows if r["scenario"] == scenario and r["sweep"] == sweep):

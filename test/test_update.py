@@ -13,12 +13,12 @@ import yaml
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
 from pmr_ros.config.write import model_params_text, system_tree
-from pmr_ros.core.batch import simulate_many
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import diagnose
-from pmr_ros.core.impact import control_impact, loop_figures
+from pmr_ros.core.loop.impact import control_impact, loop_figures
+from pmr_ros.core.loop.update import NotCorrectable, corrected_model
+from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
-from pmr_ros.core.update import NotCorrectable, corrected_model
+from pmr_ros.core.sim.batch import simulate_many
+from pmr_ros.core.sim.closed_loop import simulate
 
 
 def _diagnose(config, record):

@@ -11,9 +11,9 @@ import pytest
 from pmr_ros.config import load_config
 from pmr_ros.contract.alignment import SampleAligner
 from pmr_ros.contract.windowing import INSUFFICIENT, VERDICT, evaluate_window, useful_data, window_info
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.diagnosis import shortest_useful_stretch, useful_stretches
-from pmr_ros.core.stretch import Stretch
+from pmr_ros.core.pmr.diagnosis import shortest_useful_stretch, useful_stretches
+from pmr_ros.core.records import Record
+from pmr_ros.core.sim.closed_loop import simulate
 
 WINDOW = 16384
 GAPS = {"u": range(5400, 5420), "y": range(10900, 10905)}
@@ -124,7 +124,7 @@ def test_one_stretch_too_short_for_a_segment_is_explained_by_the_core():
 def test_useful_stretches_follow_the_method_segment(wood_berry):
     config = wood_berry
     settle = config.model.settling_samples()
-    pieces = [Stretch(*(np.zeros((n, 2)) for _ in range(3))) for n in (settle + 511, settle + 512, 9000)]
+    pieces = [Record(*(np.zeros((n, 2)) for _ in range(3))) for n in (settle + 511, settle + 512, 9000)]
     classic = useful_stretches(
         pieces, model=config.model, pmr=config.pmr, parametric=config.parametric, method="classic"
     )

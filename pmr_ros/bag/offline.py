@@ -5,8 +5,9 @@ The recorded r, u and y messages go, in recording order, through the same
 window evaluation (:mod:`pmr_ros.contract.windowing`) as in the live
 ``pmr_diagnostician``, with the model, PMR settings and diagnostician window
 of the recorded configuration (or of ``--config``).  Every window the live
-node diagnosed is diagnosed again, and the verdicts recorded on /diagnostics
-are compared with the offline ones number for number.
+node diagnosed is diagnosed again (:func:`replay_bag`);
+:mod:`pmr_ros.service.bag_diagnosis` compares the verdicts recorded on
+/diagnostics with the offline ones number for number.
 """
 
 from __future__ import annotations
@@ -16,17 +17,16 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..config import ConfigError, PmrConfig, load_config, parse_config
-from ..config.schema import parameter
 from ..config.write import system_tree
-from ..contract.alignment import SIGNALS, AddResult, SampleAligner
+from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.model_topics import read_active_model, with_system
-from ..contract.proposal import close_diagnosis
+from ..contract.samples import AddResult
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
-from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
-from ..core.results import Diagnosis, compare_diagnoses
+from ..contract.windowing import WindowOutcome, evaluate_window, offer_signal
+from ..core.results import Diagnosis
 from .reader import Bag
-from .schema import BagError
+from .storage import BagError
 
 EXAMPLES = 3
 """Rejected messages quoted per signal on the console and in the report."""
@@ -205,7 +205,8 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
     return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
 
 
-def _recorded_verdicts(bag: Bag, config: PmrConfig, namespace: str = "/") -> list[RecordedVerdict]:
+def recorded_verdicts(bag: Bag, config: PmrConfig, namespace: str = "/") -> list[RecordedVerdict]:
+    """The live diagnostician's statuses on the bag's /diagnostics that carry verdict levels, decoded."""
     name = topic("diagnostics").resolved(namespace)
     if name not in bag.topics:
         return []
@@ -344,7 +345,7 @@ class _Replay:
         return True
 
 
-def _replay(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
+def replay_bag(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
     """Feed the r, u, y of the node set in ``namespace`` through the live diagnostician's aligner and schedule."""
     replay = _Replay(config, namespace)
     by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
@@ -360,154 +361,3 @@ def _replay(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
 def held_samples(bag: Bag, namespace: str = "/") -> int:
     """Samples of r, u and y the bag holds (messages of the sparsest signal)."""
     return min(bag.counts.get(topic(SIGNAL_TOPICS[s]).resolved(namespace), 0) for s in SIGNALS)
-
-
-def judged_config(
-    config: PmrConfig, *, held: int, origin: str, min_samples: int | None = None
-) -> tuple[PmrConfig, str | None]:
-    """The configuration a bag is judged with offline, and a note when it differs from the recorded one.
-
-    ``min_samples`` (``--min-samples``) replaces ``diagnostician.min_samples``.
-    Without it, a ``pmr-ros run --bag`` recording (its minimum is the run's
-    planned length: ``min_samples == window_samples == run.samples``) that
-    holds fewer samples than planned is judged with the declared default
-    minimum instead: the recording was cut short, the data may still do.
-
-    Raises
-    ------
-    BagError
-        ``min_samples`` exceeds the window.
-    """
-    settings = config.diagnostician
-    if min_samples is not None:
-        if min_samples > settings.window_samples:
-            raise BagError(
-                f"--min-samples {min_samples}: must not exceed diagnostician.window_samples = "
-                f"{settings.window_samples} of the configuration ({origin})"
-            )
-        return replace(config, diagnostician=replace(settings, min_samples=min_samples)), None
-    planned = config.run.samples
-    if not (settings.min_samples == settings.window_samples == planned and held < planned):
-        return config, None
-    cut = f"the bag holds {held} of the {planned} samples its run planned (a recording cut short)"
-    default = int(parameter("diagnostician.min_samples").default)
-    if default >= planned:
-        return config, f"{cut}; --min-samples N judges it on fewer samples"
-    note = (
-        f"{cut}: judged with diagnostician.min_samples = {default} (the declared default) instead of the planned "
-        "length; --min-samples N to require more or fewer"
-    )
-    return replace(config, diagnostician=replace(settings, min_samples=default)), note
-
-
-def diagnose_bag(
-    bag: Bag,
-    config_path: str | None = None,
-    method: str | None = None,
-    *,
-    min_samples: int | None = None,
-    namespace: str | None = None,
-) -> OfflineResult:
-    """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
-
-    ``method`` (``classic`` or ``parametric``) overrides the configuration's
-    ``pmr.method``; recorded verdicts made with another method are not
-    compared.  ``min_samples`` overrides ``diagnostician.min_samples`` (see
-    :func:`judged_config` for a recording cut short).  ``namespace`` picks the
-    node set whose topics are read (default: the one the bag recorded, see
-    :func:`bag_namespace`).
-
-    Raises
-    ------
-    BagError
-        A needed topic is missing, empty or of the wrong type, no
-        configuration, or one whose channels are not the bag's.
-    """
-    namespace = bag_namespace(bag) if namespace is None else namespace
-    bag.require(required_topics(namespace))
-    config, origin = bag_configuration(bag, config_path)
-    check_system(bag, config, origin, namespace)
-    if method is not None:
-        config = replace(config, pmr=replace(config.pmr, method=method))
-    config, note = judged_config(config, held=held_samples(bag, namespace), origin=origin, min_samples=min_samples)
-    replay = _replay(bag, config, namespace)
-    end_of_bag = replay.finish()
-    result = OfflineResult(
-        config,
-        origin,
-        replay.outcomes,
-        _recorded_verdicts(bag, config, namespace),
-        warnings=replay.warnings,
-        messages=replay.counts,
-        end_of_bag=end_of_bag,
-        drops=replay.drops,
-        gaps=replay.aligner.gaps,
-        notes=[note] if note else [],
-        namespace=namespace,
-    )
-    result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method, config=config)
-    others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
-    if others:
-        result.warnings.insert(
-            0,
-            f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})",
-        )
-    return result
-
-
-def _with_impact(recorded: Diagnosis, mine: Diagnosis, config: PmrConfig | None) -> Diagnosis:
-    """The offline diagnosis with its control impact when the live node recorded one (the same computation)."""
-    has_impact = recorded.impact is not None or any(e.impact is not None for e in recorded)
-    return close_diagnosis(mine, config).diagnosis if has_impact and config is not None else mine
-
-
-def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: PmrConfig | None) -> dict[str, Any]:
-    """One recorded verdict against the offline outcome of its window."""
-    first, last = verdict.window or (0, 0)
-    entry: dict[str, Any] = {"first_sample": first, "last_sample": last, "recorded_status": verdict.diagnosis.status}
-    if mine is None:
-        entry.update(equal=False, offline_status="not diagnosed offline")
-        return entry
-    entry["offline_status"] = "ok" if mine.kind == VERDICT else mine.kind
-    if mine.kind != VERDICT:
-        entry["equal"] = False
-        return entry
-    offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
-    entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], offline.to_dict()["elements"])
-    entry["equal"] = not entry["differences"]
-    return entry
-
-
-def compare(
-    outcomes: list[WindowOutcome],
-    recorded: list[RecordedVerdict],
-    method: str | None = None,
-    *,
-    config: PmrConfig | None = None,
-) -> list[dict[str, Any]]:
-    """For every verdict the live node recorded for a window, whether the offline one for that window agrees.
-
-    Only the live node's verdicts are compared: a window it could not
-    diagnose (stale while its publishers matched, too few samples) is no
-    disagreement, whatever the offline diagnosis of it.  With ``method``,
-    verdicts made with another method are left out.  Agreeing means an
-    offline verdict for the same window in which
-    :func:`~pmr_ros.core.results.compare_diagnoses` finds no difference:
-    verdicts, flags, delays and strings equal, floats within its tolerance
-    (the same data diagnosed on another machine differ in the last digits).
-    With ``config``, a recorded verdict that carries the control impact is
-    compared with the offline one's, computed the same way.
-    """
-    offline = {}
-    for outcome in outcomes:
-        if "first_sample" in outcome.window:
-            offline[(outcome.window["first_sample"], outcome.window["last_sample"])] = outcome
-    out = []
-    for verdict in recorded:
-        window = verdict.window
-        if window is None or verdict.diagnosis.status != "ok":
-            continue
-        if method is not None and verdict.diagnosis.method != method:
-            continue
-        out.append(_comparison(verdict, offline.get(window), config))
-    return out

@@ -1,7 +1,7 @@
 """Reading pmr_ros bags: complete rosbag2 bags with ``rosbags``, killed recordings from what they committed.
 
 :func:`open_bag` checks what it is given and always answers with a
-:class:`Bag` or a one-line :class:`~pmr_ros.bag.schema.BagError`: a path that
+:class:`Bag` or a one-line :class:`~pmr_ros.bag.storage.BagError`: a path that
 is no bag, a corrupted storage file, an empty bag.  What a recorder that was
 killed left behind is read as far as it is whole, and the bag is marked
 ``complete = False``:
@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..contract.topics import load_contract
-from .schema import RUN_CONFIG_KEY, BagError, RunConfig, typestore
+from .storage import RUN_CONFIG_KEY, BagError, RunConfig, typestore
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Final, cast
 
 from ..contract.topics import Topic
-from .schema import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
+from .storage import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 
 if TYPE_CHECKING:
     from rosbags.rosbag2.storage_mcap import McapWriter

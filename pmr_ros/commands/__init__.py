@@ -65,7 +65,7 @@ def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer 
     Parameters
     ----------
     parts : dict
-        What needs memory -> bytes (see :mod:`pmr_ros.core.memory`).
+        What needs memory -> bytes (see :mod:`pmr_ros.core.sim.memory`).
     cause : str
         The setting that asks for it (``run.samples = 2000000000 (command line)``).
     advice : str
@@ -76,7 +76,7 @@ def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer 
     CommandError
         One line with the figures.
     """
-    from ..core.memory import available_bytes, format_bytes
+    from ..core.sim.memory import available_bytes, format_bytes
 
     needed, have = sum(parts.values()), available_bytes()
     if have is None or needed <= have:
@@ -137,25 +137,29 @@ def add_namespace_argument(parser: argparse.ArgumentParser, help_text: str) -> N
 
 def add_system_arguments(parser: argparse.ArgumentParser) -> None:
     """--config/--scenario/--samples/--seed, shared by commands that simulate."""
-    from ..core.model import SCENARIOS
+    from ..core.sim.model import SCENARIOS
+    from .arguments import add_options, config_option, option
 
-    parser.add_argument(
-        "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
-    )
-    parser.add_argument(
-        "--scenario",
-        choices=SCENARIOS,
-        help="which part of the configured mismatch the plant gets (default: run.scenario)",
-    )
-    parser.add_argument("--samples", type=positive_int, metavar="N", help="closed-loop samples (default: run.samples)")
-    parser.add_argument(
-        "--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)"
+    add_options(
+        parser,
+        [
+            config_option(),
+            option(
+                "--scenario",
+                choices=SCENARIOS,
+                help="which part of the configured mismatch the plant gets (default: run.scenario)",
+            ),
+            option("--samples", type=positive_int, metavar="N", help="closed-loop samples (default: run.samples)"),
+            option(
+                "--seed", type=nonnegative_int, metavar="S", help="seed of noise and PRBS phase (default: run.seed)"
+            ),
+        ],
     )
 
 
 def add_method_argument(parser: argparse.ArgumentParser) -> None:
     """--method classic|parametric, shared by commands that diagnose."""
-    from ..core.diagnosis import METHODS
+    from ..core.pmr.diagnosis import METHODS
 
     parser.add_argument(
         "--method",

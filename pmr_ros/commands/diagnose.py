@@ -16,8 +16,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
-from .model_output import add_model_arguments, check_model_output, close_the_loop
+from .arguments import JSON, add_options, config_option
+from .model_output import add_model_arguments, check_model_output
 
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
@@ -41,12 +43,13 @@ def register(sub) -> None:
         metavar="PATH",
         help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config)",
     )
-    p.add_argument(
-        "--config",
-        metavar="FILE",
-        help="ROS 2 params file with the controller's model (default: the bag's recorded configuration)",
+    add_options(
+        p,
+        [
+            config_option("ROS 2 params file with the controller's model (default: the bag's recorded configuration)"),
+            JSON,
+        ],
     )
-    p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     add_report_argument(p)
     add_method_argument(p)
     add_namespace_argument(
@@ -190,16 +193,20 @@ def _write_bag_outputs(args: argparse.Namespace, report: dict, result, bag) -> N
 
 def diagnose_bag_command(args: argparse.Namespace) -> int:
     """``pmr-ros diagnose BAG``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
-    from ..bag.offline import diagnose_bag
     from ..bag.reader import open_bag
-    from ..bag.schema import BagError
+    from ..bag.storage import BagError
     from ..report import format_table
+    from ..service.bag_diagnosis import diagnose_bag
 
     check_model_output(args)
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
-        report = offline_report(result, bag, close_the_loop(args, result.config, result.final_diagnosis))
+        report = offline_report(
+            result,
+            bag,
+            close_and_write(result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None)),
+        )
     except BagError as exc:
         raise CommandError(str(exc)) from None
     sys.stdout.write(format_table(report))

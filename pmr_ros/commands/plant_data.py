@@ -2,9 +2,9 @@
 
 Used by :mod:`pmr_ros.commands.diagnose` (not a sub-command of its own):
 :func:`source_kind` tells a bag from a historian export by what the path is,
-:func:`diagnose_table` diagnoses an export (read and cleaned by
-:mod:`pmr_ros.data`, one estimate from all its clean stretches), and
-:func:`write_bag_report` writes the HTML report of a bag's last window.
+:func:`diagnose_table` diagnoses an export (:mod:`pmr_ros.service.historian`)
+and prints and writes its reports, and :func:`write_bag_report` writes the
+HTML report of a bag's last window (:mod:`pmr_ros.service.bag_diagnosis`).
 """
 
 from __future__ import annotations
@@ -14,10 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from . import EXIT_INSUFFICIENT, CommandError, load_checked_config
-from .model_output import check_model_output, close_the_loop
+from .model_output import check_model_output
 
 __all__ = ["BAG", "TABLE", "diagnose_table", "progress_callback", "source_kind", "write_bag_report"]
 
@@ -75,38 +73,6 @@ def _table_config(args: argparse.Namespace) -> Any:
     return load_checked_config(args.config, overrides)
 
 
-def _with_data_quality(diagnosis: Any, args: argparse.Namespace, config: Any, data: Any) -> Any:
-    """The diagnosis with its data-quality figures.
-
-    Slow disturbances from the diagnosed (deviation) stretches; saturation from the values as read, and only
-    against limits the params file gives (``mpc.u_min``, ``mpc.u_max`` in the data's units): the defaults
-    describe the simulation, not the plant.
-    """
-    from dataclasses import replace
-
-    from ..config.files import read_parameter_file
-    from ..core.data_quality import assess, saturation
-    from ..core.diagnosis import useful_stretches, with_data_quality
-
-    settings = config.quality
-    kw = {"model": config.model, "pmr": config.pmr, "parametric": config.parametric}
-    used = useful_stretches(data.stretches(), **kw, method="classic")
-    if not used:
-        return diagnosis
-    figures = assess(used, model=config.model, welch=config.pmr.welch, settings=settings.without_limits())
-    if {"u_min", "u_max"} <= set(read_parameter_file(args.config).get("mpc") or {}):
-        at, beyond = saturation(
-            data.stretches(deviations=False),
-            u_min=settings.u_min,
-            u_max=settings.u_max,
-            tolerance=settings.limit_tolerance,
-        )
-        figures = replace(figures, saturated=at, outside=beyond)
-    else:
-        settings = settings.without_limits()
-    return with_data_quality(diagnosis, figures, model=config.model, settings=settings)
-
-
 def _data_report(config: Any, diagnosis: Any, data: Any, path: str) -> dict[str, Any]:
     from ..report import build_report
 
@@ -158,25 +124,18 @@ def diagnose_table(args: argparse.Namespace) -> int:
         Bad input (one line naming the file, column, row and value), or too
         little clean data for the method (exit code 3, after the reports are written).
     """
-    from ..core.diagnosis import diagnose_stretches
-    from ..data import DataError, load_plant_data
     from ..report import format_table
     from ..report.html import ReportInput
+    from ..service.historian import diagnose_table as diagnose_export
 
     config = _table_config(args)
     check_model_output(args)
     update, close = progress_callback(f"reading {Path(args.bag).name}")
     try:
-        data = load_plant_data(args.bag, config, progress=update)
-    except DataError as exc:
-        raise CommandError(str(exc)) from None
+        found = diagnose_export(args.bag, config, progress=update, model_path=getattr(args, "write_model", None))
     finally:
         close()
-    stretches = data.stretches()
-    diagnosis = diagnose_stretches(stretches, model=config.model, pmr=config.pmr, parametric=config.parametric)
-    if diagnosis.status == "ok":
-        diagnosis = _with_data_quality(diagnosis, args, config, data)
-        diagnosis = close_the_loop(args, config, diagnosis)
+    diagnosis, data, stretches = found.diagnosis, found.data, found.stretches
     report = _data_report(config, diagnosis, data, str(args.bag))
     if diagnosis.status == "ok":
         sys.stdout.write(format_table(report))
@@ -192,28 +151,6 @@ def diagnose_table(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bag_window(bag: Any, result: Any) -> tuple[dict[str, np.ndarray], int] | None:
-    """r, u, y of the last diagnosed window of a bag, in the model's channel order; None without one."""
-    from ..contract.layout import read_signal
-    from ..contract.topics import SIGNAL_TOPICS, topic
-
-    window = result.final.window if result.final is not None else {}
-    if "first_sample" not in window:
-        return None
-    model = result.config.model
-    first, samples = int(window["first_sample"]), int(window["window_samples"])
-    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-    signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
-    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
-    for message in bag.messages(set(by_topic)):
-        signal = by_topic[message.topic]
-        stamp, channels, values = read_signal(bag.decode(message))
-        k = int(round(stamp / model.sample_time)) - first
-        if 0 <= k < samples and tuple(channels) == names[signal] and values.size == len(channels):
-            signals[signal][k] = values
-    return signals, first
-
-
 def write_bag_report(args: argparse.Namespace, result: Any, bag: Any, report: dict[str, Any]) -> None:
     """Write the HTML report of a bag's last diagnosed window (``--report DIR``).
 
@@ -222,21 +159,13 @@ def write_bag_report(args: argparse.Namespace, result: Any, bag: Any, report: di
     CommandError
         The directory cannot be written.
     """
-    from ..contract.windowing import window_dither
-    from ..core.stretch import Stretch
-    from ..data import PlantData
     from ..report.html import ReportInput
+    from ..service.bag_diagnosis import window_data
 
-    found = _bag_window(bag, result)
+    found = window_data(bag, result)
     if found is None:
         print("note: no window of the bag was diagnosed: no HTML report", file=sys.stderr)
         return
-    window, first = found
-    config = result.config
-    data = PlantData.from_record(
-        window, source=str(bag.path), sample_time_s=config.model.sample_time, start=f"sample {first}"
-    )
-    dither = window_dither(config, first, data.samples)
-    stretches = [Stretch(window["r"], window["u"], window["y"], dither)]
-    page = ReportInput(report, result.final_diagnosis, stretches, data, config)
+    data, stretches = found
+    page = ReportInput(report, result.final_diagnosis, stretches, data, result.config)
     _write_outputs(argparse.Namespace(json=None, report=args.report), report, page)

@@ -68,7 +68,7 @@ def register(sub) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros record`` until Ctrl-C, SIGTERM or ``--duration``; the exit code."""
-    from ..bag.schema import BagError, RunConfig, recorded_topics
+    from ..bag.storage import BagError, RunConfig, recorded_topics
     from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 
     run_config = None
@@ -134,7 +134,7 @@ def _record(node, args: argparse.Namespace, stop: list[int]) -> None:
 
 def start_recording(args: argparse.Namespace, config):
     """The recording of ``pmr-ros run --bag``: the bag is created now (fails before the run)."""
-    from ..bag.schema import BagError, recorded_topics
+    from ..bag.storage import BagError, recorded_topics
     from ..bag.writer import BagWriter
     from ..nodes.bag_recorder import RunRecording
 

@@ -11,6 +11,7 @@ import argparse
 import sys
 
 from . import CommandError
+from .arguments import FORCE, add_options
 
 
 def register(sub) -> None:
@@ -27,15 +28,15 @@ def register(sub) -> None:
     p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
     p.add_argument("--out", metavar="DIR", help="the complete bag to write (default: BAG_reindexed)")
     p.add_argument("--storage", choices=("mcap", "sqlite3"), help="storage of the copy (default: the bag's own)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing bag at --out")
+    add_options(p, [FORCE.but(help="overwrite an existing bag at --out")])
     p.set_defaults(handler=handle)
 
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros reindex``; the exit code."""
     from ..bag.reader import open_bag
-    from ..bag.reindex import reindex
-    from ..bag.schema import BagError
+    from ..bag.repair import reindex
+    from ..bag.storage import BagError
 
     out = args.out or f"{str(args.bag).rstrip('/')}_reindexed"
     try:

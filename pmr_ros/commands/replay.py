@@ -83,7 +83,7 @@ def register(sub) -> None:
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros replay``; the exit code (130 when stopped early)."""
     from ..bag.reader import open_bag
-    from ..bag.schema import BagError
+    from ..bag.storage import BagError
 
     try:
         bag = open_bag(args.bag)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..service.adapted_run import ADAPT_STALL_TIMEOUT_S, adapt_config, adapted_report, run_adapted
+from ..service.closing import close_and_write
 from . import (
     EXIT_INSUFFICIENT,
     CommandError,
@@ -23,15 +25,9 @@ from . import (
     run_overrides,
     writable_file,
 )
-from .adapt import (
-    ADAPT_STALL_TIMEOUT_S,
-    adapt_config,
-    adaptation_lines,
-    adapted_report,
-    check_adapt,
-    run_adapted,
-)
-from .model_output import add_model_arguments, check_model_output, close_the_loop
+from .adapt import adaptation_lines, check_adapt
+from .arguments import JSON, add_options
+from .model_output import add_model_arguments, check_model_output
 from .record import add_storage_arguments, start_recording
 
 STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
@@ -51,7 +47,7 @@ def register(sub) -> None:
     )
     add_system_arguments(p)
     add_method_argument(p)
-    p.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    add_options(p, [JSON])
     p.add_argument("--batch", action="store_true", help="run the pure numerical core instead of the ROS 2 node set")
     p.add_argument(
         "--visible",
@@ -101,7 +97,7 @@ def _node_set_report(config):
 
 def run_memory(config, *, batch: bool) -> dict[str, int]:
     """What a run of ``config.run.samples`` needs in memory [bytes]: the record or live window, and the diagnosis."""
-    from ..core.memory import diagnosis_bytes, simulation_bytes, window_bytes
+    from ..core.sim.memory import diagnosis_bytes, simulation_bytes, window_bytes
 
     model, samples = config.model, config.run.samples
     held = simulation_bytes(model, samples) if batch else window_bytes(model, samples)
@@ -134,7 +130,9 @@ def _run_nodes(args: argparse.Namespace, config, recording):
 
     try:
         if args.adapt:
-            return run_adapted(config, options, run_node_set, extra_nodes=extra)
+            from ..nodes.adapter import ModelAdapter
+
+            return run_adapted(config, options, run_node_set, adapter_type=ModelAdapter, extra_nodes=extra)
         return run_node_set(config, options(extra_nodes=extra, stall_timeout_s=STALL_TIMEOUT_S)), None
     except NodeSetError as exc:
         raise CommandError(str(exc), code=1) from None
@@ -171,20 +169,18 @@ def handle(args: argparse.Namespace) -> int:
 
 def _batch_run(args: argparse.Namespace, config) -> tuple:
     """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
-    from ..core.closed_loop import simulate
-    from ..core.diagnosis import diagnose_stretches
-    from ..core.stretch import Stretch
+    from ..core.pmr.diagnosis import diagnose_stretches
+    from ..core.sim.closed_loop import simulate
     from ..report import build_report
 
-    record = simulate(config)
     diagnosis = diagnose_stretches(
-        [Stretch(record.r, record.u, record.y, record.dither)],
+        [simulate(config)],
         model=config.model,
         pmr=config.pmr,
         parametric=config.parametric,
         quality=config.quality,
     )
-    diagnosis = close_the_loop(args, config, diagnosis)
+    diagnosis = close_and_write(config, diagnosis, model_path=getattr(args, "write_model", None))
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "batch"
     return diagnosis, report
@@ -199,9 +195,9 @@ def _node_set_run(args: argparse.Namespace, config) -> tuple:
     adaptation = None
     if adapter is not None:
         final, adaptation = adapted_report(adapter)
-        diagnosis = close_the_loop(args, _on_model(config, adapter), final)
+        diagnosis = close_and_write(_on_model(config, adapter), final, model_path=getattr(args, "write_model", None))
     else:
-        diagnosis = close_the_loop(args, config, result.diagnosis)
+        diagnosis = close_and_write(config, result.diagnosis, model_path=getattr(args, "write_model", None))
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "nodes"
     if adaptation is not None:

@@ -10,11 +10,86 @@ import time
 from pathlib import Path
 
 from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
+from .arguments import FORCE, QUIET, add_options, config_option, option
 
 DEFAULT_OUT = "out/sweep"
 
 PLAN_BYTES_PER_RUN = 400
 """Memory of one planned run before it runs (its key, its place in a point's task) [bytes]."""
+
+
+GRID = "nu grid (--nu or a range)"
+"""The heading of the nu grid's options."""
+
+OPTIONS = (
+    config_option(),
+    option(
+        "--out",
+        metavar="DIR",
+        default=DEFAULT_OUT,
+        help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})",
+    ),
+    option("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)", group=GRID),
+    option("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)", group=GRID),
+    option("--nu-stop", type=number, default=10.0, metavar="X", help="last nu, included (default: 10)", group=GRID),
+    option("--nu-step", type=number, default=0.25, metavar="X", help="nu step (default: 0.25)", group=GRID),
+    option(
+        "--elements",
+        default="G11,G21",
+        metavar="LIST",
+        help="elements whose time constant is swept, one sweep each (default: G11,G21)",
+    ),
+    option("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)"),
+    option(
+        "--methods",
+        "--method",
+        dest="methods",
+        default="classic",
+        metavar="LIST",
+        help="diagnosis methods applied to every run, side by side in the report: classic, parametric "
+        "(default: classic, the paper's study; classic,parametric adds the parametric fit, about 1.3x the time)",
+    ),
+    option(
+        "--first-seed",
+        type=nonnegative_int,
+        metavar="S",
+        help="seeds are S, S+1, ... (default: run.seed of the config)",
+    ),
+    option(
+        "--samples",
+        type=positive_int,
+        metavar="N",
+        help="closed-loop samples per run (default: run.samples of the config)",
+    ),
+    option(
+        "--jobs",
+        type=positive_int,
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="worker processes (default: the number of cores)",
+    ),
+    option(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
+        "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
+    ),
+    FORCE.but(help="start afresh in an --out folder that holds an earlier sweep"),
+    option(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted sweep in --out: skip the runs already in results.csv",
+    ),
+    option(
+        "--report",
+        metavar="FILE",
+        help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)",
+    ),
+    option("--no-report", action="store_true", help="only write results.csv"),
+    option("--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv"),
+    QUIET,
+)
+"""The options of ``pmr-ros sweep``, in the order ``--help`` lists them."""
 
 
 def register(sub) -> None:
@@ -30,77 +105,7 @@ def register(sub) -> None:
             "tau21 = 10.9 nu (eq. 19; the paper's figures call it G12), nu = 1, 1.25, ..., 10, 5 seeds."
         ),
     )
-    p.add_argument(
-        "--config", metavar="FILE", help="ROS 2 params file of the system (default: the shipped Wood-Berry column)"
-    )
-    p.add_argument(
-        "--out",
-        metavar="DIR",
-        default=DEFAULT_OUT,
-        help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})",
-    )
-    grid = p.add_argument_group("nu grid (--nu or a range)")
-    grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
-    grid.add_argument("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)")
-    grid.add_argument("--nu-stop", type=number, default=10.0, metavar="X", help="last nu, included (default: 10)")
-    grid.add_argument("--nu-step", type=number, default=0.25, metavar="X", help="nu step (default: 0.25)")
-    p.add_argument(
-        "--elements",
-        default="G11,G21",
-        metavar="LIST",
-        help="elements whose time constant is swept, one sweep each (default: G11,G21)",
-    )
-    p.add_argument("--seeds", type=positive_int, default=5, metavar="N", help="seeds per (nu, scenario) (default: 5)")
-    p.add_argument(
-        "--methods",
-        "--method",
-        dest="methods",
-        default="classic",
-        metavar="LIST",
-        help="diagnosis methods applied to every run, side by side in the report: classic, parametric "
-        "(default: classic, the paper's study; classic,parametric adds the parametric fit, about 1.3x the time)",
-    )
-    p.add_argument(
-        "--first-seed",
-        type=nonnegative_int,
-        metavar="S",
-        help="seeds are S, S+1, ... (default: run.seed of the config)",
-    )
-    p.add_argument(
-        "--samples",
-        type=positive_int,
-        metavar="N",
-        help="closed-loop samples per run (default: run.samples of the config)",
-    )
-    p.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=os.cpu_count() or 1,
-        metavar="N",
-        help="worker processes (default: the number of cores)",
-    )
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
-        "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
-    )
-    p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
-    p.add_argument(
-        "--resume",
-        action="store_true",
-        help="continue an interrupted sweep in --out: skip the runs already in results.csv",
-    )
-    p.add_argument(
-        "--report",
-        metavar="FILE",
-        help="markdown report to write; figures go to figures/ beside it (default: DIR/reproduction.md)",
-    )
-    p.add_argument("--no-report", action="store_true", help="only write results.csv")
-    p.add_argument(
-        "--report-only", action="store_true", help="do not simulate: rebuild the report from DIR/results.csv"
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_options(p, OPTIONS)
     p.set_defaults(handler=handle)
 
 
@@ -130,8 +135,8 @@ def _nu_count(args: argparse.Namespace) -> int:
 
 def _check_size(args: argparse.Namespace, config) -> None:
     """Refuse a sweep whose plan or runs in flight do not fit in memory, before building anything."""
-    from ..core.memory import diagnosis_bytes, simulation_bytes
-    from ..core.model import SCENARIOS
+    from ..core.sim.memory import diagnosis_bytes, simulation_bytes
+    from ..core.sim.model import SCENARIOS
 
     _, seeds = _seeds(args, config)
     samples = config.run.samples if args.samples is None else args.samples
@@ -149,7 +154,7 @@ def _check_size(args: argparse.Namespace, config) -> None:
 
 
 def _plan(args: argparse.Namespace, config):
-    from ..core.diagnosis import METHODS
+    from ..core.pmr.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
     if config.explicit_plant is not None:

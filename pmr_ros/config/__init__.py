@@ -2,7 +2,7 @@
 
 ``schema`` reads the declaration (``config/parameters.yaml``: every default,
 range and meaning), ``files`` reads params files, ``build`` turns a parameter
-tree into a :class:`PmrConfig`.
+tree into a :class:`PmrConfig` (``pmr_config``).
 """
 
 from __future__ import annotations
@@ -12,17 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from ..resources import share_dir
-from .build import (
-    DataSettings,
-    DiagnosticianSettings,
-    PmrConfig,
-    RunSettings,
-    SimulationSettings,
-    check_tree,
-    parse_config,
-)
+from .build import check_tree, parse_config
+from .data import DataSettings
 from .errors import ConfigError
 from .files import flatten_parameters, nested, read_parameter_file
+from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
 from .schema import SCHEMA_FILE
 
 __all__ = [

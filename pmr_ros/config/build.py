@@ -10,150 +10,28 @@ shipped Wood-Berry column never stands in for a plant model.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..core.adaptation import AdaptSettings
-from ..core.classic import PmrSettings
-from ..core.data_quality import QualitySettings
-from ..core.impact import ImpactSettings
-from ..core.model import Mismatch, TransferMatrix
-from ..core.mpc import MpcTuning
-from ..core.parametric import ParametricSettings
-from ..core.plant import OutputDisturbance
-from ..core.prbs import ExcitationSettings, PrbsSettings, primitive_polynomial_count
-from .data import DataSettings, data_settings
+from ..core.loop.adaptation import AdaptSettings
+from ..core.loop.impact import ImpactSettings
+from ..core.mpc.controller import MpcTuning
+from ..core.pmr.classic import PmrSettings
+from ..core.pmr.data_quality import QualitySettings
+from ..core.pmr.parametric import ParametricSettings
+from ..core.sim.excitation import ExcitationSettings, PrbsSettings, primitive_polynomial_count
+from ..core.sim.model import Mismatch, TransferMatrix
+from ..core.sim.true_plant import OutputDisturbance
+from .data import data_settings
 from .errors import ConfigError
+from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
-__all__ = [
-    "DiagnosticianSettings",
-    "PmrConfig",
-    "RunSettings",
-    "SimulationSettings",
-    "check_tree",
-    "parse_config",
-]
+__all__ = ["check_tree", "parse_config"]
 
 SYSTEM_BLOCK = "system"
 PLANT_BLOCK = "plant"
-
-
-@dataclass(frozen=True)
-class RunSettings:
-    """How long and with what seed and scenario the closed loop runs (the ``run`` block)."""
-
-    samples: int
-    seed: int
-    scenario: str
-
-
-@dataclass(frozen=True)
-class SimulationSettings:
-    """How the plant node drives the node set (the ``simulation`` block).
-
-    Attributes
-    ----------
-    real_time_rate_hz : float
-        0: lockstep (the plant steps on u(k)); > 0: wall-clock samples per second.
-    wait_for_subscribers : int
-        Subscribers of y the plant waits for before sample 0.
-    startup_timeout_s : float
-        Longest wait for them [s].
-    discovery_settle_s : float
-        Least time between the plant's start and sample 0, for DDS to discover
-        the nodes already running [s].
-    max_samples_ahead : int
-        Lockstep flow control: how far the plant may run ahead of its slowest
-        consumer's reported progress [samples].
-    """
-
-    real_time_rate_hz: float
-    wait_for_subscribers: int
-    startup_timeout_s: float
-    discovery_settle_s: float
-    max_samples_ahead: int
-
-    @property
-    def lockstep(self) -> bool:
-        """Whether the plant steps on u(k) instead of a wall-clock timer."""
-        return self.real_time_rate_hz == 0
-
-
-@dataclass(frozen=True)
-class DiagnosticianSettings:
-    """The diagnostician's rolling window (the ``diagnostician`` block).
-
-    Attributes
-    ----------
-    window_samples, update_period_samples, min_samples, max_lag_samples : int
-        Window, update period, shortest diagnosable stretch and the lag at
-        which a signal counts as stopped [samples].
-    stale_timeout_s : float
-        Silence of a signal after which the verdicts turn STALE [s, wall time].
-    publish_period_s : float
-        The latest statuses are republished this often [s, wall time].
-    """
-
-    window_samples: int
-    update_period_samples: int
-    min_samples: int
-    max_lag_samples: int
-    stale_timeout_s: float
-    publish_period_s: float
-
-
-@dataclass(frozen=True)
-class PmrConfig:
-    """Everything a run needs: the model, the simulated plant and loop, the diagnosis, the nodes.
-
-    Attributes
-    ----------
-    parameters : dict
-        The effective nested parameter tree (file values over declared defaults).
-    source : str
-        Where it came from (a file, or a node's parameters).
-    data : DataSettings
-        How a historian export is read and cleaned (``pmr-ros diagnose FILE.csv``).
-    adapt : AdaptSettings
-        When ``pmr-ros run --adapt`` rolls a model update back.
-    explicit_plant : TransferMatrix or None
-        The ``plant`` block: the true plant of a simulation, when given.
-    warnings : tuple of str
-        Values accepted but worth a word (a time constant an integrating element ignores).
-    """
-
-    model: TransferMatrix
-    mismatch: Mismatch
-    noise_std: np.ndarray
-    disturbance: OutputDisturbance
-    prbs: PrbsSettings
-    excitation: ExcitationSettings
-    mpc: MpcTuning
-    pmr: PmrSettings
-    parametric: ParametricSettings
-    quality: QualitySettings
-    run: RunSettings
-    simulation: SimulationSettings
-    diagnostician: DiagnosticianSettings
-    impact: ImpactSettings
-    adapt: AdaptSettings
-    data: DataSettings
-    source: str
-    parameters: dict[str, Any]
-    explicit_plant: TransferMatrix | None = None
-    warnings: tuple[str, ...] = ()
-
-    def plant(self, scenario: str | None = None) -> TransferMatrix:
-        """The true plant ``G``: the ``plant`` block if given, else the model under ``scenario``'s mismatch.
-
-        ``scenario`` defaults to the configured one; with a ``plant`` block it does not apply.
-        """
-        if self.explicit_plant is not None:
-            return self.explicit_plant
-        return self.model.with_mismatch(self.mismatch.for_scenario(scenario or self.run.scenario))
 
 
 def _did_you_mean(name: str, known: list[str]) -> str:
@@ -456,4 +334,5 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),
         warnings=tuple(v.warnings),
+        given=frozenset(f"{block}.{key}" for block, values in checked.items() for key in values),
     )

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.model import element_name
+from ..core.sim.model import element_name
 from ..resources import share_dir
 from .errors import ConfigError
 from .files import load_yaml

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..core.model import TransferMatrix
+from ..core.sim.model import TransferMatrix
 from .errors import ConfigError
 
 __all__ = ["SIMULATION_TRUTH", "model_params_text", "system_tree", "write_params_file"]

@@ -13,7 +13,7 @@ The window is the newest ``capacity`` complete samples.  The PMR's spectra and
 the model's element outputs assume evenly spaced, gap-free records, so a
 missing or rejected sample splits the window into unbroken *stretches*; the
 diagnosis pools the Welch segments of every stretch
-(:func:`pmr_ros.core.diagnosis.diagnose_stretches`).
+(:func:`pmr_ros.core.pmr.diagnosis.diagnose_stretches`).
 
 Rejected, with a reason naming the signal, its topic and the value:
 non-finite values, a wrong number of values or wrong channel names, stamps off
@@ -29,121 +29,60 @@ import bisect
 import copy
 from collections import deque
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+
+from ..core.records import Record
+from .samples import (
+    BAD_STAMP,
+    DUPLICATED,
+    GRID_TOLERANCE,
+    OFF_GRID,
+    OUT_OF_ORDER,
+    AddResult,
+    sample_index,
+    signal_problem,
+)
 
 SIGNALS = ("r", "u", "y")
 """Signals the diagnostician aligns: setpoints, inputs, outputs."""
 
-GRID_TOLERANCE = 0.25
-"""Largest distance of a stamp from the sample grid [samples] still accepted."""
-
-
-def sample_index(stamp_s: float, sample_time_s: float) -> tuple[int, float]:
-    """The sample index of a stamp and its distance from the grid.
-
-    Parameters
-    ----------
-    stamp_s : float
-        Stamp [s].
-    sample_time_s : float
-        Ts [s].
-
-    Returns
-    -------
-    index : int
-        ``round(stamp / Ts)``.
-    offset : float
-        ``stamp / Ts - index`` [samples], in [-0.5, 0.5].
-    """
-    position = stamp_s / sample_time_s
-    index = int(round(position))
-    return index, position - index
-
-
-WRONG_WIDTH, WRONG_NAMES, NON_FINITE = "wrong number of values", "wrong channel names", "non-finite value"
-BAD_STAMP, OFF_GRID, DUPLICATED, OUT_OF_ORDER = "non-finite stamp", "stamp off the grid", "duplicated", "out-of-order"
-"""Kinds of rejected messages (:attr:`AddResult.rejected_as`)."""
-
-
-def signal_problem(
-    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
-) -> tuple[str, str] | None:
-    """Why a signal message is unusable, as ``(kind, text)``, or None if it is fine.
-
-    ``names`` may be empty (then values are taken in the configured order);
-    otherwise they must equal ``expected_names``.
-    """
-    width = len(expected_names)
-    if len(values) != width:
-        return WRONG_WIDTH, (
-            f"{label}: {len(values)} values {np.asarray(values, dtype=float).tolist()!r}, expected {width} "
-            f"({', '.join(expected_names)}); message dropped"
-        )
-    if len(names) and tuple(names) != tuple(expected_names):
-        return WRONG_NAMES, (
-            f"{label}: channel names {list(names)!r} differ from the configured {list(expected_names)!r}; message "
-            "dropped"
-        )
-    array = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(array)):
-        bad = [f"{n}={v}" for n, v in zip(expected_names, array.tolist(), strict=True) if not np.isfinite(v)]
-        return NON_FINITE, f"{label}: non-finite value {', '.join(bad)}; message dropped"
-    return None
-
-
-def check_signal(
-    label: str, names: Sequence[str], values: Sequence[float] | np.ndarray, expected_names: Sequence[str]
-) -> str | None:
-    """Why a signal message is unusable (the text of :func:`signal_problem`), or None if it is fine."""
-    problem = signal_problem(label, names, values, expected_names)
-    return None if problem is None else problem[1]
-
-
-@dataclass
-class AddResult:
-    """What adding one message did.
-
-    Attributes
-    ----------
-    accepted : bool
-    warnings : list of str
-        Human-readable reasons (rejections, gaps, new stretches).
-    completed : list of int
-        Sample indices that became complete.
-    rejected_as : str
-        For a rejected message, the kind of problem (``non-finite value``,
-        ``duplicated``, ...: the module's constants); else "".
-    """
-
-    accepted: bool
-    warnings: list[str] = field(default_factory=list)
-    completed: list[int] = field(default_factory=list)
-    rejected_as: str = ""
-
 
 @dataclass(frozen=True)
 class AlignedStretch:
-    """An unbroken stretch of complete samples ``first .. first + samples - 1``.
+    """An unbroken stretch of complete samples ``first .. first + samples - 1``: a :class:`Record` placed in time.
 
     Attributes
     ----------
     first : int
         Index of its first sample.
-    r, u, y : ndarray
-        One row per sample.
+    record : Record
+        Its r, u, y, one row per sample (no dither: the aligner holds none).
     """
 
     first: int
-    r: np.ndarray
-    u: np.ndarray
-    y: np.ndarray
+    record: Record
+
+    @property
+    def r(self) -> np.ndarray:
+        """Setpoints, one row per sample."""
+        return self.record.r
+
+    @property
+    def u(self) -> np.ndarray:
+        """Inputs, one row per sample."""
+        return self.record.u
+
+    @property
+    def y(self) -> np.ndarray:
+        """Outputs, one row per sample."""
+        return self.record.y
 
     @property
     def samples(self) -> int:
         """Samples in the stretch."""
-        return int(self.r.shape[0])
+        return self.record.samples
 
     @property
     def last(self) -> int:
@@ -253,7 +192,7 @@ class SampleAligner:
         rows = {s: list(self._rows[s])[len(self._rows[s]) - take :] for s in SIGNALS}
         cuts = [0, *(np.flatnonzero(np.diff(index) != 1) + 1).tolist(), take]
         return [
-            AlignedStretch(int(index[a]), *(np.array(rows[s][a:b]) for s in SIGNALS))
+            AlignedStretch(int(index[a]), Record(*(np.array(rows[s][a:b]) for s in SIGNALS)))
             for a, b in zip(cuts[:-1], cuts[1:], strict=True)
         ]
 

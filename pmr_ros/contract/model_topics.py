@@ -5,7 +5,7 @@
 ``revision`` (0 at start, one more per switch) and the ``system`` block.
 ``pmr/proposed_model`` (published by ``pmr_diagnostician``, latched) is a
 params file whose ``system`` block is the corrected model
-(:func:`pmr_ros.contract.proposal.model_file_text`).  Both are read back
+(:func:`pmr_ros.service.closing.model_file_text`).  Both are read back
 strictly, through the same validation as a params file.  No ROS imports.
 """
 
@@ -18,7 +18,7 @@ import yaml
 
 from ..config import ConfigError, PmrConfig, flatten_parameters, parse_config
 from ..config.write import system_tree
-from ..core.model import TransferMatrix
+from ..core.sim.model import TransferMatrix
 
 __all__ = ["ActiveModel", "active_model_text", "read_active_model", "system_parameters", "with_system"]
 

@@ -2,7 +2,7 @@
 
 Nodes, bags and tests take topic names, types and QoS from here, never from
 literals.  Plain data: the rclpy and ``rosbags`` forms of a QoS are made from
-:meth:`TopicQos.policies` by :mod:`pmr_ros.ros.topics` and :mod:`pmr_ros.bag.schema`.
+:meth:`TopicQos.policies` by :mod:`pmr_ros.ros.messages` and :mod:`pmr_ros.bag.storage`.
 """
 
 from __future__ import annotations

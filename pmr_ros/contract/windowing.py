@@ -16,12 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import ConfigError, PmrConfig
-from ..core.diagnosis import diagnose_stretches, shortest_useful_stretch
-from ..core.memory import available_bytes, diagnosis_bytes, format_bytes, window_bytes
-from ..core.prbs import dither_generator
+from ..core.pmr.diagnosis import diagnose_stretches, shortest_useful_stretch
+from ..core.records import Record
 from ..core.results import Diagnosis
-from ..core.stretch import Stretch
-from .alignment import AddResult, AlignedStretch, SampleAligner
+from ..core.sim.excitation import dither_generator
+from ..core.sim.memory import available_bytes, diagnosis_bytes, format_bytes, window_bytes
+from .alignment import AlignedStretch, SampleAligner
+from .samples import AddResult
 
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
 """Kinds of :class:`WindowOutcome`."""
@@ -127,7 +128,7 @@ def check_window_memory(config: PmrConfig, source: str) -> None:
     """Refuse a window (``diagnostician.window_samples``) that cannot fit in the memory available now.
 
     The window fills one sample at a time; its diagnosis needs the most
-    (:mod:`pmr_ros.core.memory`).
+    (:mod:`pmr_ros.core.sim.memory`).
 
     Raises
     ------
@@ -168,22 +169,22 @@ class UsefulData:
     ----------
     pieces : list of AlignedStretch
         The useful stretches as aligned (sample indices).
-    stretches : list of Stretch
+    stretches : list of Record
         The same with their MV dither, for the core.
     held, held_stretches : int
         Complete samples and stretches the window holds.
     shortest : int
         Fewest samples with which a stretch adds a Welch segment.
-    all_stretches : list of Stretch
+    all_stretches : list of Record
         Every stretch of the window, useful or not.
     """
 
     pieces: list[AlignedStretch]
-    stretches: list[Stretch]
+    stretches: list[Record]
     held: int
     held_stretches: int
     shortest: int
-    all_stretches: list[Stretch]
+    all_stretches: list[Record]
 
     @property
     def samples(self) -> int:
@@ -217,7 +218,7 @@ def window_stretches(aligner: SampleAligner, window_samples: int, *, since: int 
         if piece.last < since:
             continue
         cut = max(since - piece.first, 0)
-        out.append(piece if cut == 0 else AlignedStretch(since, piece.r[cut:], piece.u[cut:], piece.y[cut:]))
+        out.append(piece if cut == 0 else AlignedStretch(since, Record(piece.r[cut:], piece.u[cut:], piece.y[cut:])))
     return out
 
 
@@ -229,7 +230,7 @@ def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) ->
     ``since`` on count (see :func:`window_stretches`).
     """
     pieces = window_stretches(aligner, config.diagnostician.window_samples, since=since)
-    data = [Stretch(p.r, p.u, p.y, window_dither(config, p.first, p.samples)) for p in pieces]
+    data = [Record(p.r, p.u, p.y, window_dither(config, p.first, p.samples)) for p in pieces]
     shortest = shortest_useful_stretch(data, model=config.model, pmr=config.pmr, parametric=config.parametric)
     keep = [j for j, d in enumerate(data) if d.samples >= shortest]
     held = sum(p.samples for p in pieces)

@@ -4,7 +4,7 @@ Every step is counted (:class:`CleaningStep`), so the report says what was
 removed and why.  A sample is usable when r, u, y (and a logged dither) are
 all valid there and the controller was on; the usable samples form unbroken
 stretches, each diagnosed as its own record and averaged into one estimate
-(:func:`pmr_ros.core.diagnosis.diagnose_stretches`).
+(:func:`pmr_ros.core.pmr.diagnosis.diagnose_stretches`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.stretch import Stretch
+from ..core.records import Record
 
 __all__ = [
     "NOISY_REPEAT_SHARE",
@@ -199,7 +199,7 @@ class PlantData:
         """``[start, stop)`` of every unbroken stretch of usable samples."""
         return runs(self.usable)
 
-    def stretches(self, *, deviations: bool = True) -> list[Stretch]:
+    def stretches(self, *, deviations: bool = True) -> list[Record]:
         """The usable stretches as deviation variables (each one's means removed), or as read if not ``deviations``."""
         out = []
         for a, b in self.stretch_bounds():
@@ -207,7 +207,7 @@ class PlantData:
                 key: values[a:b] - (values[a:b].mean(axis=0) if deviations else 0.0)
                 for key, values in self.signals.items()
             }
-            out.append(Stretch(part["r"], part["u"], part["y"], part.get("dither")))
+            out.append(Record(part["r"], part["u"], part["y"], part.get("dither")))
         return out
 
     @classmethod

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..config import DataSettings
-from ..core.model import TransferMatrix
-from .errors import DataError
+from ..core.sim.model import TransferMatrix
+from .bad_data import DataError
 
 __all__ = ["SIGNAL_PARAMETERS", "ColumnMap", "column_map"]
 

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from .bad_data import DataError
 from .columns import ColumnMap
-from .errors import DataError
 
 __all__ = ["FORMATS", "Progress", "RawTable", "read_table", "table_format"]
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import NO_VALUE, DataError
+from .bad_data import NO_VALUE, DataError
 
 __all__ = ["Grid", "parse_time", "place_on_grid"]
 

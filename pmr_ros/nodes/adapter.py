@@ -8,7 +8,7 @@ controller started with), takes the proposal published for that window on
 atomic parameter change (the ``set_parameters_atomically`` service), learns
 the switch sample from ``pmr/active_model``, waits for the first verdict
 window wholly after the switch (the "after" window, diagnosed against the new
-model) and judges the update (:func:`pmr_ros.core.adaptation.judge_update`:
+model) and judges the update (:func:`pmr_ros.core.loop.adaptation.judge_update`:
 a larger mismatch, or a tracking error risen beyond
 ``adapt.ise_rise_tolerance_pct``).  A worse update is rolled back the same way,
 to the previous model.  The tracking figures come from r, u and y as heard on
@@ -32,15 +32,15 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
 from ..config import ConfigError, PmrConfig, flatten_parameters, parse_config
-from ..contract.alignment import sample_index
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.model_topics import read_active_model, system_parameters
+from ..contract.samples import sample_index
 from ..contract.topics import SIGNAL_TOPICS, topic
-from ..core.adaptation import Adaptation, TrackingFigures, judge_update, tracking_figures
+from ..core.loop.adaptation import Adaptation, TrackingFigures, judge_update, tracking_figures
 from ..core.results import Diagnosis
 from ..ros.flow import ProgressReporter, stamp_ns
+from ..ros.messages import message_class, qos_profile
 from ..ros.parameters import ros_value
-from ..ros.topics import message_class, qos_profile
 
 __all__ = ["ModelAdapter"]
 

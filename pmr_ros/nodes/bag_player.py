@@ -30,11 +30,11 @@ from rclpy.node import Node
 
 from ..bag.offline import bag_namespace
 from ..bag.reader import Bag, BagMessage
-from ..bag.schema import RUN_CONFIG_KEY, BagError, typestore
+from ..bag.storage import RUN_CONFIG_KEY, BagError, typestore
 from ..config.schema import parameters
 from ..contract.topics import PROGRESS_KEY, SIGNAL_TOPICS, Topic, load_contract
 from ..ros.flow import ProgressGate, cdr_stamp_ns
-from ..ros.topics import message_class, qos_profile
+from ..ros.messages import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
 DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates", "proposed_model")

@@ -23,13 +23,13 @@ from typing import TYPE_CHECKING, Any
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from ..bag.schema import RUN_CONFIG_KEY, RunConfig, typestore
+from ..bag.storage import RUN_CONFIG_KEY, RunConfig, typestore
 from ..bag.writer import DEFAULT_FLUSH_PERIOD_S, BagWriter
 from ..config import nested
 from ..contract.layout import diagnosis_from_array
 from ..ros.flow import ProgressReporter, cdr_stamp_ns
+from ..ros.messages import message_class, qos_profile
 from ..ros.parameters import node_parameters, plain_value
-from ..ros.topics import message_class, qos_profile
 
 if TYPE_CHECKING:
     from rclpy.parameter_client import AsyncParameterClient

@@ -1,7 +1,7 @@
 """``mpc_controller``: constrained MPC on the model Ghat; u(k) from y(k) and r(k).
 
 The controller answers sample k once both y(k) and r(k) have arrived (in
-either order), steps :class:`~pmr_ros.core.mpc.LinearMpc` once per sample in
+either order), steps :class:`~pmr_ros.core.mpc.controller.LinearMpc` once per sample in
 index order and publishes u(k) with the same stamp.  In real-time mode a late
 setpoint is replaced by the newest earlier one.
 
@@ -10,7 +10,7 @@ parameters (``set_parameters_atomically``; the block is ``live`` for this node
 in ``config/parameters.yaml``): validated like a params file, refused with the
 reason in one line when invalid or of other channels or sample time (the
 controller stays on its model), else its QP is built at once and it takes
-over at the next sample without a bump (:meth:`~pmr_ros.core.mpc.LinearMpc.take_over`).
+over at the next sample without a bump (:meth:`~pmr_ros.core.mpc.controller.LinearMpc.take_over`).
 The active model is published latched on ``pmr/active_model`` at start and at
 every switch, stamped with the first sample it computes.
 """
@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from ..config import PmrConfig
-from ..contract.alignment import check_signal, sample_index
 from ..contract.layout import read_signal
 from ..contract.model_topics import active_model_text
+from ..contract.samples import check_signal, sample_index
 from ..contract.topics import topic
-from ..core.mpc import LinearMpc
-from ..core.prbs import dither_generator
+from ..core.mpc.controller import LinearMpc
+from ..core.sim.excitation import dither_generator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message, text_message
 

@@ -27,10 +27,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from rclpy.clock import Clock, ClockType
 
-from ..contract.alignment import check_signal, sample_index
 from ..contract.layout import read_signal
+from ..contract.samples import check_signal, sample_index
 from ..contract.topics import topic
-from ..core.plant import FoptdPlant
+from ..core.sim.true_plant import FoptdPlant
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import clock_message, signal_message, stamp_from_seconds
 from ..ros.flow import ProgressGate, stamp_ns
@@ -58,7 +58,7 @@ of 8 on the 2 cores, a pause inside the burst made a plant resume at sample 642 
 
 
 class PlantNode(ConfiguredNode):
-    """Steps :class:`~pmr_ros.core.plant.FoptdPlant` from u messages and publishes y and the clock.
+    """Steps :class:`~pmr_ros.core.sim.true_plant.FoptdPlant` from u messages and publishes y and the clock.
 
     Attributes
     ----------

@@ -3,7 +3,7 @@
 It subscribes to the setpoints, inputs and outputs and to nothing else, holds
 the controller's model Ghat as parameters (so it can watch any controller),
 aligns the three signals by their sample stamps, keeps a rolling window of the
-newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.diagnosis.diagnose`
+newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose`
 every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
 per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
 reason and no numbers when the data do not support a verdict), again every
@@ -24,7 +24,7 @@ restarted) until no such message came for ``diagnostician.stale_timeout_s``.
 In real time, where nobody waits for it, every lost sample is counted and
 reported with its topic and stamps.
 
-With a verdict it closes the loop (:func:`pmr_ros.contract.proposal.close_window`,
+With a verdict it closes the loop (:func:`pmr_ros.service.closing.close_window`,
 on the worker thread with the diagnosis): the control impact of the mismatches
 goes into the statuses (each element's ``impact.*``, all together
 ``impact_all.*``), and when a mismatch verdict stands the corrected model is
@@ -47,11 +47,11 @@ from rclpy.parameter import Parameter
 
 from ..config import ConfigError, PmrConfig, flatten_parameters
 from ..config.write import system_tree
-from ..contract.alignment import SIGNALS, SampleAligner, sample_index
+from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
-from ..contract.proposal import ClosedWindow, close_window
+from ..contract.samples import sample_index
 from ..contract.topics import SIGNAL_TOPICS, topic
 from ..contract.windowing import (
     STALE,
@@ -68,6 +68,7 @@ from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_messag
 from ..ros.flow import ProgressReporter, stamp_ns
 from ..ros.parameters import ros_value
 from ..ros.worker import SerialWorker
+from ..service.closing import ClosedWindow, close_window
 
 NODE_NAME = "pmr_diagnostician"
 
@@ -345,7 +346,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
         The window is copied now; the diagnosis (:func:`pmr_ros.contract.windowing.evaluate_window`,
         shared with the offline diagnosis of a bag), its control impact and the
-        proposal (:func:`pmr_ros.contract.proposal.close_window`) run on the
+        proposal (:func:`pmr_ros.service.closing.close_window`) run on the
         worker thread, with the configuration and model switch of this moment.
         """
         conflict = self._active_conflict()

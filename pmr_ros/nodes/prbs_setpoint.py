@@ -12,9 +12,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..contract.alignment import sample_index
 from ..contract.layout import seconds_from_stamp
-from ..core.prbs import PrbsGenerator
+from ..contract.samples import sample_index
+from ..core.sim.excitation import PrbsGenerator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message
 

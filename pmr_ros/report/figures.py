@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
+from ..core.pmr.curves import ElementCurves
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
 from ..data.clean import runs
-from .curves import ElementCurves
 
 __all__ = ["COLOURS", "decimate", "element_figure", "matrix_figure", "time_figure"]
 

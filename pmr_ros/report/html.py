@@ -18,10 +18,10 @@ from pathlib import Path
 from typing import Any
 
 from ..config import PmrConfig
+from ..core.pmr.curves import pmr_curves
+from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
-from ..core.stretch import Stretch
 from ..data import PlantData
-from .curves import pmr_curves
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
 
@@ -37,7 +37,7 @@ class ReportInput:
     report : dict
         The JSON report (:func:`pmr_ros.report.build_report`): system, method, settings, elements.
     diagnosis : Diagnosis
-    stretches : sequence of Stretch
+    stretches : sequence of Record
         The data the diagnosis read (for the spectral estimate and its band).
     data : PlantData
         The data on the sample grid with what was excluded and why.
@@ -46,7 +46,7 @@ class ReportInput:
 
     report: dict[str, Any]
     diagnosis: Diagnosis
-    stretches: Sequence[Stretch]
+    stretches: Sequence[Record]
     data: PlantData
     config: PmrConfig
 

@@ -15,9 +15,9 @@ from rclpy.parameter import Parameter
 from ..config import ConfigError, PmrConfig, nested, parse_config
 from ..config.schema import closest_name, parameters
 from ..contract.topics import ContractError, topic
+from .messages import message_class, qos_profile
 from .parameters import ROS_OWN_PARAMETERS, descriptor, node_parameters, plain_value, ros_value
 from .signals import RosInitError, rclpy_session
-from .topics import message_class, qos_profile
 
 __all__ = ["SPIN_TIMEOUT_S", "ConfiguredNode", "run_node"]
 

@@ -25,7 +25,7 @@ from sensor_msgs.msg import JointState
 from ..contract.layout import CONFLICT, STALE, diagnosis_pairs, element_pairs, encode_value, estimate_pairs
 from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
-from .topics import message_class
+from .messages import message_class
 
 __all__ = [
     "LEVEL_NAMES",

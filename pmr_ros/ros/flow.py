@@ -28,7 +28,7 @@ from rclpy.node import Node
 from std_msgs.msg import Header
 
 from ..contract.topics import PROGRESS_KEY, topic
-from .topics import qos_profile
+from .messages import qos_profile
 
 __all__ = [
     "REPORT_EVERY_MESSAGES",

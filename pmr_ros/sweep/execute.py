@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 
 from ..config import PmrConfig
-from ..core.batch import run_lockstep, worker_context
-from ..core.closed_loop import RunRecord
-from ..core.diagnosis import diagnose
-from ..core.model import TransferMatrix
+from ..core.pmr.diagnosis import diagnose
+from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
+from ..core.sim.batch import run_lockstep, worker_context
+from ..core.sim.model import TransferMatrix
 from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
@@ -100,7 +100,7 @@ ROW_FIELDS: dict[str, Callable[[Diagnosis], dict[str, dict[str, Any]]]] = {
 
 
 def method_fields(
-    method: str, record: RunRecord, model: TransferMatrix, config: PmrConfig
+    method: str, record: Record, model: TransferMatrix, config: PmrConfig
 ) -> tuple[str, dict[str, dict[str, Any]]]:
     """Diagnose one run with ``method``: its status and each element's CSV fields."""
     diagnosis = diagnose(

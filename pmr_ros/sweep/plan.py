@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.model import SCENARIOS, TransferMatrix
+from ..core.sim.model import SCENARIOS, TransferMatrix
 
 DEFAULT_ELEMENTS = ("G11", "G21")
 """The paper's two sweeps: tau11 -> 16.7 nu (eq. 18) and tau21 -> 10.9 nu (eq. 19).

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import PmrConfig, load_config
-from ..core.model import SCENARIOS
+from ..core.sim.model import SCENARIOS
 from .analysis import (
     DIAGNOSES,
     GAIN_TOLERANCE,

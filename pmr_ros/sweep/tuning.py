@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from ..core import mpc_analysis
-from ..core.model import TransferMatrix
-from ..core.mpc import LinearMpc, MpcTuning
+from ..core.mpc import stability as mpc_stability
+from ..core.mpc.controller import LinearMpc, MpcTuning
+from ..core.sim.model import TransferMatrix
 
 STABILITY_LIMIT = 0.999
 """Largest accepted closed-loop spectral radius: the slowest mode decays (1/e) within
@@ -35,7 +35,7 @@ def loop_spectral_radius(
     With no limit active the MPC is linear in (plant state, model state,
     previous input, disturbance estimates); the loop is stable iff every
     eigenvalue of the joint state matrix that shows in u and y lies inside
-    the unit circle (:func:`pmr_ros.core.mpc_analysis.loop_spectral_radius`).
+    the unit circle (:func:`pmr_ros.core.mpc.stability.loop_spectral_radius`).
 
     Parameters
     ----------
@@ -52,7 +52,7 @@ def loop_spectral_radius(
     float
         Largest eigenvalue magnitude [-]; < 1 means stable.
     """
-    return mpc_analysis.loop_spectral_radius(controller or LinearMpc(model, tuning), plant)
+    return mpc_stability.loop_spectral_radius(controller or LinearMpc(model, tuning), plant)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,150 @@
+"""The corrected model: the controller's model with every mismatched element replaced by its estimate.
+
+Only elements whose verdict is ``mismatch`` change; ``ok`` and ``inconclusive``
+elements stay as they were (a confident "no" and "cannot tell" are both
+reasons to leave a model alone).  A changed element takes the parametric
+estimate of all its parameters: ``K = Khat (1 + dK/100)``, ``tau = tauhat (1 +
+dtau/100)`` (FOPTD only) and ``D = Dhat + dD``.  The classic method gives no
+time-constant estimate (its index is a slope, not a ratio), so a corrected
+model needs the parametric method.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..results import Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from ..sim.model import TransferMatrix
+
+__all__ = ["ElementChange", "ModelUpdate", "corrected_model"]
+
+
+class NotCorrectable(ValueError):
+    """The diagnosis cannot give a corrected model (wrong method, no verdict); the message says why."""
+
+
+@dataclass(frozen=True)
+class ElementChange:
+    """One element of the model replaced by its estimate.
+
+    Attributes
+    ----------
+    name : str
+        ``G21``.
+    before, after : ElementModel
+        The model's element and the corrected one.
+    estimate : ParametricResult
+        The numbers and intervals the change rests on.
+    """
+
+    name: str
+    before: ElementModel
+    after: ElementModel
+    estimate: ParametricResult
+
+    def comment(self) -> str:
+        """One line for people: the element, what changed and why."""
+        return f"{self.name}: {self.note()}"
+
+    def note(self) -> str:
+        """What changed and why (the params file's comment beside the element)."""
+        p = self.estimate
+        parts = []
+        if p.gain_mismatch_pct is not None and p.gain_mismatch_pct_interval is not None:
+            lo, hi = p.gain_mismatch_pct_interval
+            parts.append(
+                f"K {self.before.gain:.6g} -> {self.after.gain:.6g} "
+                f"(dK {p.gain_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {p.gain_verdict})"
+            )
+        if (
+            self.after.time_constant is not None
+            and p.tau_mismatch_pct is not None
+            and p.tau_mismatch_pct_interval is not None
+        ):
+            lo, hi = p.tau_mismatch_pct_interval
+            parts.append(
+                f"tau {self.before.time_constant:.6g} -> {self.after.time_constant:.6g} "
+                f"(dtau {p.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {p.tau_verdict})"
+            )
+        if p.delay_mismatch_samples is not None and p.delay_confidence is not None:
+            parts.append(
+                f"D {self.before.delay_samples} -> {self.after.delay_samples} samples "
+                f"(dD {p.delay_mismatch_samples:+d}, {100 * p.delay_confidence:.0f} % {p.delay_verdict})"
+            )
+        return "; ".join(parts)
+
+
+@dataclass(frozen=True)
+class ModelUpdate:
+    """A corrected model and the changes that make it.
+
+    Attributes
+    ----------
+    model : TransferMatrix
+        The corrected model (the controller's where nothing changed).
+    changes : tuple of ElementChange
+        Row-major, only the elements that changed.
+    """
+
+    model: TransferMatrix
+    changes: tuple[ElementChange, ...]
+
+
+def _estimated_element(element: ElementDiagnosis) -> ElementModel:
+    p = element.parametric
+    before = element.model
+    if p is None or p.gain_mismatch_pct is None or p.delay_mismatch_samples is None:
+        raise NotCorrectable(f"{element.name}: a mismatch verdict without a parametric estimate")
+    tau = before.time_constant
+    if tau is not None and p.tau_mismatch_pct is not None:
+        tau = tau * (1.0 + p.tau_mismatch_pct / 100.0)
+    gain = before.gain * (1.0 + p.gain_mismatch_pct / 100.0)
+    return ElementModel(before.kind, gain, tau, before.delay_samples + int(p.delay_mismatch_samples))
+
+
+def corrected_model(model: TransferMatrix, diagnosis: Diagnosis) -> ModelUpdate:
+    """The controller's model with every ``mismatch`` element replaced by its parametric estimate.
+
+    Parameters
+    ----------
+    model : TransferMatrix
+        The controller's model the diagnosis compared the plant with.
+    diagnosis : Diagnosis
+        A parametric diagnosis with verdicts.
+
+    Returns
+    -------
+    ModelUpdate
+
+    Raises
+    ------
+    NotCorrectable
+        The diagnosis has no verdicts, or is not parametric.
+
+    Examples
+    --------
+    A diagnosis without a ``mismatch`` verdict leaves the model as it is:
+    ``corrected_model(model, diagnosis).changes == ()``.
+    """
+    if diagnosis.status != "ok":
+        raise NotCorrectable(f"no verdicts to correct the model with ({diagnosis.reason})")
+    if diagnosis.method != "parametric":
+        raise NotCorrectable(
+            "a corrected model needs the parametric method (the classic tau index is a slope, not a time constant)"
+        )
+    gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
+    changes = []
+    for element in diagnosis:
+        if element.verdict != "mismatch" or element.parametric is None:
+            continue
+        after = _estimated_element(element)
+        i, k = element.row, element.column
+        gain[i, k] = after.gain
+        if after.time_constant is not None:
+            tau[i, k] = after.time_constant
+        delay[i, k] = after.delay_samples * model.sample_time
+        changes.append(ElementChange(element.name, element.model, after, element.parametric))
+    corrected = replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
+    return ModelUpdate(corrected, tuple(changes))

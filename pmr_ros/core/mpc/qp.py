@@ -1,0 +1,215 @@
+"""A dense convex QP solver for the MPC: the dual active-set method of Goldfarb & Idnani (1983).
+
+    min  x' H x / 2 + q' x   s.t.  lower <= A x <= upper,   H positive definite
+
+``H`` and ``A`` are fixed (factored once); each solve gets ``q`` and the
+bounds.  The method starts from the unconstrained minimum ``-H^-1 q`` and adds
+the most violated constraint, one at a time, keeping the dual feasible, so it
+ends at the exact optimum (to rounding) after about as many iterations as
+there are active constraints -- few in an MPC step, however many variables.
+The MPC's QP always has the feasible point ``dU = 0`` (the previous input is
+within its limits), so a failure can only be numerical; :meth:`solve` then
+says so and the caller falls back.
+
+The active set is kept in the factorisation ``J' N = [R; 0]`` (``N`` the
+normals of the active constraints, ``J = L^-T Q`` with ``H = L L'``): a
+constraint is added with one Householder reflection of the free columns of
+``J``, dropped with Givens rotations that restore ``R``'s triangle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+__all__ = ["DenseQp", "QpSolution"]
+
+
+@dataclass(frozen=True)
+class QpSolution:
+    """What :meth:`DenseQp.solve` found.
+
+    Attributes
+    ----------
+    x : ndarray
+        The minimizer (the unconstrained one when nothing binds).
+    active : tuple of int
+        Active inequalities: ``+(i+1)`` for row i at its lower bound, ``-(i+1)`` at its upper.
+    iterations : int
+        Constraints added or dropped.
+    solved : bool
+        False when the iteration limit was reached or a step broke down (``x`` is then not to be used).
+    """
+
+    x: np.ndarray
+    active: tuple[int, ...]
+    iterations: int
+    solved: bool
+
+
+class _ActiveSet:
+    """The active constraints, their multipliers and the factorisation ``J' N = [R; 0]`` (with ``R^-1``)."""
+
+    def __init__(self, j0: np.ndarray) -> None:
+        n = j0.shape[0]
+        self.J = j0.copy()
+        self.R = np.zeros((n, n))
+        self.R_inverse = np.zeros((n, n))
+        self.signed: list[int] = []  # +(row+1) lower bound, -(row+1) upper bound
+        self._u = np.zeros(n)
+
+    @property
+    def size(self) -> int:
+        return len(self.signed)
+
+    @property
+    def u(self) -> np.ndarray:
+        """Multipliers of the active constraints (a view)."""
+        return self._u[: self.size]
+
+    def add(self, signed_row: int, d: np.ndarray, multiplier: float) -> None:
+        """Append a constraint whose ``J' n`` is ``d``: a Householder reflection zeroes ``d[q+1:]``."""
+        q = self.size
+        d2 = d[q:]
+        norm = math.sqrt(float(d2 @ d2))
+        v = d2.copy()
+        v[0] += math.copysign(norm, d2[0])
+        vv = float(v @ v)
+        if vv > 0.0:
+            free = self.J[:, q:]
+            free -= np.outer(free @ v, v * (2.0 / vv))
+        delta = -math.copysign(norm, d2[0])
+        self.R[:q, q] = d[:q]
+        self.R[q, q] = delta
+        # [[R, r], [0, delta]]^-1 = [[R^-1, -R^-1 r / delta], [0, 1 / delta]]
+        self.R_inverse[:q, q] = -(self.R_inverse[:q, :q] @ d[:q]) / delta
+        self.R_inverse[q, q] = 1.0 / delta
+        self._u[q] = multiplier
+        self.signed.append(signed_row)
+
+    def drop(self, index: int) -> None:
+        """Remove active constraint ``index``; Givens rotations restore R's upper triangle."""
+        q = self.size
+        R = self.R
+        R[:q, index : q - 1] = R[:q, index + 1 : q].copy()
+        R[:q, q - 1] = 0.0
+        for k in range(index, q - 1):
+            a, b = R[k, k], R[k + 1, k]
+            h = math.hypot(a, b)
+            if h == 0.0:
+                continue
+            c, s = a / h, b / h
+            rows = R[k : k + 2, k:q].copy()
+            R[k, k:q] = c * rows[0] + s * rows[1]
+            R[k + 1, k:q] = -s * rows[0] + c * rows[1]
+            cols = self.J[:, k : k + 2].copy()
+            self.J[:, k] = c * cols[:, 0] + s * cols[:, 1]
+            self.J[:, k + 1] = -s * cols[:, 0] + c * cols[:, 1]
+        R[q - 1, :] = 0.0
+        self._u[index : q - 1] = self._u[index + 1 : q].copy()
+        del self.signed[index]
+        self.R_inverse[:] = 0.0
+        if q > 1:
+            self.R_inverse[: q - 1, : q - 1] = scipy.linalg.solve_triangular(
+                R[: q - 1, : q - 1], np.eye(q - 1), check_finite=False
+            )
+
+
+class DenseQp:
+    """The QP ``min x'Hx/2 + q'x, lower <= A x <= upper`` with fixed ``H`` and ``A``.
+
+    Parameters
+    ----------
+    H : ndarray, shape (n, n)
+        Symmetric positive definite Hessian.
+    A : ndarray, shape (m, n)
+        Constraint matrix.
+    max_iterations : int, optional
+        Adds and drops before giving up (default ``5 (n + m)``).
+    """
+
+    def __init__(self, H: np.ndarray, A: np.ndarray, *, max_iterations: int | None = None) -> None:
+        lower_factor = scipy.linalg.cholesky(H, lower=True)
+        self._j0 = scipy.linalg.solve_triangular(lower_factor, np.eye(H.shape[0]), lower=True).T  # L^-T
+        self._h_inverse = self._j0 @ self._j0.T
+        self._A = np.asarray(A, dtype=float)
+        self._max_iterations = max_iterations or 5 * (H.shape[0] + self._A.shape[0])
+        self._tolerance = 1e-12
+
+    def solve(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> QpSolution:
+        """The minimizer for linear term ``q`` and bounds ``lower``, ``upper`` (``-inf``/``inf`` where none)."""
+        x = -self._h_inverse @ q
+        active = _ActiveSet(self._j0)
+        finite_lower, finite_upper = np.where(np.isfinite(lower), lower, 0.0), np.where(np.isfinite(upper), upper, 0.0)
+        inverse_scale = 1.0 / (1.0 + np.maximum(np.abs(finite_lower), np.abs(finite_upper)))
+        iterations = 0
+        while True:
+            signed = self._most_violated(x, lower, upper, inverse_scale, active.signed)
+            if signed == 0:
+                return QpSolution(x, tuple(active.signed), iterations, True)
+            x, iterations, ok = self._add(x, signed, bounds=(lower, upper), active=active, iterations=iterations)
+            if not ok:
+                return QpSolution(x, tuple(active.signed), iterations, False)
+
+    def _most_violated(
+        self, x: np.ndarray, lower: np.ndarray, upper: np.ndarray, inverse_scale: np.ndarray, skip: list[int]
+    ) -> int:
+        """The signed row of the most violated inequality (relative to its bound's size), 0 if none."""
+        ax = self._A @ x
+        below = (lower - ax) * inverse_scale
+        above = (ax - upper) * inverse_scale
+        if skip:
+            rows = np.abs(skip) - 1
+            at_lower = np.asarray(skip) > 0
+            below[rows[at_lower]] = -np.inf
+            above[rows[~at_lower]] = -np.inf
+        i_low, i_up = int(below.argmax()), int(above.argmax())
+        worst = max(below[i_low], above[i_up])
+        if not worst > self._tolerance:
+            return 0
+        return i_low + 1 if below[i_low] >= above[i_up] else -(i_up + 1)
+
+    def _add(
+        self,
+        x: np.ndarray,
+        signed: int,
+        *,
+        bounds: tuple[np.ndarray, np.ndarray],
+        active: _ActiveSet,
+        iterations: int,
+    ) -> tuple[np.ndarray, int, bool]:
+        """Steps towards making ``signed`` active (dropping constraints on the way); the new x."""
+        lower, upper = bounds
+        row = abs(signed) - 1
+        normal = self._A[row] if signed > 0 else -self._A[row]
+        bound = lower[row] if signed > 0 else -upper[row]
+        multiplier = 0.0
+        while iterations < self._max_iterations:
+            iterations += 1
+            q = active.size
+            d = active.J.T @ normal
+            z = active.J[:, q:] @ d[q:]
+            r = active.R_inverse[:q, :q] @ d[:q]
+            partial, leaving = np.inf, -1
+            blocking = (r > 0).nonzero()[0]
+            if blocking.size:
+                ratios = active.u[blocking] / r[blocking]
+                best = int(np.argmin(ratios))
+                partial, leaving = float(ratios[best]), int(blocking[best])
+            curvature = float(z @ normal)
+            full = -(normal @ x - bound) / curvature if curvature > 1e-14 * float(normal @ normal) else np.inf
+            step = min(partial, full)
+            if not np.isfinite(step):
+                return x, iterations, False  # primal infeasible: cannot happen with dU = 0 feasible
+            if np.isfinite(full):
+                x = x + step * z
+            active.u[:] -= step * r
+            multiplier += step
+            if step == full:
+                active.add(signed, d, multiplier)
+                return x, iterations, True
+            active.drop(leaving)
+        return x, iterations, False

@@ -1,0 +1,87 @@
+"""Can the data support a PMR estimate at all?  The checks every method runs first."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..records import Record, active_dither
+from ..sim.model import TransferMatrix
+from .spectra import WelchSettings
+
+__all__ = ["MIN_SEGMENTS", "InsufficientData", "check_record", "check_stretches"]
+
+MIN_SEGMENTS = 4
+"""Fewest Welch segments with which a row regression is attempted."""
+
+
+class InsufficientData(ValueError):
+    """The record cannot support a PMR estimate; the message says why."""
+
+
+def _check_shapes(stretch: Record, model: TransferMatrix, where: str) -> None:
+    n_out, n_in = model.n_outputs, model.n_inputs
+    arrays = [("r", stretch.r, n_out), ("u", stretch.u, n_in), ("y", stretch.y, n_out)]
+    if stretch.dither is not None:
+        arrays.append(("dither", stretch.dither, n_in))
+    for name, data, width in arrays:
+        data = np.asarray(data)
+        if data.ndim != 2 or data.shape[1] != width:
+            raise InsufficientData(f"{name}{where} has shape {data.shape}, expected (samples, {width})")
+        if not np.all(np.isfinite(data)):
+            raise InsufficientData(f"{name}{where} holds NaN or inf samples")
+        if data.shape[0] != stretch.samples:
+            raise InsufficientData(
+                f"r, u, y{' and dither' if stretch.dither is not None else ''}{where} have different lengths"
+            )
+
+
+def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings) -> None:
+    """Raise :class:`InsufficientData` if the stretches cannot support an estimate.
+
+    Parameters
+    ----------
+    stretches : sequence of Record
+        Unbroken stretches of data (one for a gap-free record).
+    model : TransferMatrix
+        The controller's model (its settling time is dropped from each stretch).
+    welch : WelchSettings
+        The segments the spectra will average (those that fit inside a stretch).
+
+    Raises
+    ------
+    InsufficientData
+        Wrong shapes, non-finite samples, too few Welch segments in all, a constant setpoint.
+    """
+    if not stretches:
+        raise InsufficientData("no data")
+    for j, stretch in enumerate(stretches):
+        _check_shapes(stretch, model, "" if len(stretches) == 1 else f" of stretch {j + 1}")
+    warmup = model.settling_samples()
+    segments = sum(welch.segments(s.samples - warmup) for s in stretches)
+    n_z = model.n_outputs + int(active_dither(stretches).sum())
+    need = max(MIN_SEGMENTS, 2 * n_z)
+    if segments < need:
+        shortest = warmup + welch.segment_length + (need - 1) * welch.step
+        samples = sum(s.samples for s in stretches)
+        where = "" if len(stretches) == 1 else f" in {len(stretches)} stretches"
+        raise InsufficientData(
+            f"window too short: {samples} samples{where}, less {warmup} of model settling each, give {segments} Welch "
+            f"segments of {welch.segment_length}, need {need} ({shortest} unbroken samples)"
+        )
+    r = np.vstack([np.asarray(s.r, dtype=float) for s in stretches])
+    for j, spread in enumerate(r.std(axis=0)):
+        if spread <= 1e-9 * (1.0 + abs(r[:, j].mean())):
+            raise InsufficientData(f"no excitation: setpoint r{j + 1} ({model.output_names[j]}) is constant")
+
+
+def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:
+    """:func:`check_stretches` of one gap-free record ``r, u, y``.
+
+    Raises
+    ------
+    InsufficientData
+        As :func:`check_stretches`.
+    """
+    check_stretches([Record(np.asarray(r), np.asarray(u), np.asarray(y))], model=model, welch=welch)

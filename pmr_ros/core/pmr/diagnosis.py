@@ -1,0 +1,226 @@
+"""One entry point for every diagnosis method, and the data-quality figures every method's result carries."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ..records import Record
+from ..results import DataQuality, Diagnosis
+from ..sim.model import TransferMatrix
+from .classic import PmrSettings, diagnose_classic
+from .data_quality import QualitySettings, RecordQuality, assess, element_warnings
+from .parametric import ParametricSettings, diagnose_parametric
+from .spectra import WelchSettings
+
+__all__ = [
+    "METHODS",
+    "diagnose",
+    "diagnose_stretches",
+    "shortest_useful_stretch",
+    "useful_stretches",
+    "with_data_quality",
+]
+
+
+def _classic(
+    stretches: Sequence[Record], *, model: TransferMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
+    return diagnose_classic(stretches, model=model, settings=pmr)
+
+
+def _parametric(
+    stretches: Sequence[Record], *, model: TransferMatrix, pmr: PmrSettings, parametric: ParametricSettings
+) -> Diagnosis:
+    return diagnose_parametric(stretches, model=model, classic=pmr, settings=parametric)
+
+
+METHODS: dict[str, Callable[..., Diagnosis]] = {"classic": _classic, "parametric": _parametric}
+"""Diagnosis methods by name: the paper's Table 1, or the FOPTD-ratio fit of :mod:`pmr_ros.core.pmr.parametric`."""
+
+
+def _welch(
+    stretches: Sequence[Record],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> WelchSettings:
+    """The Welch segments ``method`` would average over ``stretches`` (the parametric one depends on the longest)."""
+    if (method or pmr.method) == "parametric":
+        return parametric.welch(model, max((s.samples for s in stretches), default=0), pmr)
+    return pmr.welch
+
+
+def shortest_useful_stretch(
+    stretches: Sequence[Record],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> int:
+    """Fewest samples with which a stretch adds a Welch segment: the model's settling plus one segment [samples].
+
+    Parameters
+    ----------
+    stretches : sequence of Record
+        The data (the parametric method sizes its segment from the longest stretch).
+    model : TransferMatrix
+        The controller's model ``Ghat`` (its settling is dropped from every stretch).
+    pmr : PmrSettings
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS` (default ``pmr.method``).
+    """
+    welch = _welch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
+    return model.settling_samples() + welch.segment_length
+
+
+def useful_stretches(
+    stretches: Sequence[Record],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> list[Record]:
+    """The stretches that add at least one Welch segment to a diagnosis with ``method``; shorter ones add nothing.
+
+    Parameters
+    ----------
+    stretches : sequence of Record
+    model : TransferMatrix
+    pmr : PmrSettings
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS` (default ``pmr.method``).
+    """
+    shortest = shortest_useful_stretch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
+    return [s for s in stretches if s.samples >= shortest]
+
+
+def _known(value: float) -> float | None:
+    """A figure, or None where it could not be computed (NaN)."""
+    return float(value) if np.isfinite(value) else None
+
+
+def with_data_quality(
+    diagnosis: Diagnosis, quality: RecordQuality, *, model: TransferMatrix, settings: QualitySettings
+) -> Diagnosis:
+    """``diagnosis`` with every element's :class:`~pmr_ros.core.results.DataQuality` (verdicts unchanged).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    quality : RecordQuality
+        The record's figures (:func:`~pmr_ros.core.pmr.data_quality.assess`).
+    model : TransferMatrix
+        The controller's model (channel names).
+    settings : QualitySettings
+        The warning thresholds.
+    """
+    elements = {}
+    for name, e in diagnosis.elements.items():
+        figures = DataQuality(
+            saturated_share=_known(quality.saturated[e.column]),
+            outside_share=_known(quality.outside[e.column]),
+            low_frequency_ratio=_known(quality.low_frequency[e.row]),
+            warnings=element_warnings(quality, e.row, e.column, model=model, settings=settings),
+        )
+        elements[name] = replace(e, data_quality=figures)
+    return replace(diagnosis, elements=elements)
+
+
+def diagnose_stretches(
+    stretches: Sequence[Record],
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+    quality: QualitySettings | None = None,
+    as_read: Sequence[Record] | None = None,
+) -> Diagnosis:
+    """Diagnose unbroken stretches of data (one estimate from all of them) with ``method`` (default ``pmr.method``).
+
+    Parameters
+    ----------
+    stretches : sequence of Record
+        Setpoints, inputs, outputs and (if any) MV dither of each stretch.
+    model : TransferMatrix
+        The controller's model ``Ghat``.
+    pmr : PmrSettings
+        Spectral settings and the classic thresholds.
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS`.
+    quality : QualitySettings, optional
+        Input limits and warning thresholds: a diagnosis with verdicts then
+        carries each element's data-quality figures and warnings
+        (:func:`with_data_quality`; residual spectra with ``pmr.welch``, whose
+        lowest bin the classic M(0) is read from).
+    as_read : sequence of Record, optional
+        The data as read, where ``stretches`` are deviations from their means
+        (a historian export): the inputs' limits are judged on these, in the
+        limits' own units.  Default: ``stretches``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method.
+    """
+    method = method or pmr.method
+    if method not in METHODS:
+        raise ValueError(f"unknown diagnosis method {method!r}; choose one of {', '.join(METHODS)}")
+    stretches = list(stretches)
+    diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
+    if quality is None or diagnosis.status != "ok":
+        return diagnosis
+    used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
+    if not used:  # a diagnosis with verdicts had a stretch long enough for its own, longer, segments
+        return diagnosis
+    figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
+    return with_data_quality(diagnosis, figures, model=model, settings=quality)
+
+
+def diagnose(
+    r: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+    dither: np.ndarray | None = None,
+) -> Diagnosis:
+    """Diagnose one gap-free record with ``method`` (default ``pmr.method``); no data-quality figures.
+
+    :func:`diagnose_stretches` of ``[Record(r, u, y, dither)]`` with ``quality`` adds them.
+
+    Parameters
+    ----------
+    r, u, y : ndarray
+        Setpoints, inputs and measured outputs, one row per sample.
+    model : TransferMatrix
+        The controller's model ``Ghat``.
+    pmr : PmrSettings
+        Spectral settings and the classic thresholds.
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS`.
+    dither : ndarray, shape (N, n_inputs), optional
+        The MV dither added to the controller's outputs; its moving columns
+        join the setpoints as instruments.
+
+    Raises
+    ------
+    ValueError
+        For an unknown method.
+    """
+    stretch = Record(np.asarray(r), np.asarray(u), np.asarray(y), None if dither is None else np.asarray(dither))
+    return diagnose_stretches([stretch], model=model, pmr=pmr, parametric=parametric, method=method)

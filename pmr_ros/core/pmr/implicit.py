@@ -1,0 +1,341 @@
+"""The implicit MIMO plant-model ratio estimate (the paper's eq. 13), frequency by frequency.
+
+For output row i the estimate solves, at every frequency, the
+instrument-correlated regression
+
+    S_{z_l y_i}(w) = sum_k S_{z_l x_ik}(w) G_PMR_ik(w),   l = 1 .. n_instruments
+
+with ``x_ik = Ghat_ik u_k`` the model's share of output i due to input k (the
+reference ``u_k(t-1)`` in an empty cell, whose coefficient is the plant's
+interaction itself; see :mod:`pmr_ros.core.pmr.spectra`) and z the instruments:
+the setpoints and the MV dither columns that move.  Noise and disturbances
+drop out because they are uncorrelated with z.  With more instruments than
+regressors the equations are solved in the least-squares sense after
+whitening the instruments (``S_zz^-1/2``), the frequency-domain two-stage
+least squares; with as many, that is the paper's exact solution.
+
+:func:`row_layout` decides which regressors a row's data can carry: every
+input when there are at least as many instruments as inputs; else only the
+modeled elements (the empty cells then cannot be tested for an unmodeled
+interaction); else none -- the row is not identifiable and says which
+excitation is missing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..records import Record
+from ..sim.model import TransferMatrix
+from .checks import check_stretches
+from .products import hermitian_product
+from .spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
+
+__all__ = [
+    "EstimateBuilder",
+    "PmrEstimate",
+    "RowEstimate",
+    "RowLayout",
+    "estimate_pmr",
+    "implicit_estimate",
+    "implicit_row",
+    "instrument_factor",
+    "row_layout",
+]
+
+RIDGE = 1e-12
+"""Relative ridge added to the instrument spectra before their Cholesky factor."""
+
+
+@dataclass(frozen=True)
+class RowLayout:
+    """Which inputs enter one output row's regression, and what the data cannot tell.
+
+    Attributes
+    ----------
+    row : int
+        Output row i.
+    columns : ndarray of int
+        Inputs whose regressors enter the regression, in input order.
+    reasons : tuple of str
+        Why the row cannot be diagnosed at all (then ``columns`` is empty).
+    untested : str
+        Why the row's empty cells outside ``columns`` cannot be tested ('' when all are).
+    """
+
+    row: int
+    columns: np.ndarray
+    reasons: tuple[str, ...] = ()
+    untested: str = ""
+
+
+def _missing_excitation(model: TransferMatrix, candidates: np.ndarray, dithered: np.ndarray, need: int) -> str:
+    """``add MV dither (excitation.mv_dither_amplitude) on at least 2 of u2, u4, u5``."""
+    free = [model.input_names[k] for k in candidates if not dithered[k]]
+    where = f"at least {need} of {', '.join(free)}" if free else "more inputs"
+    return f"add MV dither (excitation.mv_dither_amplitude) on {where}"
+
+
+def row_layout(
+    model: TransferMatrix, i: int, *, n_instruments: int, dithered: np.ndarray, test_empty: bool = True
+) -> RowLayout:
+    """The regressors row ``i`` can carry with ``n_instruments`` instruments.
+
+    Parameters
+    ----------
+    model : TransferMatrix
+    i : int
+        Output row.
+    n_instruments : int
+        Setpoints plus moving dither columns.
+    dithered : ndarray of bool, shape (n_in,)
+        Inputs whose dither is an instrument.
+    test_empty : bool
+        Whether the empty cells are to be tested (given regressors) when the instruments allow.
+    """
+    n_in = model.n_inputs
+    present = np.flatnonzero(model.present[i])
+    name = model.output_names[i]
+    count = f"{n_instruments} instrument{'s' if n_instruments != 1 else ''}"
+    if n_instruments >= n_in and test_empty:
+        return RowLayout(i, np.arange(n_in))
+    everything = np.arange(n_in)
+    if n_instruments >= present.size:
+        untested = f"not tested: row {name} has {count} for {n_in} inputs; " + _missing_excitation(
+            model, everything, dithered, n_in - n_instruments
+        )
+        return RowLayout(i, present, untested=untested)
+    reason = f"row {name} not identifiable: {present.size} modeled inputs but {count}; " + _missing_excitation(
+        model, present, dithered, present.size - n_instruments
+    )
+    return RowLayout(i, np.empty(0, dtype=int), reasons=(reason,))
+
+
+@dataclass(frozen=True)
+class RowEstimate:
+    """The implicit estimate of one row.
+
+    Attributes
+    ----------
+    ratio : ndarray of complex, shape (F, n_columns)
+        ``G_PMR_ik(w)`` of the layout's columns.
+    coherence : ndarray, shape (F,)
+        Multiple squared coherence of the row's output with the instruments.
+    condition : ndarray, shape (F,)
+        Condition number of the regression, instruments and regressors scaled to unit power.
+    power : ndarray, shape (F, n_columns)
+        Instrument-driven power of each regressor, ``S_{x z} S_zz^-1 S_{z x}``.
+    explained : ndarray, shape (F,)
+        Instrument-driven power of the output, ``S_{y z} S_zz^-1 S_{z y}``.
+    """
+
+    ratio: np.ndarray
+    coherence: np.ndarray
+    condition: np.ndarray
+    power: np.ndarray
+    explained: np.ndarray
+
+
+def instrument_factor(rr: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor ``L`` of the instrument spectra per bin (``S_zz = L L^H``), ridged."""
+    ridge = RIDGE * np.trace(rr, axis1=1, axis2=2).real[:, None, None] * np.eye(rr.shape[1])
+    return np.linalg.cholesky(rr + ridge)
+
+
+def _gram(design: np.ndarray) -> np.ndarray:
+    """``D^H D`` per bin, shape (F, n_c, n_c)."""
+    return hermitian_product(design, design)
+
+
+def _condition(zx: np.ndarray, rr: np.ndarray) -> np.ndarray:
+    """Condition number per bin of the regression with instruments and regressors scaled to unit power.
+
+    Not whitened: instruments that move together (nearly collinear setpoints)
+    are exactly what it must show, and whitening would hide them.  From the
+    eigenvalues of the Gram matrix: accurate to well beyond any threshold in use (1e6).
+    """
+    scale = np.sqrt(np.maximum(np.einsum("fll->fl", rr).real, 1e-300))
+    design = zx / scale[:, :, None]
+    design = design / np.maximum(np.linalg.norm(design, axis=1), 1e-300)[:, None, :]
+    eigenvalues = np.linalg.eigvalsh(_gram(design))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        condition = np.where(eigenvalues[:, 0] > 0, np.sqrt(eigenvalues[:, -1] / eigenvalues[:, 0]), np.inf)
+    return np.nan_to_num(condition, nan=np.inf)
+
+
+def _least_squares(design: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``argmin |target - design theta|`` per bin, shape (F, n_c).
+
+    By the normal equations of the column-normalized design (the rows the
+    methods read are well conditioned); by the pseudo-inverse, minimum norm,
+    when a bin is singular.
+    """
+    norms = np.maximum(np.linalg.norm(design, axis=1), 1e-300)  # (F, n_c)
+    scaled = design / norms[:, None, :]
+    rhs = hermitian_product(scaled, target)
+    try:
+        solution = np.linalg.solve(_gram(scaled), rhs)
+    except np.linalg.LinAlgError:
+        solution = np.matmul(np.linalg.pinv(scaled), target)
+    return solution[:, :, 0] / norms
+
+
+def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray) -> RowEstimate:
+    """Solve eq. (13) for one row at every frequency.
+
+    Parameters
+    ----------
+    row : RowSpectra
+    rr : ndarray, shape (F, n_z, n_z)
+        The instrument spectra.
+    factor : ndarray, shape (F, n_z, n_z)
+        :func:`instrument_factor` of them.
+    columns : ndarray of int
+        The regressors that enter (a :class:`RowLayout`'s columns).
+    """
+    F = row.zy.shape[0]
+    target = np.linalg.solve(factor, row.zy[:, :, None])  # (F, n_z, 1), whitened instruments
+    explained = np.sum(np.abs(target[:, :, 0]) ** 2, axis=1)
+    coherence = np.clip(explained / np.maximum(row.yy, 1e-300), 0.0, 1.0)
+    if columns.size == 0:
+        return RowEstimate(np.empty((F, 0), dtype=complex), coherence, np.full(F, np.inf), np.empty((F, 0)), explained)
+    design = np.linalg.solve(factor, row.zx[:, :, columns])  # (F, n_z, n_c)
+    power = np.sum(np.abs(design) ** 2, axis=1)
+    ratio = _least_squares(design, target)
+    return RowEstimate(ratio, coherence, _condition(row.zx[:, :, columns], rr), power, explained)
+
+
+@dataclass(frozen=True)
+class PmrEstimate:
+    """The estimated PMR matrix over frequency.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (F,)
+        Frequencies 0 .. pi [rad/sample].
+    ratio : ndarray of complex, shape (F, n_outputs, n_inputs)
+        ``G_PMR_ik(w)``; for an empty cell the plant's interaction ``G_ik(w)``
+        relative to its reference regressor; NaN where the row's layout has no column.
+    coherence : ndarray, shape (F, n_outputs)
+        Multiple squared coherence of output i with the instruments: the share
+        of its spectrum they explain.
+    condition : ndarray, shape (F, n_outputs)
+        Condition number of each row's regression, instruments and regressors scaled to unit power.
+    segments : int
+        Welch segments averaged.
+    power : ndarray, shape (F, n_outputs, n_inputs)
+        Instrument-driven power of each regressor (0 where the layout has no column).
+    explained : ndarray, shape (F, n_outputs)
+        Instrument-driven power of each output.
+    layouts : tuple of RowLayout
+        Each row's regressors.
+    differenced : ndarray of bool, shape (n_outputs,)
+        Rows estimated from differenced signals (integrating outputs).
+    """
+
+    omega: np.ndarray
+    ratio: np.ndarray
+    coherence: np.ndarray
+    condition: np.ndarray
+    segments: int
+    power: np.ndarray
+    explained: np.ndarray
+    layouts: tuple[RowLayout, ...]
+    differenced: np.ndarray
+
+
+class EstimateBuilder:
+    """Collects the row estimates of a record into a :class:`PmrEstimate`.
+
+    Parameters
+    ----------
+    spectra : RecordSpectra
+        The record whose rows are added.
+    """
+
+    def __init__(self, spectra: RecordSpectra) -> None:
+        model = spectra.model
+        F, n_out, n_in = spectra.omega.size, model.n_outputs, model.n_inputs
+        self.spectra = spectra
+        self.ratio = np.full((F, n_out, n_in), np.nan, dtype=complex)
+        self.condition = np.full((F, n_out), np.inf)
+        self.coherence = np.zeros((F, n_out))
+        self.power = np.zeros((F, n_out, n_in))
+        self.explained = np.zeros((F, n_out))
+        self.layouts: list[RowLayout] = []
+
+    def add(self, layout: RowLayout, row: RowEstimate) -> None:
+        """Row ``layout.row``'s estimate (rows are added in order)."""
+        i = layout.row
+        self.ratio[:, i, layout.columns] = row.ratio
+        self.condition[:, i] = row.condition
+        self.coherence[:, i] = row.coherence
+        self.power[:, i, layout.columns] = row.power
+        self.explained[:, i] = row.explained
+        self.layouts.append(layout)
+
+    def build(self) -> PmrEstimate:
+        """The estimate of every row added."""
+        return PmrEstimate(
+            omega=self.spectra.omega,
+            ratio=self.ratio,
+            coherence=self.coherence,
+            condition=self.condition,
+            segments=self.spectra.segments,
+            power=self.power,
+            explained=self.explained,
+            layouts=tuple(self.layouts),
+            differenced=self.spectra.differenced.copy(),
+        )
+
+
+def implicit_estimate(spectra: RecordSpectra, *, test_empty: bool) -> PmrEstimate:
+    """Solve eq. (13) row by row and frequency by frequency.
+
+    Parameters
+    ----------
+    spectra : RecordSpectra
+        The record's cross-spectra.
+    test_empty : bool
+        Whether empty cells get regressors (:func:`row_layout`).
+
+    Returns
+    -------
+    PmrEstimate
+    """
+    model = spectra.model
+    factor = instrument_factor(spectra.rr)
+    builder = EstimateBuilder(spectra)
+    for i in range(model.n_outputs):
+        layout = row_layout(
+            model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=test_empty
+        )
+        builder.add(layout, implicit_row(spectra.row(i), spectra.rr, factor, layout.columns))
+    return builder.build()
+
+
+def estimate_pmr(
+    stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings, test_empty: bool = True
+) -> PmrEstimate:
+    """The implicit MIMO PMR estimate (eq. 13) from closed-loop data.
+
+    Parameters
+    ----------
+    stretches : sequence of Record
+        Unbroken stretches of setpoints, inputs and outputs (and dither).
+    model : TransferMatrix
+        The controller's model ``Ghat``.
+    welch : WelchSettings
+    test_empty : bool
+        Whether empty cells get regressors where the instruments allow (:func:`row_layout`).
+
+    Raises
+    ------
+    InsufficientData
+        The data cannot support an estimate (see :func:`~pmr_ros.core.pmr.checks.check_stretches`).
+    """
+    check_stretches(stretches, model=model, welch=welch)
+    return implicit_estimate(record_spectra(stretches, model, welch), test_empty=test_empty)

@@ -1,0 +1,396 @@
+"""Fitting one output row: the delay search, the two-pass noise estimate, the profile, the covariance.
+
+:func:`fit_row` runs, for one output row of the implicit regression,
+
+1. the column-by-column global search over whole-sample delays and time
+   constants (:mod:`.search`), weighted with the noise spectrum of the
+   nonparametric estimate, then the joint fit of every continuous parameter
+   (:class:`~.lsq.RowProblem`);
+2. the same fit again with the noise spectrum re-estimated from the first
+   fit's residual (the weights of the final fit);
+3. the profile of each column's delay over its neighbours, the others held
+   at their best (a neighbour that fits better is taken), and the joint
+   search of coupled pairs;
+4. gains and time constants refitted at the chosen delays with the Welch
+   segments' leakage taken out of the equations (:func:`leakage_offset`);
+5. the Gauss-Newton covariance, inflated by the Welch window's bin correlation
+   and by the reduced chi-square when that exceeds one;
+6. each column's lack of fit: how far the fitted coefficient lies from the
+   per-bin free estimate, in units of that estimate's noise (first-pass
+   weights, which the fit's own misfit has not inflated).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...sim.model import TransferMatrix
+from ..implicit import RowLayout
+from ..spectra import RecordSpectra, RowSpectra
+from .lsq import RowParameters, RowProblem
+from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
+from .search import column_grids, sweep_columns
+from .separation import Separation, separation
+from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
+
+__all__ = [
+    "LEAKAGE_ROUNDS",
+    "RowData",
+    "RowFit",
+    "WeightedFit",
+    "column_models",
+    "fit_row",
+    "interaction_delay_range",
+    "leakage_offset",
+]
+
+PROFILE_PRUNE = 60.0
+"""A neighbour this many (reduced) chi-square units worse ends its side of the profile."""
+
+LEAKAGE_ROUNDS = 2
+"""Refits with the segments' leakage taken out, each at the last fit's parameters (:func:`leakage_offset`).
+
+Measured on the Skogestad LV column: a third round moves no parameter by a hundredth of its deviation."""
+
+JOINT_ROUNDS = 3
+"""Most rounds of neighbour profile and joint pair search (a better delay vector found starts another)."""
+
+
+@dataclass(frozen=True)
+class WeightedFit:
+    """A competing delay vector of a row and its fit: a component of the intervals' mixture.
+
+    Attributes
+    ----------
+    weight : float
+        Likelihood weight relative to the chosen fit (<= 1 up to rounding).
+    lin, s : ndarray, shape (n,)
+        Its fitted parameters (as :class:`RowFit`).
+    delays : ndarray of int, shape (n,)
+    sd_lin, sd_s : ndarray, shape (n,)
+        Their standard deviations, inflated as the fit's.
+    """
+
+    weight: float
+    lin: np.ndarray
+    s: np.ndarray
+    delays: np.ndarray
+    sd_lin: np.ndarray
+    sd_s: np.ndarray
+
+
+@dataclass(frozen=True)
+class RowFit:
+    """The fitted parameters of one output row and their uncertainty.
+
+    Attributes
+    ----------
+    lin : ndarray, shape (n,)
+        ``rho = K / Khat`` of an element, ``gamma`` of an interaction.
+    s : ndarray, shape (n,)
+        ``log(tau / tau_reference)`` (0 without a time constant).
+    delays : ndarray of int, shape (n,)
+        ``dD`` of an element, ``D`` of an interaction.
+    sd_lin, sd_s : ndarray, shape (n,)
+        Standard deviations, inflated (``sd_s`` NaN without a time constant;
+        an interaction's time constant is held, so its gain's is conditional on it).
+    chi_square : float
+        Weighted squared residual at the fit.
+    dof : int
+        Its degrees of freedom.
+    delay_profile : tuple of dict
+        Per column: ``delay -> chi_square`` with the others at their best.
+    lack_of_fit : ndarray, shape (n,)
+        Mean squared distance of the fit from the free estimate per bin, in its noise units (about 1 when it fits).
+    columns : tuple of ColumnModel
+    separation : Separation or None
+        How well the data separate each column from the others (:mod:`.separation`).
+    alternatives : tuple of WeightedFit
+        The other delay vectors whose likelihood weight relative to the fit is
+        at least :data:`~.trials.ALTERNATIVE_WEIGHT_MIN`: the intervals are
+        mixtures over them and the fit (:mod:`.verdicts`).
+    """
+
+    lin: np.ndarray
+    s: np.ndarray
+    delays: np.ndarray
+    sd_lin: np.ndarray
+    sd_s: np.ndarray
+    chi_square: float
+    dof: int
+    delay_profile: tuple[dict[int, float], ...]
+    lack_of_fit: np.ndarray
+    columns: tuple[ColumnModel, ...]
+    separation: Separation | None = None
+    alternatives: tuple[WeightedFit, ...] = ()
+
+    @property
+    def scale(self) -> float:
+        """The reduced chi-square the likelihood is tempered by (>= 1)."""
+        return max(1.0, self.chi_square / self.dof)
+
+
+def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
+    """``(0, highest)`` dead time [samples] searched for an unmodeled interaction.
+
+    Up to the model's largest delay plus the delay-mismatch range: an
+    interaction is taken to be no slower to appear than a modeled element could be.
+    """
+    return 0, int(model.delay_samples.max()) + int(max_delay_samples)
+
+
+def column_models(model: TransferMatrix, layout: RowLayout, *, max_delay_samples: int) -> list[ColumnModel]:
+    """The parameterization of each column of a row's layout (:class:`~.ratio.ColumnModel`)."""
+    i = layout.row
+    differenced = bool(model.integrating_outputs[i])
+    reference = max(model.slowest_time_constant / model.sample_time, 1.0)
+    interaction = interaction_delay_range(model, max_delay_samples)
+    tau_bound = math.log(TAU_RATIO_BOUND)
+    out = []
+    for k in layout.columns:
+        kind = str(model.element_type[i, k])
+        if kind == "none":
+            template = "pulse" if differenced else "lag"
+            bounds = (math.log(TEMPLATE_TAU_FLOOR / reference), tau_bound)
+            out.append(ColumnModel(template, 0.0, reference, bounds, interaction, False))
+            continue
+        delay = int(model.delay_samples[i, k])
+        delays = (max(-max_delay_samples, -delay), max_delay_samples)
+        if kind == "integrating":
+            out.append(ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), delays, max_delay_samples < delay))
+            continue
+        tau = float(model.time_constant[i, k]) / model.sample_time
+        pole = math.exp(-1.0 / tau)
+        out.append(ColumnModel("ratio", pole, tau, (-tau_bound, tau_bound), delays, max_delay_samples < delay))
+    return out
+
+
+@dataclass(frozen=True)
+class RowData:
+    """What a row's fit reads.
+
+    Attributes
+    ----------
+    spectra : RowSpectra
+    factor : ndarray, shape (F, n_z, n_z)
+        Cholesky factor of the instrument spectra.
+    columns : ndarray of int
+        The regressors that enter.
+    bins : ndarray of int
+        Frequency bins that enter the fit.
+    omega : ndarray, shape (F,)
+        All frequencies [rad/sample].
+    equivalent_segments : float
+    bin_correlation : float
+        Of the Welch window (:attr:`~pmr_ros.core.pmr.spectra.WelchSettings.bin_correlation`).
+    record : RecordSpectra or None
+        The record the spectra come from, for :func:`leakage_offset`; None
+        (spectra without a record) fits without the leakage correction.
+    row : int
+        The output row of ``record``.
+    """
+
+    spectra: RowSpectra
+    factor: np.ndarray
+    columns: np.ndarray
+    bins: np.ndarray
+    omega: np.ndarray
+    equivalent_segments: float
+    bin_correlation: float
+    record: RecordSpectra | None = None
+    row: int = 0
+
+    def system(self, theta: np.ndarray, offset: np.ndarray | None = None) -> RowSystem:
+        """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
+
+        ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
+        segments' leakage at the current fit (:func:`leakage_offset`).
+        """
+        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
+        spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
+        return row_system(
+            spectra,
+            self.factor,
+            columns=self.columns,
+            noise=noise,
+            bins=self.bins,
+            omega=self.omega,
+            equivalent_segments=self.equivalent_segments,
+        )
+
+
+def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) -> np.ndarray:
+    """What the Welch segments' edges add to ``S_{z y}`` beyond ``sum_k theta_k(w) S_{z x_k}``, shape (F, n_z).
+
+    A segment's transform of ``y = theta(q) x`` is not ``theta(w)`` times the
+    transform of ``x``: the response inside a segment to the input before it,
+    and the part of its own input's response that falls after it, differ (the
+    leakage of a system with memory, of order ``tau / segment_length``).  It
+    is no noise: it follows the regressors, and a row whose inputs move
+    nearly together (an ill-conditioned column) passes it to the ratios
+    many times over -- measured on the Skogestad LV column, every row-1
+    parameter 0.6-1.4 pp low at any record length, one to two standard
+    deviations.  Here the row's model output is filtered in the time domain
+    over whole stretches (no edges) and crossed with the instruments over the
+    same segments; its difference from the product in the frequency domain is
+    the leakage at ``params``.  Taken out of ``S_{z y}``, the equations hold
+    at the true parameters without noise; the fit follows the leakage of its
+    own parameters over :data:`LEAKAGE_ROUNDS` (:func:`fit_row`'s pass 3).
+
+    Raises
+    ------
+    ValueError
+        ``data`` has no record.
+    """
+    if data.record is None:
+        raise ValueError("leakage_offset needs the record the spectra come from (RowData.record)")
+    columns = problem.columns
+
+    def model_output(x: np.ndarray) -> np.ndarray:
+        total = np.zeros(x.shape[0])
+        for c, (column, k) in enumerate(zip(columns, data.columns, strict=True)):
+            lin, s, delay = float(params.lin[c]), float(params.s[c]), int(params.delays[c])
+            total += column.response(x[:, k], lin=lin, s=s, delay=delay)
+        return total[:, None]
+
+    exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
+    theta = problem.coefficients(params, np.exp(-1j * data.omega)).theta
+    product = np.einsum("fzk,fk->fz", data.spectra.zx[:, :, data.columns], theta)
+    return exact - product
+
+
+def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) -> tuple[RowParameters, float]:
+    """Each column's delay neighbours, the others at their best; a better neighbour is taken (and fitted in full).
+
+    Outwards from the chosen delay, a side stops once a neighbour's chi-square
+    exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
+    reduced chi-square): its likelihood weight, below ``exp(-PROFILE_PRUNE/2)``,
+    changes no confidence, and the one beyond it would weigh less still.
+    """
+    for k, column in enumerate(trials.problem.columns):
+        low, high = column.delay_bounds
+        chosen = int(fit[0].delays[k])
+        profile = {chosen: fit[1]}
+        for direction in (-1, 1):
+            for step in range(1, PROFILE_HALF_WIDTH + 1):
+                d = chosen + direction * step
+                if not low <= d <= high:
+                    break
+                profile[d] = trials.moved(fit, [(k, d)])[1]
+                if profile[d] - fit[1] > PROFILE_PRUNE * scale:
+                    break
+        best = min(profile, key=profile.__getitem__)
+        if best != chosen:
+            fit = trials.full(trials.moved(fit, [(k, best)])[0])
+    return fit
+
+
+def _search_delays(
+    trials: Trials, fit: tuple[RowParameters, float], *, dof: int, joint_correlation: float
+) -> tuple[RowParameters, float]:
+    """The best delays: each column's neighbours, then the coupled pairs' joint grids, until neither improves."""
+    for _ in range(JOINT_ROUNDS):
+        scale = max(1.0, fit[1] / dof)
+        fit = _profile(trials, fit, scale=scale)
+        pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, joint_correlation)
+        if not joint_search(trials, fit, pairs[: trials.problem.n]):
+            break
+        fit = trials.full(trials.best()[0])
+    return fit
+
+
+def _uncertainty(problem: RowProblem, params: RowParameters, inflation: float) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations of ``lin`` and of the fitted ``s`` (an interaction's time constant is held)."""
+    n = problem.n
+    info = problem.information(problem.coefficients(params))
+    packed = np.full(info.shape[0], np.inf)
+    try:
+        packed = np.sqrt(np.maximum(np.diag(np.linalg.inv(info)) * inflation, 0.0))
+    except np.linalg.LinAlgError:
+        pass
+    sd_s = np.full(n, np.nan)
+    sd_s[problem.free_tau] = packed[n:]
+    return packed[:n], sd_s
+
+
+def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) -> np.ndarray:
+    """Per column: mean over bins of ``|free - fitted|^2 / var(free)`` (complex variance ``2 [M^-1]_kk``)."""
+    free, variance = system.free_estimate()
+    theta = problem.coefficients(params).theta
+    return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
+
+
+def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation: float) -> tuple[WeightedFit, ...]:
+    """The delay vectors other than ``chosen`` that keep a likelihood weight, with their fits' deviations."""
+    out = []
+    for alternative in alternatives(trials, scale=scale):
+        if np.array_equal(alternative.params.delays, chosen.delays):
+            continue
+        sd_lin, sd_s = _uncertainty(trials.problem, alternative.params, inflation)
+        params = alternative.params
+        out.append(WeightedFit(alternative.weight, params.lin, params.s, params.delays, sd_lin, sd_s))
+    return tuple(out)
+
+
+def fit_row(
+    data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.ndarray, joint_correlation: float
+) -> RowFit:
+    """Fit every coefficient of one output row (see the module docstring).
+
+    Parameters
+    ----------
+    data : RowData
+    columns : sequence of ColumnModel
+        One per column of ``data.columns``.
+    theta_start : ndarray of complex, shape (F, n)
+        A first estimate of the row (the nonparametric one) for the first noise spectrum.
+    joint_correlation : float
+        Pairs of columns whose delay estimates correlate at least this much
+        are searched jointly (``parametric.joint_delay_correlation``).
+
+    Returns
+    -------
+    RowFit
+    """
+    # pass 1: weights from the nonparametric estimate's residual; delays searched
+    first = data.system(theta_start)
+    problem = RowProblem(first, columns)
+    grids = column_grids(columns, first.z_inv)
+    fit = Trials(problem, grids).full(sweep_columns(first, grids))
+    # pass 2: weights from the first fit's residual; delays profiled, coupled pairs searched jointly
+    z_inv = np.exp(-1j * data.omega)
+    second = data.system(problem.coefficients(fit[0], z_inv).theta)
+    searched = RowProblem(second, columns)
+    trials = Trials(searched, grids)
+    p = len(columns) + searched.free_tau.size
+    dof = max(1, second.components - p)
+    params, cost = _search_delays(trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation)
+    searched_scale = max(1.0, cost / dof)
+    # pass 3: the segments' leakage at the fit taken out of S_zy, gains and time constants refitted at the
+    # chosen delays (the leakage moves with the fit: a second round follows it).  The delays' profile and
+    # alternatives stay pass 2's: a correction made at one delay vector would favour it over the others.
+    final = searched
+    for _ in range(LEAKAGE_ROUNDS if data.record is not None else 0):
+        offset = leakage_offset(data, final, params)
+        final = RowProblem(data.system(final.coefficients(params, z_inv).theta, offset), columns)
+        params, cost = final.fit(params)
+    inflation = data.bin_correlation * max(1.0, cost / dof)
+    sd_lin, sd_s = _uncertainty(final, params, inflation)
+    return RowFit(
+        lin=params.lin,
+        s=params.s,
+        delays=params.delays,
+        sd_lin=sd_lin,
+        sd_s=sd_s,
+        chi_square=cost,
+        dof=dof,
+        delay_profile=joint_profiles(trials, params),
+        lack_of_fit=_lack_of_fit(first, problem, params),
+        columns=tuple(columns),
+        separation=separation(final, params),
+        alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
+    )

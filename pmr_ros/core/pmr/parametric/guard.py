@@ -1,0 +1,215 @@
+"""The data-quality guard of the parametric method: which rows and elements the data can diagnose at all.
+
+Per output row: whether it is identifiable at all (as many instruments as
+regressors, :func:`~pmr_ros.core.pmr.implicit.row_layout`), the informative band
+(where the row's coherence with the instruments holds), the mean coherence
+over it, the median condition number of the row's regression and the spread
+of its model time constants; per modeled element, its share of the row's
+instrument-driven output.  A row or element that fails a check is
+``inconclusive`` with the reason -- never a number that cannot be trusted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...sim.model import TransferMatrix
+from ..classic import PmrSettings
+from ..implicit import RowEstimate, RowLayout
+from ..spectra import WelchSettings
+from .settings import ParametricSettings
+
+__all__ = ["NEGLIGIBLE_GAIN_RATIO", "RowQuality", "fitted_bins", "negligible_gains", "row_quality"]
+
+NEGLIGIBLE_GAIN_RATIO = 1e-4
+"""A model gain below this fraction of the row's largest is taken as ~0: the element is an empty cell in effect.
+
+Its filtered input then carries no information whatever the input does (its
+share of the row's output is below 1e-8 of the largest element's for inputs
+moved alike), so the element is left out of the row's fit and called what it
+is -- a property of the model, not of the excitation."""
+
+
+@dataclass(frozen=True)
+class RowQuality:
+    """What the data say about one output row.
+
+    Attributes
+    ----------
+    layout : RowLayout
+        The regressors the row's data carry.
+    bins : ndarray of int
+        The fitted frequency bins: the informative band, and 0 unless the row is differenced.
+    coherence : float
+        Mean squared coherence of the row with the instruments over ``bins``.
+    condition : float
+        Median condition number of the row's regression over ``bins``.
+    time_constant_ratio : float
+        Largest over smallest model time constant of the row.
+    excitation : ndarray, shape (n_columns,)
+        Each modeled element's share of the row's instrument-driven output (0 for an empty cell).
+    reasons : tuple of str
+        Why the row cannot be diagnosed (empty: it can).
+    warnings : tuple of str
+        Remarks that do not stop a verdict.
+    negligible : ndarray of bool, shape (n_columns,)
+        Modeled elements whose model gain is ~0 (:data:`NEGLIGIBLE_GAIN_RATIO`): left out of the fit.
+    gains : ndarray, shape (n_columns,)
+        The model gains of the layout's columns (0 for an empty cell).
+    """
+
+    layout: RowLayout
+    bins: np.ndarray
+    coherence: float
+    condition: float
+    time_constant_ratio: float
+    excitation: np.ndarray
+    reasons: tuple[str, ...]
+    warnings: tuple[str, ...]
+    negligible: np.ndarray
+    gains: np.ndarray
+
+    def quality(self, c: int, *, omega: np.ndarray, welch: WelchSettings) -> dict[str, float]:
+        """The quality figures reported with column ``c`` of the layout (any row figures when ``c`` < 0)."""
+        figures = {
+            "coherence": self.coherence,
+            "condition": self.condition,
+            "row_time_constant_ratio": self.time_constant_ratio,
+            "band_rad_per_sample": float(omega[self.bins].max()) if self.bins.size else 0.0,
+            "segment_length": int(welch.segment_length),
+        }
+        if c >= 0:
+            figures["excitation"] = float(self.excitation[c])
+        return figures
+
+    def element_reasons(
+        self, c: int, settings: ParametricSettings, *, modeled: bool, input_name: str, element_name: str
+    ) -> tuple[str, ...]:
+        """The row's reasons plus column ``c``'s own: a model gain ~0, or a modeled element barely excited."""
+        share = float(self.excitation[c])
+        if modeled and self.negligible[c]:
+            return (
+                *self.reasons,
+                f"{element_name}'s model gain {self.gains[c]:.3g} is ~0 (below {NEGLIGIBLE_GAIN_RATIO:g} of the row's "
+                "largest): its filtered input carries no information; treat it as an empty cell (element_type none)",
+            )
+        if modeled and share < settings.excitation_min:
+            return (
+                *self.reasons,
+                f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output < "
+                f"parametric.excitation_min {100 * settings.excitation_min:g} %): move {input_name} more (MV dither)",
+            )
+        return self.reasons
+
+
+def fitted_bins(omega: np.ndarray, coherence: np.ndarray, *, differenced: bool, coherence_min: float) -> np.ndarray:
+    """The bins a row's fit uses: 0 (unless differenced) and the informative band.
+
+    The band is the paper's (:func:`~pmr_ros.core.pmr.delay.informative_band`),
+    except that it may start above the lowest bins: slow disturbances or
+    saturated inputs can leave the lowest bins with little coherence with the
+    instruments, and they would end the band before it began.  The fit's
+    weighting already gives such bins little say where they are noisy.
+    """
+    good = (omega > 0) & (coherence >= coherence_min)
+    band = np.zeros(omega.size, dtype=bool)
+    usable = np.flatnonzero(good)
+    if usable.size:
+        start = int(usable[0])
+        drops = np.flatnonzero(~good[start:])
+        band[start : start + int(drops[0]) if drops.size else omega.size] = True
+    band[0] = not differenced  # a differenced row has nothing at 0
+    return np.flatnonzero(band)
+
+
+def _reasons(
+    layout: RowLayout,
+    bins: np.ndarray,
+    coherence: float,
+    condition: float,
+    *,
+    settings: ParametricSettings,
+    min_bins: int,
+    coherence_min: float,
+) -> list[str]:
+    reasons = list(layout.reasons)
+    if reasons:
+        return reasons
+    if bins.size < min_bins:
+        reasons.append(
+            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below "
+            f"{coherence_min:g}"
+        )
+    if coherence < settings.coherence_min:
+        reasons.append(f"coherence with the setpoints too low ({coherence:.2f} < {settings.coherence_min:g})")
+    if not np.isfinite(condition) or condition > settings.max_condition:
+        reasons.append(f"ill-conditioned row regression (condition {condition:.3g} > {settings.max_condition:g})")
+    return reasons
+
+
+def _warnings(
+    layout: RowLayout, ratio: float, *, bins: np.ndarray, omega: np.ndarray, settings: ParametricSettings
+) -> tuple[str, ...]:
+    """Remarks on a row that do not stop its verdicts."""
+    warnings = []
+    if ratio > settings.row_time_constant_ratio_warn:
+        warnings.append(
+            f"row {layout.row + 1} mixes time constants {ratio:.1f}x apart "
+            f"(> {settings.row_time_constant_ratio_warn:g}: the classic PMR's filtering effect)"
+        )
+    band = bins[bins > 0]
+    skipped = int(band[0]) - 1 if band.size else 0
+    if skipped > 0:
+        warnings.append(
+            f"{f'the lowest {skipped} bins' if skipped > 1 else 'the lowest bin'} (below {omega[skipped + 1]:.3f} "
+            "rad/sample) lack coherence with the instruments and are not fitted (slow disturbances, saturated inputs?)"
+        )
+    if layout.untested:
+        warnings.append(f"assumes no unmodeled interaction where the model is empty ({layout.untested})")
+    return tuple(warnings)
+
+
+def negligible_gains(model: TransferMatrix, i: int, columns: np.ndarray) -> np.ndarray:
+    """Which of row ``i``'s ``columns`` are modeled elements with a model gain ~0 (:data:`NEGLIGIBLE_GAIN_RATIO`)."""
+    modeled = model.present[i]
+    gains = np.abs(np.where(modeled, model.gain[i], 0.0))
+    largest = float(gains.max()) if gains.size else 0.0
+    return (modeled & (gains < NEGLIGIBLE_GAIN_RATIO * largest))[columns]
+
+
+def row_quality(
+    layout: RowLayout,
+    estimate: RowEstimate,
+    *,
+    omega: np.ndarray,
+    model: TransferMatrix,
+    classic: PmrSettings,
+    settings: ParametricSettings,
+) -> RowQuality:
+    """Judge one output row (its layout and implicit estimate) before it is fitted."""
+    i = layout.row
+    differenced = bool(model.integrating_outputs[i])
+    bins = fitted_bins(omega, estimate.coherence, differenced=differenced, coherence_min=classic.coherence_min)
+    taus = model.time_constant[i][model.element_type[i] == "foptd"]
+    ratio = float(taus.max() / taus.min()) if taus.size else 1.0
+    coherence = float(estimate.coherence[bins].mean()) if bins.size else 0.0
+    condition = float(np.median(estimate.condition[bins])) if bins.size and layout.columns.size else np.inf
+    reasons = _reasons(
+        layout,
+        bins,
+        coherence,
+        condition,
+        settings=settings,
+        min_bins=2 * layout.columns.size + 2,
+        coherence_min=classic.coherence_min,
+    )
+    warnings = _warnings(layout, ratio, bins=bins, omega=omega, settings=settings)
+    # each modeled element's share of the row's instrument-driven output: can it be seen at all?
+    modeled = model.present[i, layout.columns]
+    driven = np.where(modeled, estimate.power[bins].sum(axis=0), 0.0) if bins.size else np.zeros(modeled.size)
+    share = driven / max(float(driven.sum()), 1e-300)
+    negligible = negligible_gains(model, i, layout.columns)
+    gains = np.where(modeled, model.gain[i, layout.columns], 0.0)
+    return RowQuality(layout, bins, coherence, condition, ratio, share, tuple(reasons), warnings, negligible, gains)

@@ -1,0 +1,97 @@
+"""The verdict on an unmodelled interaction: an empty cell of the model that the plant may fill.
+
+An empty cell's interaction is judged by the share of the row's
+instrument-driven output it carries, against the gain tolerance, with its
+interval widened for the search over its delay and time constant (the best of
+many candidates is larger than one chosen in advance: a Bonferroni bound over
+:func:`search_candidates`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from scipy.stats import norm
+
+from ...results import ParametricResult
+from .fit import RowFit
+from .ratio import ColumnModel
+from .settings import ParametricSettings
+from .verdicts import chosen_delay, parameter_verdict, trust_reasons, z_score
+
+__all__ = ["TEMPLATE_SHAPES", "interaction_result", "interaction_verdict", "search_candidates"]
+
+TEMPLATE_SHAPES = 2
+"""Effectively independent template time constants counted per delay candidate in the Bonferroni bound."""
+
+
+def search_candidates(column: ColumnModel) -> int:
+    """Templates an interaction's search chooses among: delays, times :data:`TEMPLATE_SHAPES` with a time constant."""
+    low, high = column.delay_bounds
+    return (high - low + 1) * (TEMPLATE_SHAPES if column.has_tau else 1)
+
+
+def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, settings: ParametricSettings) -> str:
+    """The verdict on an interaction of ``share_pct`` % of the row's instrument-driven output.
+
+    The share's interval is widened to the Bonferroni level of ``candidates``
+    searched templates; then :func:`parameter_verdict` with the gain tolerance.
+    """
+    z = float(norm.ppf(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
+    interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
+    z_one = z_score(settings)
+    return parameter_verdict(
+        interval,
+        tolerance=settings.gain_tolerance_pct,
+        ok_band_factor=settings.ok_band_factor,
+        max_halfwidth=settings.max_interval_pct,
+        ok_interval=(share_pct - z_one * sd_pct, share_pct + z_one * sd_pct),
+    )
+
+
+def interaction_result(
+    fit: RowFit,
+    c: int,
+    *,
+    share_per_gain: float,
+    settings: ParametricSettings,
+    quality: Mapping[str, float],
+    warnings: tuple[str, ...],
+) -> ParametricResult:
+    """An empty cell, column ``c`` of a fitted row: the interaction's gain, interval, delay and verdict.
+
+    Parameters
+    ----------
+    share_per_gain : float
+        Root-mean-square share of the row's instrument-driven output that a
+        unit gain of the fitted template would carry.
+    """
+    z = z_score(settings)
+    gamma, sd = float(fit.lin[c]), float(fit.sd_lin[c])
+    share, sd_share = 100.0 * gamma * share_per_gain, 100.0 * sd * share_per_gain
+    verdict = interaction_verdict(share, sd_share, candidates=search_candidates(fit.columns[c]), settings=settings)
+    delay, confidence, _ = chosen_delay(fit, c, settings)
+    reasons = list(trust_reasons(fit, c, settings)) if verdict == "mismatch" else []
+    if reasons:
+        verdict = "inconclusive"
+    elif verdict == "inconclusive":
+        band = settings.ok_band_factor * settings.gain_tolerance_pct
+        reasons.append(
+            f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: cannot rule out one "
+            f"beyond ±{band:g} % ({settings.ok_band_factor:g}x the gain tolerance)"
+        )
+    if verdict == "mismatch" and confidence < settings.delay_confidence_min:
+        warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
+    return ParametricResult(
+        delay_confidence=confidence,
+        gain_verdict=None,
+        tau_verdict=None,
+        delay_verdict=None,
+        unmodeled_gain=gamma,
+        unmodeled_gain_interval=(gamma - z * sd, gamma + z * sd),
+        unmodeled_delay_samples=delay,
+        unmodeled_verdict=verdict,
+        reasons=tuple(reasons),
+        warnings=warnings,
+        quality={**quality, "unmodeled_share_pct": share, "lack_of_fit": float(fit.lack_of_fit[c])},
+    )

@@ -1,0 +1,358 @@
+"""Transfer-function matrices of MPC models: FOPTD, integrating and empty elements.
+
+Each element is one of :data:`ELEMENT_TYPES`:
+
+* ``foptd``: ``G_ik(s) = K exp(-theta s) / (tau s + 1)``; sampled with a
+  zero-order hold at ``Ts`` and a delay of whole samples ``d = theta / Ts`` it
+  is exactly ``G_ik(z) = b z^-(1 + d) / (1 - a z^-1)``, ``a = exp(-Ts / tau)``,
+  ``b = K (1 - a)``, so ``y(k) = a y(k-1) + b u(k-1-d)``;
+* ``integrating`` (a level, a gas pressure: a "ramp" CV): ``K exp(-theta s)/s``,
+  K in output units per input unit per time unit; sampled, ``a = 1`` and
+  ``b = K Ts``: ``y(k) = y(k-1) + K Ts u(k-1-d)``;
+* ``none``: an empty cell, no model (``b = 0``).
+
+Frequencies are in rad/sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from ..results import ElementModel
+
+__all__ = ["DiscreteFoptd", "Mismatch", "StateSpace", "TransferMatrix", "element_name"]
+
+ELEMENT_TYPES = ("foptd", "integrating", "none")
+"""The kinds of element a model may hold."""
+
+SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
+"""Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
+
+
+def element_name(i: int, k: int, n: int) -> str:
+    """Name of element (i, k), zero-based: ``G11`` style, ``G1_10`` when n > 9."""
+    if n > 9:
+        return f"G{i + 1}_{k + 1}"
+    return f"G{i + 1}{k + 1}"
+
+
+@dataclass(frozen=True)
+class DiscreteFoptd:
+    """ZOH discretization of a FOPTD matrix, element-wise.
+
+    Attributes
+    ----------
+    pole : ndarray, shape (n_outputs, n_inputs)
+        ``a = exp(-Ts / tau)``.
+    numerator : ndarray, shape (n_outputs, n_inputs)
+        ``b = K (1 - a)``.
+    delay_samples : ndarray of int, shape (n_outputs, n_inputs)
+        Dead time in whole samples (the ZOH adds one more sample of lag).
+    """
+
+    pole: np.ndarray
+    numerator: np.ndarray
+    delay_samples: np.ndarray
+
+    def frequency_response(self, omega: np.ndarray) -> np.ndarray:
+        """Complex response at ``omega`` [rad/sample], shape (n_out, n_in, len(omega))."""
+        z_inv = np.exp(-1j * np.asarray(omega, dtype=float))
+        a = self.pole[..., None]
+        b = self.numerator[..., None]
+        d = self.delay_samples[..., None]
+        return b * z_inv ** (1 + d) / (1.0 - a * z_inv)
+
+    def filter_coefficients(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(b, a)`` polynomials in z^-1 of element (i, k) for ``scipy.signal.lfilter``."""
+        d = int(self.delay_samples[i, k])
+        num = np.zeros(d + 2)
+        num[-1] = self.numerator[i, k]
+        return num, np.array([1.0, -self.pole[i, k]])
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    """Discrete realization ``x+ = A x + B u``, ``y = C x`` of a transfer matrix.
+
+    Each input feeds a shift register as long as its largest delay; each
+    element is one first-order state reading the register tap of its delay.
+    So every state has its own pole (0 for a register) and exactly one other
+    source, a register tap or an input: :meth:`advance` steps it with two
+    multiplications per state instead of the dense products.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+
+    @cached_property
+    def one_source_form(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(pole, source, weight)`` per state: ``x+[j] = pole[j] x[j] + weight[j] [x; u][source[j]]``."""
+        pole = np.diag(self.A).copy()
+        feed = np.hstack([self.A - np.diag(pole), self.B])  # columns: states, then inputs
+        if np.any(np.count_nonzero(feed, axis=1) > 1):
+            raise ValueError("advance needs one source per state (the realization of TransferMatrix.state_space)")
+        source = np.argmax(np.abs(feed), axis=1)
+        return pole, source, feed[np.arange(feed.shape[0]), source]
+
+    def advance(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """``A x + B u`` for one state ``(nx,)`` or a batch ``(runs, nx)``, elementwise (same numbers either way).
+
+        Parameters
+        ----------
+        x : ndarray, shape (..., nx)
+            State.
+        u : ndarray, shape (..., n_inputs)
+            Input held over the sample [input unit].
+
+        Returns
+        -------
+        ndarray, shape (..., nx)
+        """
+        pole, source, weight = self.one_source_form
+        return pole * x + weight * np.concatenate((x, u), axis=-1)[..., source]
+
+
+@dataclass(frozen=True)
+class Mismatch:
+    """Plant-model mismatch per element: ``G = Ghat`` with these changes.
+
+    Attributes
+    ----------
+    gain_pct : ndarray
+        Relative gain change ``(K - Khat) / Khat`` in percent.
+    time_constant_pct : ndarray
+        Relative time-constant change in percent.
+    delay_samples : ndarray of int
+        Delay change ``D - Dhat`` in samples.
+    """
+
+    gain_pct: np.ndarray
+    time_constant_pct: np.ndarray
+    delay_samples: np.ndarray
+
+    @classmethod
+    def zero(cls, n_outputs: int, n_inputs: int) -> Mismatch:
+        """No mismatch at all: the plant equals the model."""
+        z = np.zeros((n_outputs, n_inputs))
+        return cls(z, z.copy(), z.astype(int))
+
+    def for_scenario(self, scenario: str) -> Mismatch:
+        """Keep only the parts of the mismatch that ``scenario`` applies (Table 2)."""
+        if scenario not in SCENARIOS:
+            raise ValueError(f"unknown scenario {scenario!r}; choose one of {', '.join(SCENARIOS)}")
+        zero = Mismatch.zero(*self.gain_pct.shape)
+        return Mismatch(
+            self.gain_pct if scenario in ("gain", "full") else zero.gain_pct,
+            self.time_constant_pct if scenario in ("time_constant", "full") else zero.time_constant_pct,
+            self.delay_samples if scenario in ("delay", "full") else zero.delay_samples,
+        )
+
+    @property
+    def gain_ratio(self) -> np.ndarray:
+        """Injected ``K / Khat``."""
+        return 1.0 + self.gain_pct / 100.0
+
+
+@dataclass(frozen=True)
+class TransferMatrix:
+    """An n_outputs x n_inputs matrix of FOPTD, integrating and empty elements with a sample time.
+
+    Attributes
+    ----------
+    gain : ndarray, shape (n_outputs, n_inputs)
+        K [output unit / input unit; per time unit for an integrating element].
+    time_constant : ndarray
+        tau [time unit of ``sample_time``], > 0 for FOPTD elements; NaN for
+        integrating and empty ones (they have none).
+    delay : ndarray
+        Dead times theta [time unit], whole multiples of ``sample_time``; 0 for empty cells.
+    sample_time : float
+        Ts [time unit].
+    output_names, input_names : tuple of str
+        Channel names, used on topics and in reports.
+    name : str
+        Name of the system.
+    element_type : ndarray of str
+        One of :data:`ELEMENT_TYPES` per element; default (empty): all ``foptd``.
+    """
+
+    gain: np.ndarray
+    time_constant: np.ndarray
+    delay: np.ndarray
+    sample_time: float
+    output_names: tuple[str, ...] = field(default=())
+    input_names: tuple[str, ...] = field(default=())
+    name: str = ""
+    element_type: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
+
+    def __post_init__(self) -> None:
+        for attr in ("gain", "time_constant", "delay"):
+            object.__setattr__(self, attr, np.array(getattr(self, attr), dtype=float, ndmin=2))
+        shape = self.gain.shape
+        if self.time_constant.shape != shape or self.delay.shape != shape:
+            raise ValueError("gain, time_constant and delay must have the same shape")
+        given = np.array(self.element_type, dtype=object)
+        kinds = np.full(shape, "foptd", dtype=object) if given.size == 0 else given
+        if kinds.shape != shape or not set(kinds.ravel()) <= set(ELEMENT_TYPES):
+            raise ValueError(f"element_type must be {shape} entries of {', '.join(ELEMENT_TYPES)}")
+        object.__setattr__(self, "element_type", kinds)
+        # what an element does not have is not there: no time constant off FOPTD, nothing in an empty cell
+        object.__setattr__(self, "time_constant", np.where(kinds == "foptd", self.time_constant, np.nan))
+        empty = kinds == "none"
+        object.__setattr__(self, "gain", np.where(empty, 0.0, self.gain))
+        object.__setattr__(self, "delay", np.where(empty, 0.0, self.delay))
+        if not self.output_names:
+            object.__setattr__(self, "output_names", tuple(f"y{i + 1}" for i in range(shape[0])))
+        if not self.input_names:
+            object.__setattr__(self, "input_names", tuple(f"u{k + 1}" for k in range(shape[1])))
+
+    @property
+    def n_outputs(self) -> int:
+        """Controlled outputs (rows)."""
+        return self.gain.shape[0]
+
+    @property
+    def n_inputs(self) -> int:
+        """Manipulated inputs (columns)."""
+        return self.gain.shape[1]
+
+    @property
+    def delay_samples(self) -> np.ndarray:
+        """Dead times in whole samples (int)."""
+        return np.rint(self.delay / self.sample_time).astype(int)
+
+    @property
+    def present(self) -> np.ndarray:
+        """Where the model has an element (not ``none``), shape (n_outputs, n_inputs)."""
+        return np.asarray(self.element_type != "none")
+
+    @property
+    def integrating(self) -> np.ndarray:
+        """Where the element is integrating, shape (n_outputs, n_inputs)."""
+        return np.asarray(self.element_type == "integrating")
+
+    @property
+    def integrating_outputs(self) -> np.ndarray:
+        """Outputs with at least one integrating element ("ramp" CVs), shape (n_outputs,)."""
+        return np.asarray(self.integrating.any(axis=1))
+
+    @property
+    def slowest_time_constant(self) -> float:
+        """The largest FOPTD time constant [time unit], 0 when there is none."""
+        tau = self.time_constant[self.element_type == "foptd"]
+        return float(tau.max()) if tau.size else 0.0
+
+    def element_names(self) -> list[str]:
+        """Row-major element names ``G11, G12, ...`` (``G1_10`` style beyond 9 channels)."""
+        n = max(self.n_outputs, self.n_inputs)
+        return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
+
+    def element_models(self) -> dict[str, tuple[int, int, ElementModel]]:
+        """Row-major element name to ``(row, column, ElementModel)``, as diagnoses report them."""
+        delays = self.delay_samples
+        out = {}
+        for j, name in enumerate(self.element_names()):
+            i, k = divmod(j, self.n_inputs)
+            tau = float(self.time_constant[i, k])
+            element = ElementModel(
+                str(self.element_type[i, k]), float(self.gain[i, k]), None if np.isnan(tau) else tau, int(delays[i, k])
+            )
+            out[name] = (i, k, element)
+        return out
+
+    def settling_samples(self, time_constants: float = 8.0) -> int:
+        """Samples until every FOPTD element forgets its initial state to ``exp(-time_constants)``.
+
+        ``time_constants`` x the largest tau plus the largest delay, in samples.
+        (An integrating element never forgets; its data are differenced instead.)
+        """
+        settle = int(np.ceil(time_constants * self.slowest_time_constant / self.sample_time))
+        return settle + int(self.delay_samples.max()) + 1
+
+    def discretize(self) -> DiscreteFoptd:
+        """Exact zero-order-hold discretization with the delay in whole samples."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pole = np.where(self.element_type == "foptd", np.exp(-self.sample_time / self.time_constant), 0.0)
+        pole = np.where(self.integrating, 1.0, pole)
+        numerator = np.where(self.integrating, self.gain * self.sample_time, self.gain * (1.0 - pole))
+        return DiscreteFoptd(pole, np.where(self.present, numerator, 0.0), self.delay_samples)
+
+    def with_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
+        """The plant ``G`` that differs from this model by ``mismatch`` (no time constant change off FOPTD)."""
+        return replace(
+            self,
+            gain=self.gain * (1.0 + mismatch.gain_pct / 100.0),
+            time_constant=self.time_constant * (1.0 + mismatch.time_constant_pct / 100.0),
+            delay=self.delay + mismatch.delay_samples * self.sample_time,
+        )
+
+    def with_time_constant(self, i: int, k: int, time_constant: float) -> TransferMatrix:
+        """A copy with element (i, k)'s time constant replaced [time unit]."""
+        tau = self.time_constant.copy()
+        tau[i, k] = time_constant
+        return replace(self, time_constant=tau)
+
+    def state_space(self) -> StateSpace:
+        """Minimal-per-element realization with one shift register per input.
+
+        One first-order state per element that is there (row-major), reading
+        the register tap of its delay; empty cells have no state.
+        """
+        disc = self.discretize()
+        n_out, n_in = self.n_outputs, self.n_inputs
+        present = self.present
+        elements = [(int(i), int(k)) for i, k in zip(*np.nonzero(present), strict=False)]  # row-major
+        lengths = np.where(present, disc.delay_samples, 0).max(axis=0)
+        reg_start = len(elements) + np.concatenate(([0], np.cumsum(lengths)[:-1]))
+        nx = len(elements) + int(lengths.sum())
+        A = np.zeros((nx, nx))
+        B = np.zeros((nx, n_in))
+        C = np.zeros((n_out, nx))
+        for k in range(n_in):
+            if lengths[k] > 0:
+                B[reg_start[k], k] = 1.0
+                for t in range(1, lengths[k]):
+                    A[reg_start[k] + t, reg_start[k] + t - 1] = 1.0
+        for e, (i, k) in enumerate(elements):
+            A[e, e] = disc.pole[i, k]
+            d = disc.delay_samples[i, k]
+            if d == 0:
+                B[e, k] = disc.numerator[i, k]
+            else:
+                A[e, reg_start[k] + d - 1] = disc.numerator[i, k]
+            C[i, e] = 1.0
+        return StateSpace(A, B, C)
+
+    def element_outputs(self, u: np.ndarray) -> np.ndarray:
+        """Per-element model outputs ``yhat_ik = G_ik u_k``.
+
+        Parameters
+        ----------
+        u : ndarray, shape (N, n_inputs)
+            Inputs.  FOPTD filters start at steady state for ``u[0]``; the true
+            initial state is unknown, so drop the first :meth:`settling_samples`
+            of the result before using it.  Integrating filters start at zero
+            (they have no steady state); empty cells give zeros.
+
+        Returns
+        -------
+        ndarray, shape (N, n_outputs, n_inputs)
+        """
+        from scipy.signal import lfilter, lfilter_zi
+
+        u = np.asarray(u, dtype=float)
+        disc = self.discretize()
+        out = np.zeros((u.shape[0], self.n_outputs, self.n_inputs))
+        present = self.present
+        for i in range(self.n_outputs):
+            for k in range(self.n_inputs):
+                if not present[i, k]:
+                    continue
+                b, a = disc.filter_coefficients(i, k)
+                zi = np.zeros(len(b) - 1) if self.integrating[i, k] else lfilter_zi(b, a) * u[0, k]
+                out[:, i, k] = lfilter(b, a, u[:, k], zi=zi)[0]
+        return out

@@ -1,0 +1,233 @@
+"""A bag diagnosed offline as the live diagnostician did, compared with the verdicts it recorded, and its last window.
+
+The replay itself (the bag's r, u, y through the live node's aligner and
+schedule) is :mod:`pmr_ros.bag.offline`; this flow adds the configuration the
+bag is judged with, the comparison with the recorded /diagnostics (with the
+control impact when the live node computed one: :mod:`pmr_ros.service.closing`)
+and the data of the last diagnosed window for the HTML report.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..bag.offline import (
+    OfflineResult,
+    RecordedVerdict,
+    bag_configuration,
+    bag_namespace,
+    check_system,
+    held_samples,
+    recorded_verdicts,
+    replay_bag,
+    required_topics,
+)
+from ..bag.reader import Bag
+from ..bag.storage import BagError
+from ..config import PmrConfig
+from ..config.schema import parameter
+from ..contract.layout import read_signal
+from ..contract.samples import sample_index
+from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.windowing import VERDICT, WindowOutcome, window_dither
+from ..core.records import Record
+from ..core.results import Diagnosis, compare_diagnoses
+from ..data import PlantData
+from .closing import close_diagnosis
+
+__all__ = ["compare", "diagnose_bag", "judged_config", "window_data", "window_signals"]
+
+
+def judged_config(
+    config: PmrConfig, *, held: int, origin: str, min_samples: int | None = None
+) -> tuple[PmrConfig, str | None]:
+    """The configuration a bag is judged with offline, and a note when it differs from the recorded one.
+
+    ``min_samples`` (``--min-samples``) replaces ``diagnostician.min_samples``.
+    Without it, a ``pmr-ros run --bag`` recording (its minimum is the run's
+    planned length: ``min_samples == window_samples == run.samples``) that
+    holds fewer samples than planned is judged with the declared default
+    minimum instead: the recording was cut short, the data may still do.
+
+    Raises
+    ------
+    BagError
+        ``min_samples`` exceeds the window.
+    """
+    settings = config.diagnostician
+    if min_samples is not None:
+        if min_samples > settings.window_samples:
+            raise BagError(
+                f"--min-samples {min_samples}: must not exceed diagnostician.window_samples = "
+                f"{settings.window_samples} of the configuration ({origin})"
+            )
+        return replace(config, diagnostician=replace(settings, min_samples=min_samples)), None
+    planned = config.run.samples
+    if not (settings.min_samples == settings.window_samples == planned and held < planned):
+        return config, None
+    cut = f"the bag holds {held} of the {planned} samples its run planned (a recording cut short)"
+    default = int(parameter("diagnostician.min_samples").default)
+    if default >= planned:
+        return config, f"{cut}; --min-samples N judges it on fewer samples"
+    note = (
+        f"{cut}: judged with diagnostician.min_samples = {default} (the declared default) instead of the planned "
+        "length; --min-samples N to require more or fewer"
+    )
+    return replace(config, diagnostician=replace(settings, min_samples=default)), note
+
+
+def diagnose_bag(
+    bag: Bag,
+    config_path: str | None = None,
+    method: str | None = None,
+    *,
+    min_samples: int | None = None,
+    namespace: str | None = None,
+) -> OfflineResult:
+    """Diagnose a bag offline as the live diagnostician did, and compare with its recorded verdicts.
+
+    ``method`` (``classic`` or ``parametric``) overrides the configuration's
+    ``pmr.method``; recorded verdicts made with another method are not
+    compared.  ``min_samples`` overrides ``diagnostician.min_samples`` (see
+    :func:`judged_config` for a recording cut short).  ``namespace`` picks the
+    node set whose topics are read (default: the one the bag recorded, see
+    :func:`bag_namespace`).
+
+    Raises
+    ------
+    BagError
+        A needed topic is missing, empty or of the wrong type, no
+        configuration, or one whose channels are not the bag's.
+    """
+    namespace = bag_namespace(bag) if namespace is None else namespace
+    bag.require(required_topics(namespace))
+    config, origin = bag_configuration(bag, config_path)
+    check_system(bag, config, origin, namespace)
+    if method is not None:
+        config = replace(config, pmr=replace(config.pmr, method=method))
+    config, note = judged_config(config, held=held_samples(bag, namespace), origin=origin, min_samples=min_samples)
+    replay = replay_bag(bag, config, namespace)
+    end_of_bag = replay.finish()
+    result = OfflineResult(
+        config,
+        origin,
+        replay.outcomes,
+        recorded_verdicts(bag, config, namespace),
+        warnings=replay.warnings,
+        messages=replay.counts,
+        end_of_bag=end_of_bag,
+        drops=replay.drops,
+        gaps=replay.aligner.gaps,
+        notes=[note] if note else [],
+        namespace=namespace,
+    )
+    result.comparisons = compare(result.outcomes, result.recorded, config.pmr.method, config=config)
+    others = sorted({v.diagnosis.method for v in result.recorded if v.diagnosis.status == "ok"} - {config.pmr.method})
+    if others:
+        result.warnings.insert(
+            0,
+            f"verdicts recorded with the {', '.join(others)} method are not compared with these ({config.pmr.method})",
+        )
+    return result
+
+
+def _with_impact(recorded: Diagnosis, mine: Diagnosis, config: PmrConfig | None) -> Diagnosis:
+    """The offline diagnosis with its control impact when the live node recorded one (the same computation)."""
+    has_impact = recorded.impact is not None or any(e.impact is not None for e in recorded)
+    return close_diagnosis(mine, config).diagnosis if has_impact and config is not None else mine
+
+
+def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: PmrConfig | None) -> dict[str, Any]:
+    """One recorded verdict against the offline outcome of its window."""
+    first, last = verdict.window or (0, 0)
+    entry: dict[str, Any] = {"first_sample": first, "last_sample": last, "recorded_status": verdict.diagnosis.status}
+    if mine is None:
+        entry.update(equal=False, offline_status="not diagnosed offline")
+        return entry
+    entry["offline_status"] = "ok" if mine.kind == VERDICT else mine.kind
+    if mine.kind != VERDICT:
+        entry["equal"] = False
+        return entry
+    offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
+    entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], offline.to_dict()["elements"])
+    entry["equal"] = not entry["differences"]
+    return entry
+
+
+def compare(
+    outcomes: list[WindowOutcome],
+    recorded: list[RecordedVerdict],
+    method: str | None = None,
+    *,
+    config: PmrConfig | None = None,
+) -> list[dict[str, Any]]:
+    """For every verdict the live node recorded for a window, whether the offline one for that window agrees.
+
+    Only the live node's verdicts are compared: a window it could not
+    diagnose (stale while its publishers matched, too few samples) is no
+    disagreement, whatever the offline diagnosis of it.  With ``method``,
+    verdicts made with another method are left out.  Agreeing means an
+    offline verdict for the same window in which
+    :func:`~pmr_ros.core.results.compare_diagnoses` finds no difference:
+    verdicts, flags, delays and strings equal, floats within its tolerance
+    (the same data diagnosed on another machine differ in the last digits).
+    With ``config``, a recorded verdict that carries the control impact is
+    compared with the offline one's, computed the same way.
+    """
+    offline = {}
+    for outcome in outcomes:
+        if "first_sample" in outcome.window:
+            offline[(outcome.window["first_sample"], outcome.window["last_sample"])] = outcome
+    out = []
+    for verdict in recorded:
+        window = verdict.window
+        if window is None or verdict.diagnosis.status != "ok":
+            continue
+        if method is not None and verdict.diagnosis.method != method:
+            continue
+        out.append(_comparison(verdict, offline.get(window), config))
+    return out
+
+
+def window_signals(bag: Bag, result: OfflineResult) -> tuple[dict[str, np.ndarray], int] | None:
+    """r, u, y of the last diagnosed window of a bag, in the model's channel order, and its first sample.
+
+    Each message goes to the sample its stamp names
+    (:func:`~pmr_ros.contract.samples.sample_index`, as the aligner places
+    it); a sample no message filled stays NaN.  None when no window was diagnosed.
+    """
+    window = result.final.window if result.final is not None else {}
+    if "first_sample" not in window:
+        return None
+    model = result.config.model
+    first, samples = int(window["first_sample"]), int(window["window_samples"])
+    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+    signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
+    for message in bag.messages(set(by_topic)):
+        signal = by_topic[message.topic]
+        stamp, channels, values = read_signal(bag.decode(message))
+        k = sample_index(stamp, model.sample_time)[0] - first
+        if 0 <= k < samples and tuple(channels) == names[signal] and values.size == len(channels):
+            signals[signal][k] = values
+    return signals, first
+
+
+def window_data(bag: Bag, result: OfflineResult) -> tuple[PlantData, list[Record]] | None:
+    """The last diagnosed window as plant data and as the record the report's curves read (with its dither).
+
+    None when no window of the bag was diagnosed.
+    """
+    found = window_signals(bag, result)
+    if found is None:
+        return None
+    window, first = found
+    config = result.config
+    data = PlantData.from_record(
+        window, source=str(bag.path), sample_time_s=config.model.sample_time, start=f"sample {first}"
+    )
+    dither = window_dither(config, first, data.samples)
+    return data, [Record(window["r"], window["u"], window["y"], dither)]

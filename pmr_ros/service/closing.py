@@ -1,0 +1,170 @@
+"""After a verdict: the control impact of the mismatches and the corrected model proposed to the controller.
+
+Shared, rclpy-free, by ``pmr-ros run``/``diagnose`` (``--write-model``, the
+impact in the report: :func:`close_and_write`) and the live ``pmr_diagnostician`` (the impact on
+/diagnostics, the proposal on ``pmr/proposed_model``: :func:`close_window`, run
+on its worker thread with the window's diagnosis), so the same diagnosis gives
+the same impact figures and the same params file everywhere.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ..config import PmrConfig
+from ..config.write import model_params_text, write_params_file
+from ..contract.windowing import VERDICT, WindowOutcome
+from ..core.loop.impact import control_impact
+from ..core.loop.update import ModelUpdate, NotCorrectable, corrected_model
+from ..core.results import Diagnosis
+from .refusal import EXIT_INSUFFICIENT, ServiceError
+
+__all__ = ["Closed", "ClosedWindow", "close_and_write", "close_diagnosis", "close_window", "model_file_text"]
+
+
+@dataclass(frozen=True)
+class Closed:
+    """A diagnosis with its control impact, and the corrected model it gives.
+
+    Attributes
+    ----------
+    diagnosis : Diagnosis
+        With :attr:`~pmr_ros.core.results.Diagnosis.impact` and each mismatched
+        element's impact when computed (``impact.samples`` > 0 and a mismatch).
+    update : ModelUpdate or None
+        The corrected model; None when the diagnosis cannot give one.
+    why_not : str
+        Why there is no corrected model ("" when there is).
+    """
+
+    diagnosis: Diagnosis
+    update: ModelUpdate | None
+    why_not: str = ""
+
+    @property
+    def proposes(self) -> bool:
+        """Whether a mismatch verdict stands, so the corrected model differs from the controller's."""
+        return self.update is not None and bool(self.update.changes)
+
+
+def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
+    """The control impact of ``diagnosis``'s mismatches and the corrected model.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        Verdicts on the controller's model ``config.model``.
+    config : PmrConfig
+        The controller's model and tuning, the excitation and ``impact.samples``.
+
+    Returns
+    -------
+    Closed
+        A diagnosis that has its impact already (the live diagnostician's, read
+        from /diagnostics) keeps it.
+    """
+    try:
+        update = corrected_model(config.model, diagnosis)
+    except NotCorrectable as exc:
+        return Closed(diagnosis, None, str(exc))
+    if config.impact.active and update.changes and diagnosis.impact is None:  # (read from /diagnostics: has it)
+        diagnosis = control_impact(diagnosis, loop=config, update=update, samples=config.impact.samples)
+    return Closed(diagnosis, update)
+
+
+def _verdict_lines(diagnosis: Diagnosis) -> list[str]:
+    return [f"verdict {e.name}: {e.verdict} - {e.summary()}" for e in diagnosis]
+
+
+def model_file_text(
+    config: PmrConfig, update: ModelUpdate, diagnosis: Diagnosis, *, window: Mapping[str, Any] | None = None
+) -> str:
+    """The corrected model's params file: the configuration's other blocks kept, simulation truth left out.
+
+    Parameters
+    ----------
+    config : PmrConfig
+        The configuration the diagnosis ran with (its model is the one corrected).
+    update : ModelUpdate
+    diagnosis : Diagnosis
+        The verdicts the update rests on: one comment line per element.
+    window : mapping, optional
+        ``first_sample``, ``last_sample`` of the diagnosed window (named in the header).
+
+    Returns
+    -------
+    str
+    """
+    span = ""
+    if window and "first_sample" in window:
+        span = f" (samples {window['first_sample']}..{window['last_sample']})"
+    header = [
+        f"Corrected model of {config.model.name or 'the system'} written by pmr-ros from a {diagnosis.method} "
+        f"diagnosis of {diagnosis.samples} samples{span} (configuration {config.source}).",
+        "Elements with a mismatch verdict take their estimates; ok and inconclusive elements are the model's own.",
+        *(f"changed {change.comment()}" for change in update.changes),
+        *(() if update.changes else ("no element has a mismatch verdict: the model is unchanged",)),
+        *_verdict_lines(diagnosis),
+    ]
+    notes = {change.name: change.note() for change in update.changes}
+    return model_params_text(update.model, settings=config.parameters, header=header, notes=notes)
+
+
+@dataclass(frozen=True)
+class ClosedWindow:
+    """A verdict window closed: its outcome with the control impact, and the model it proposes.
+
+    Attributes
+    ----------
+    outcome : WindowOutcome
+        The window's outcome; a verdict's diagnosis carries its impact.
+    proposal : str or None
+        The corrected model's params file (:func:`model_file_text`, naming the
+        window) when a mismatch verdict stands, else None.
+    """
+
+    outcome: WindowOutcome
+    proposal: str | None = None
+
+
+def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
+    """:func:`close_diagnosis` of a window's verdict and its proposal; any other outcome as it is.
+
+    The live diagnostician's worker runs this after the window's diagnosis: the
+    impact's closed-loop simulations never run on the executor's thread.
+    """
+    if outcome.kind != VERDICT:
+        return ClosedWindow(outcome)
+    closed = close_diagnosis(outcome.diagnosis, config)
+    proposal = None
+    if closed.proposes and closed.update is not None:
+        proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
+    return ClosedWindow(replace(outcome, diagnosis=closed.diagnosis), proposal)
+
+
+def close_and_write(config: PmrConfig, diagnosis: Diagnosis, *, model_path: str | None = None) -> Diagnosis:
+    """The diagnosis with its control impact; the corrected model written to ``model_path`` if given.
+
+    Parameters
+    ----------
+    config : PmrConfig
+        The configuration the diagnosis ran with.
+    diagnosis : Diagnosis
+    model_path : str, optional
+        Where to write the corrected model's params file (``--write-model``).
+
+    Raises
+    ------
+    ServiceError
+        ``model_path`` with a diagnosis that cannot give a corrected model (exit code 3).
+    """
+    closed = close_diagnosis(diagnosis, config)
+    if closed.update is None:
+        if model_path is not None:
+            raise ServiceError(f"--write-model {model_path}: {closed.why_not}", code=EXIT_INSUFFICIENT)
+        return diagnosis
+    if model_path is not None:
+        write_params_file(model_path, model_file_text(config, closed.update, closed.diagnosis))
+    return closed.diagnosis
