@@ -28,6 +28,19 @@ from ..core.results import Diagnosis
 from .reader import Bag
 from .storage import BagError
 
+__all__ = [
+    "DropCounts",
+    "OfflineResult",
+    "RecordedVerdict",
+    "bag_configuration",
+    "bag_namespace",
+    "check_system",
+    "held_samples",
+    "recorded_verdicts",
+    "replay_bag",
+    "required_topics",
+]
+
 EXAMPLES = 3
 """Rejected messages quoted per signal on the console and in the report."""
 

@@ -31,6 +31,8 @@ from pathlib import Path
 from ..contract.topics import load_contract
 from .storage import RUN_CONFIG_KEY, BagError, RunConfig, typestore
 
+__all__ = ["Bag", "BagMessage", "open_bag"]
+
 
 @dataclass(frozen=True)
 class BagMessage:

@@ -23,6 +23,8 @@ import yaml
 from .. import __version__
 from ..contract.topics import PROGRESS_KEY, Topic, TopicQos, load_contract
 
+__all__ = ["BagError", "RunConfig", "recorded_topics", "rosbags_qos", "typestore"]
+
 RUN_CONFIG_KEY = "run_config"
 """Contract key of the latched topic with the run's configuration."""
 

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING, Final, cast
 from ..contract.topics import Topic
 from .storage import RUN_CONFIG_KEY, STORAGES, BagError, RunConfig, recorded_topics, rosbags_qos, typestore
 
+__all__ = ["BagWriter", "looks_like_bag", "prepare_output"]
+
 if TYPE_CHECKING:
     from rosbags.rosbag2.storage_mcap import McapWriter
     from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer

@@ -45,6 +45,8 @@ from .samples import (
     signal_problem,
 )
 
+__all__ = ["AlignedStretch", "SampleAligner"]
+
 SIGNALS = ("r", "u", "y")
 """Signals the diagnostician aligns: setpoints, inputs, outputs."""
 

@@ -24,6 +24,19 @@ from ..core.sim.memory import available_bytes, diagnosis_bytes, format_bytes, wi
 from .alignment import AlignedStretch, SampleAligner
 from .samples import AddResult
 
+__all__ = [
+    "Offer",
+    "UsefulData",
+    "WindowOutcome",
+    "check_window_memory",
+    "evaluate_window",
+    "offer_signal",
+    "useful_data",
+    "window_dither",
+    "window_info",
+    "window_stretches",
+]
+
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
 """Kinds of :class:`WindowOutcome`."""
 

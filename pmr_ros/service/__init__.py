@@ -1,9 +1,96 @@
-"""Orchestration shared by the nodes, the ``pmr-ros`` commands and the Python API.
+"""Orchestration shared by the nodes, the ``pmr-ros`` commands and the Python API (:mod:`pmr_ros.api`).
 
-Each flow here strings the layers below together once: ``closing`` the control
+Each flow strings the layers below together once: ``closing`` the control
 impact of a verdict and the corrected model it proposes (live node, ``run``,
-``diagnose``).  The commands only parse arguments and print; the nodes only
+``diagnose``), ``bag_diagnosis`` a bag diagnosed offline and compared with its
+recorded verdicts, ``historian`` a CSV or Parquet export diagnosed,
+``adapted_run`` the live model update of ``run --adapt``, ``refusal`` the error a
+flow stops with.  The commands only parse arguments and print; the nodes only
 convert messages and keep time.
+
+The names below are imported when first used, so importing one module of
+this package does not load the others.
 """
 
-__all__: list[str] = []
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_WHERE = {
+    "ADAPT_STALL_TIMEOUT_S": "adapted_run",
+    "ADAPT_WINDOWS": "adapted_run",
+    "Closed": "closing",
+    "ClosedWindow": "closing",
+    "EXIT_INSUFFICIENT": "refusal",
+    "LIMITS": "historian",
+    "ServiceError": "refusal",
+    "TableDiagnosis": "historian",
+    "adapt_config": "adapted_run",
+    "adapt_parameters": "adapted_run",
+    "adapted_report": "adapted_run",
+    "close_and_write": "closing",
+    "close_diagnosis": "closing",
+    "close_window": "closing",
+    "compare": "bag_diagnosis",
+    "diagnose_bag": "bag_diagnosis",
+    "diagnose_table": "historian",
+    "judged_config": "bag_diagnosis",
+    "limits_given": "historian",
+    "model_file_text": "closing",
+    "run_adapted": "adapted_run",
+    "window_data": "bag_diagnosis",
+    "window_signals": "bag_diagnosis",
+}
+"""Each public name -> the module of this package that defines it."""
+
+__all__ = [
+    "ADAPT_STALL_TIMEOUT_S",
+    "ADAPT_WINDOWS",
+    "Closed",
+    "ClosedWindow",
+    "EXIT_INSUFFICIENT",
+    "LIMITS",
+    "ServiceError",
+    "TableDiagnosis",
+    "adapt_config",
+    "adapt_parameters",
+    "adapted_report",
+    "close_and_write",
+    "close_diagnosis",
+    "close_window",
+    "compare",
+    "diagnose_bag",
+    "diagnose_table",
+    "judged_config",
+    "limits_given",
+    "model_file_text",
+    "run_adapted",
+    "window_data",
+    "window_signals",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
+
+
+if TYPE_CHECKING:
+    from .adapted_run import (
+        ADAPT_STALL_TIMEOUT_S,
+        ADAPT_WINDOWS,
+        adapt_config,
+        adapt_parameters,
+        adapted_report,
+        run_adapted,
+    )
+    from .bag_diagnosis import compare, diagnose_bag, judged_config, window_data, window_signals
+    from .closing import Closed, ClosedWindow, close_and_write, close_diagnosis, close_window, model_file_text
+    from .historian import LIMITS, TableDiagnosis, diagnose_table, limits_given
+    from .refusal import EXIT_INSUFFICIENT, ServiceError
