@@ -169,18 +169,10 @@ def handle(args: argparse.Namespace) -> int:
 
 def _batch_run(args: argparse.Namespace, config) -> tuple:
     """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
-    from ..core.pmr.diagnosis import diagnose_stretches
-    from ..core.sim.closed_loop import simulate
     from ..report import build_report
+    from ..service.batch_run import simulate_and_diagnose
 
-    diagnosis = diagnose_stretches(
-        [simulate(config)],
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        quality=config.quality,
-    )
-    diagnosis = close_and_write(config, diagnosis, model_path=getattr(args, "write_model", None))
+    diagnosis = simulate_and_diagnose(config, model_path=getattr(args, "write_model", None))
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "batch"
     return diagnosis, report

@@ -7,3 +7,31 @@ model, judging a live update).  Every subject reads and writes the one data
 record, :class:`~pmr_ros.core.records.Record`, and the result types of
 :mod:`pmr_ros.core.results`.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_WHERE = {
+    "Record": "records",
+    "Diagnosis": "results",
+    "ElementDiagnosis": "results",
+    "ElementModel": "results",
+    "ClassicResult": "results",
+    "ParametricResult": "results",
+    "DataQuality": "results",
+}
+"""The types every subject shares -> their module (imported on first use); the subjects' own names are theirs."""
+
+__all__ = [*_WHERE]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

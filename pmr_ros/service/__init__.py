@@ -4,7 +4,7 @@ Each flow strings the layers below together once: ``closing`` the control
 impact of a verdict and the corrected model it proposes (live node, ``run``,
 ``diagnose``), ``bag_diagnosis`` a bag diagnosed offline and compared with its
 recorded verdicts, ``historian`` a CSV or Parquet export diagnosed,
-``adapted_run`` the live model update of ``run --adapt``, ``refusal`` the error a
+``adapted_run`` the live model update of ``run --adapt``, ``batch_run`` ``run --batch``, ``refusal`` the error a
 flow stops with.  The commands only parse arguments and print; the nodes only
 convert messages and keep time.
 
@@ -39,6 +39,7 @@ _WHERE = {
     "limits_given": "historian",
     "model_file_text": "closing",
     "run_adapted": "adapted_run",
+    "simulate_and_diagnose": "batch_run",
     "window_data": "bag_diagnosis",
     "window_signals": "bag_diagnosis",
 }
@@ -66,6 +67,7 @@ __all__ = [
     "limits_given",
     "model_file_text",
     "run_adapted",
+    "simulate_and_diagnose",
     "window_data",
     "window_signals",
 ]
@@ -91,6 +93,7 @@ if TYPE_CHECKING:
         run_adapted,
     )
     from .bag_diagnosis import compare, diagnose_bag, judged_config, window_data, window_signals
+    from .batch_run import simulate_and_diagnose
     from .closing import Closed, ClosedWindow, close_and_write, close_diagnosis, close_window, model_file_text
     from .historian import LIMITS, TableDiagnosis, diagnose_table, limits_given
     from .refusal import EXIT_INSUFFICIENT, ServiceError
