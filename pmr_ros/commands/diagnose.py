@@ -15,17 +15,24 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
 from .arguments import JSON, add_options, config_option
 from .model_output import add_model_arguments, check_model_output
 
+if TYPE_CHECKING:
+    from ..bag.offline import OfflineResult
+    from ..bag.reader import Bag
+    from ..core.results import Diagnosis
+
+
 EXIT_DIFFERENT = 4
 """Exit code when an offline verdict differs from the one recorded for the same window."""
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros diagnose`` to the sub-command parsers."""
     p = sub.add_parser(
         "diagnose",
@@ -76,7 +83,7 @@ def add_report_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def offline_report(result, bag, diagnosis=None) -> dict:
+def offline_report(result: OfflineResult, bag: Bag, diagnosis: Diagnosis | None = None) -> dict:
     """The JSON-ready report of an offline diagnosis (the run report plus bag and window fields).
 
     ``diagnosis`` replaces the final window's diagnosis (e.g. with its control impact added).
@@ -113,7 +120,7 @@ def offline_report(result, bag, diagnosis=None) -> dict:
     return report
 
 
-def print_data_notes(result, bag) -> None:
+def print_data_notes(result: OfflineResult, bag: Bag) -> None:
     """What the console says about the data beside the table: window, drops, gaps, a recording cut short."""
     window = result.final.window if result.final is not None else {}
     if window.get("window_samples"):
@@ -138,7 +145,7 @@ def print_data_notes(result, bag) -> None:
         )
 
 
-def print_comparison(report: dict, result) -> None:
+def print_comparison(report: dict, result: OfflineResult) -> None:
     """How the offline verdicts compare with those the live node recorded on /diagnostics."""
     from ..core.results import RELATIVE_TOLERANCE
 
@@ -176,7 +183,7 @@ def handle(args: argparse.Namespace) -> int:
     return diagnose_bag_command(args)
 
 
-def _write_bag_outputs(args: argparse.Namespace, report: dict, result, bag) -> None:
+def _write_bag_outputs(args: argparse.Namespace, report: dict, result: OfflineResult, bag: Bag) -> None:
     """--json and --report of a bag's diagnosis."""
     from ..report import write_json
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import TYPE_CHECKING, Any
 
 from . import (
     CommandError,
@@ -25,6 +26,9 @@ from . import (
     run_overrides,
 )
 
+if TYPE_CHECKING:
+    from ..config import PmrConfig
+
 
 def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
     """--storage/--force, shared with ``pmr-ros run --bag``."""
@@ -34,7 +38,7 @@ def add_storage_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite an existing bag at the path")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros record`` to the sub-command parsers."""
     p = sub.add_parser(
         "record",
@@ -110,7 +114,7 @@ def handle(args: argparse.Namespace) -> int:
     return 0
 
 
-def _record(node, args: argparse.Namespace, stop: list[int]) -> None:
+def _record(node: Any, args: argparse.Namespace, stop: list[int]) -> None:
     """Spin the recorder until a stop request or ``--duration``, then take what is on its way."""
     from rclpy.executors import SingleThreadedExecutor
 
@@ -132,7 +136,7 @@ def _record(node, args: argparse.Namespace, stop: list[int]) -> None:
         executor.shutdown(timeout_sec=1.0)
 
 
-def start_recording(args: argparse.Namespace, config):
+def start_recording(args: argparse.Namespace, config: PmrConfig):
     """The recording of ``pmr-ros run --bag``: the bag is created now (fails before the run)."""
     from ..bag.storage import BagError, recorded_topics
     from ..bag.writer import BagWriter

@@ -14,7 +14,7 @@ from . import CommandError
 from .arguments import FORCE, add_options
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros reindex`` to the sub-command parsers."""
     p = sub.add_parser(
         "reindex",

@@ -16,11 +16,12 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import Any
 
 from . import CommandError, add_namespace_argument, nonnegative_float, nonnegative_int, positive_float, positive_int
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros replay`` to the sub-command parsers."""
     p = sub.add_parser(
         "replay",
@@ -114,7 +115,7 @@ def handle(args: argparse.Namespace) -> int:
     return 130 if stop else 0
 
 
-def _wait_for_peers(node, executor, wait_s: float) -> None:
+def _wait_for_peers(node: Any, executor: Any, wait_s: float) -> None:
     """Wait for subscribers of r, u, y and for each of them to report progress; say who never did."""
     from ..nodes.bag_player import discovery_settle_s
 
@@ -138,7 +139,7 @@ def _wait_for_peers(node, executor, wait_s: float) -> None:
         )
 
 
-def _replay(node, executor, args: argparse.Namespace, stop: list[int]) -> None:
+def _replay(node: Any, executor: Any, args: argparse.Namespace, stop: list[int]) -> None:
     if args.wait:
         _wait_for_peers(node, executor, float(args.wait))
     started = time.monotonic()

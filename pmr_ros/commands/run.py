@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING, Any
 
 from ..service.adapted_run import ADAPT_STALL_TIMEOUT_S, adapt_config, adapted_report, run_adapted
 from ..service.closing import close_and_write
@@ -30,11 +31,16 @@ from .arguments import JSON, add_options
 from .model_output import add_model_arguments, check_model_output
 from .record import add_storage_arguments, start_recording
 
+if TYPE_CHECKING:
+    from ..config import PmrConfig
+    from ..node_set import NodeSetRun
+
+
 STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
 """How long the node set may go without progress: its final verdict comes with the control impact."""
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros run`` to the sub-command parsers."""
     p = sub.add_parser(
         "run",
@@ -86,7 +92,7 @@ def register(sub) -> None:
     p.set_defaults(handler=handle)
 
 
-def _node_set_report(config):
+def _node_set_report(config: PmrConfig):
     """Run the node set; the core diagnosis from /diagnostics and the extras the node path knows."""
     try:
         from ..node_set import NodeSetError, NodeSetOptions, run_node_set
@@ -95,7 +101,7 @@ def _node_set_report(config):
     return run_node_set, NodeSetOptions, NodeSetError
 
 
-def run_memory(config, *, batch: bool) -> dict[str, int]:
+def run_memory(config: PmrConfig, *, batch: bool) -> dict[str, int]:
     """What a run of ``config.run.samples`` needs in memory [bytes]: the record or live window, and the diagnosis."""
     from ..core.sim.memory import diagnosis_bytes, simulation_bytes, window_bytes
 
@@ -107,7 +113,7 @@ def run_memory(config, *, batch: bool) -> dict[str, int]:
     }
 
 
-def _check_before_running(args: argparse.Namespace, config) -> None:
+def _check_before_running(args: argparse.Namespace, config: PmrConfig) -> None:
     """Everything that can be refused before the run: option clashes, memory, the --json path."""
     check_adapt(args)
     if args.adapt and config.pmr.method != "parametric":
@@ -120,7 +126,7 @@ def _check_before_running(args: argparse.Namespace, config) -> None:
         writable_file(args.json, "--json")
 
 
-def _run_nodes(args: argparse.Namespace, config, recording):
+def _run_nodes(args: argparse.Namespace, config: PmrConfig, recording: Any):
     """The node set's run (and the adapter of ``--adapt``, else None); the recording is closed after it."""
     run_node_set, NodeSetOptions, NodeSetError = _node_set_report(config)
     extra = recording.nodes if recording else None
@@ -141,7 +147,7 @@ def _run_nodes(args: argparse.Namespace, config, recording):
             recording.close()
 
 
-def _on_model(config, adapter):
+def _on_model(config: PmrConfig, adapter: Any):
     """The configuration with the controller's model at the end of an adapted run (for --write-model)."""
     from ..contract.model_topics import with_system
 
@@ -167,7 +173,7 @@ def handle(args: argparse.Namespace) -> int:
     return 0 if diagnosis.status == "ok" else EXIT_INSUFFICIENT
 
 
-def _batch_run(args: argparse.Namespace, config) -> tuple:
+def _batch_run(args: argparse.Namespace, config: PmrConfig) -> tuple:
     """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
     from ..report import build_report
     from ..service.batch_run import simulate_and_diagnose
@@ -178,7 +184,7 @@ def _batch_run(args: argparse.Namespace, config) -> tuple:
     return diagnosis, report
 
 
-def _node_set_run(args: argparse.Namespace, config) -> tuple:
+def _node_set_run(args: argparse.Namespace, config: PmrConfig) -> tuple:
     """The node set's run (adapted with ``--adapt``, recorded with ``--bag``); the diagnosis and the report."""
     from ..report import build_report
 
@@ -204,7 +210,7 @@ def _node_set_run(args: argparse.Namespace, config) -> tuple:
     return diagnosis, report
 
 
-def _node_set_section(result) -> dict:
+def _node_set_section(result: NodeSetRun) -> dict:
     """The report's ``node_set`` object: the levels, messages and window of the final verdicts, the timing."""
     return {
         "levels": result.info["levels"],

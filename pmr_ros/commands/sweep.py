@@ -8,9 +8,15 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
 from .arguments import FORCE, QUIET, add_options, config_option, option
+
+if TYPE_CHECKING:
+    from ..config import PmrConfig
+    from ..sweep.plan import SweepPlan
+
 
 DEFAULT_OUT = "out/sweep"
 
@@ -92,7 +98,7 @@ OPTIONS = (
 """The options of ``pmr-ros sweep``, in the order ``--help`` lists them."""
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
     """Add ``pmr-ros sweep`` to the sub-command parsers."""
     p = sub.add_parser(
         "sweep",
@@ -109,7 +115,7 @@ def register(sub) -> None:
     p.set_defaults(handler=handle)
 
 
-def _seeds(args: argparse.Namespace, config) -> tuple[int, int]:
+def _seeds(args: argparse.Namespace, config: PmrConfig) -> tuple[int, int]:
     """First seed and count, within the declared range of ``run.seed``."""
     from ..config.schema import parameter
 
@@ -133,7 +139,7 @@ def _nu_count(args: argparse.Namespace) -> int:
     return int(math.floor((stop - start) / step + 1e-9)) + 1
 
 
-def _check_size(args: argparse.Namespace, config) -> None:
+def _check_size(args: argparse.Namespace, config: PmrConfig) -> None:
     """Refuse a sweep whose plan or runs in flight do not fit in memory, before building anything."""
     from ..core.sim.memory import diagnosis_bytes, simulation_bytes
     from ..core.sim.model import SCENARIOS
@@ -153,7 +159,7 @@ def _check_size(args: argparse.Namespace, config) -> None:
     )
 
 
-def _plan(args: argparse.Namespace, config):
+def _plan(args: argparse.Namespace, config: PmrConfig):
     from ..core.pmr.diagnosis import METHODS
     from ..sweep.plan import PlanError, SweepPlan, element_index, nu_grid, parse_nu_list
 
@@ -244,7 +250,7 @@ def handle(args: argparse.Namespace) -> int:
     return 0
 
 
-def _report_only(results: Path, report_path: Path, config) -> None:
+def _report_only(results: Path, report_path: Path, config: PmrConfig) -> None:
     """``--report-only``: the report of the sweep in ``results``' folder, which must have run with ``config``."""
     from ..sweep import store
 
@@ -262,7 +268,7 @@ def _report_only(results: Path, report_path: Path, config) -> None:
     _write_report(results, report_path, config, manifest)
 
 
-def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
+def _sweep(args: argparse.Namespace, config: PmrConfig, out: Path, results: Path) -> dict:
     """Run the runs of the plan not yet in ``results``; the manifest, written beside it."""
     from ..sweep import store
     from ..sweep.execute import plan_tasks
@@ -296,7 +302,7 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     return manifest
 
 
-def _announce(args: argparse.Namespace, plan, tasks: list, todo: int) -> None:
+def _announce(args: argparse.Namespace, plan: SweepPlan, tasks: list, todo: int) -> None:
     """What the sweep is about to do, and where, on stderr."""
     where = (
         f"the Dask cluster at {args.scheduler}"
@@ -311,7 +317,7 @@ def _announce(args: argparse.Namespace, plan, tasks: list, todo: int) -> None:
 
 
 def _timed_execution(
-    args: argparse.Namespace, config, tasks: list, results: Path, *, out: Path, manifest: dict
+    args: argparse.Namespace, config: PmrConfig, tasks: list, results: Path, *, out: Path, manifest: dict
 ) -> None:
     """Execute the tasks; the wall and CPU time go into the manifest (written even if the sweep is stopped)."""
     from ..sweep import store
@@ -330,7 +336,7 @@ def _timed_execution(
         print(f"pmr-ros sweep: {todo} runs in {time.perf_counter() - t0:.1f} s; results in {results}", file=sys.stderr)
 
 
-def _execute(args: argparse.Namespace, config, tasks: list, results: Path):
+def _execute(args: argparse.Namespace, config: PmrConfig, tasks: list, results: Path):
     """Run the tasks locally or on the cluster of ``--scheduler``; a cluster that cannot be used is a clean error."""
     from ..sweep.cluster import ClusterError
     from ..sweep.execute import execute
@@ -355,7 +361,7 @@ def _done_runs(results: Path, n_elements: int) -> set[tuple]:
     return {store.run_key(r) for r in rows}
 
 
-def _write_report(results: Path, report_path: Path, config, manifest: dict) -> None:
+def _write_report(results: Path, report_path: Path, config: PmrConfig, manifest: dict) -> None:
     from ..sweep import store
     from ..sweep.report import write_report
 
