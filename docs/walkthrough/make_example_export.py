@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT / "test"))
 from plant_export import as_parquet_frame, dirty_frame  # noqa: E402
 
 from pmr_ros.config import load_config  # noqa: E402
-from pmr_ros.core.closed_loop import simulate  # noqa: E402
+from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
 
 
 def main(argv: list[str]) -> int:
