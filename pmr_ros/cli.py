@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from types import FrameType
 from typing import NoReturn
 
 from . import __version__
@@ -50,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _interrupt_on_sigterm() -> None:
     """Let SIGTERM unwind like Ctrl-C, so open bags and nodes are closed on the way out."""
 
-    def handler(signum, frame):
+    def handler(signum: int, frame: FrameType | None) -> None:
         raise KeyboardInterrupt
 
     if threading.current_thread() is threading.main_thread():

@@ -85,7 +85,7 @@ _FLOAT_COLUMNS = {
 _BOOL_COLUMNS = {"gain_mismatch", "tau_mismatch", "delay_mismatch"}
 
 
-def _format(value) -> str:
+def _format(value: object) -> str:
     if value is None:
         return ""
     if isinstance(value, bool):

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .model import TransferMatrix
 
@@ -126,7 +127,7 @@ class FoptdPlant:
     """
 
     def __init__(
-        self, model: TransferMatrix, noise_std, seed: int, *, disturbance: OutputDisturbance | None = None
+        self, model: TransferMatrix, noise_std: ArrayLike, seed: int, *, disturbance: OutputDisturbance | None = None
     ) -> None:
         self.model = model
         self._ss = ss = model.state_space()
@@ -149,7 +150,7 @@ class FoptdPlant:
             y = y + self._disturbance.draw()
         return y
 
-    def advance(self, u, *, disturbance=None) -> None:
+    def advance(self, u: ArrayLike, *, disturbance: ArrayLike | None = None) -> None:
         """Hold ``u(k)`` [input unit] for one sample.
 
         Parameters
@@ -161,7 +162,7 @@ class FoptdPlant:
             plant: it acts like a move of the inputs that nobody sees
             [input unit].
         """
-        u = np.asarray(u, dtype=float)
+        applied = np.asarray(u, dtype=float)
         if disturbance is not None:
-            u = u + np.asarray(disturbance, dtype=float)
-        self._x = self._ss.advance(self._x, u)
+            applied = applied + np.asarray(disturbance, dtype=float)
+        self._x = self._ss.advance(self._x, applied)
