@@ -179,7 +179,7 @@ def diagnose_table(args: argparse.Namespace) -> int:
         diagnosis = close_the_loop(args, config, diagnosis)
     report = _data_report(config, diagnosis, data, str(args.bag))
     if diagnosis.status == "ok":
-        sys.stdout.write(format_table(report))
+        sys.stdout.write(format_table(diagnosis, report))
         _print_cleaning(data)
     _write_outputs(args, report, ReportInput(report, diagnosis, stretches, data, config))
     if diagnosis.status != "ok":
