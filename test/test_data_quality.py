@@ -236,7 +236,7 @@ def test_the_verdict_table_lists_the_data_warnings_for_either_method(disturbed, 
                 method="classic",
                 quality=config.quality,
             )
-        table = format_table(build_report(config, diagnosis, command="run", scenario="full", seed=3))
+        table = format_table(diagnosis, build_report(config, diagnosis, command="run", scenario="full", seed=3))
         notes = [line for line in table.splitlines() if "low-frequency disturbance on x_D" in line]
         assert [line.split(":")[0] for line in notes] == ["G11", "G12"], method
 
