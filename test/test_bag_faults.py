@@ -23,11 +23,11 @@ from pmr_ros.bag.writer import BagWriter
 from pmr_ros.cli import main
 from pmr_ros.config import load_config, parse_config
 from pmr_ros.contract.layout import read_signal
-from pmr_ros.core.results.codec import status_key_values
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import STALE, VERDICT
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.results import Diagnosis
+from pmr_ros.core.results.codec import status_key_values
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"

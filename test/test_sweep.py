@@ -18,6 +18,7 @@ from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.model import SCENARIOS
 from pmr_ros.core.stretch import Stretch
 from pmr_ros.progress import ProgressBar, format_duration
+from pmr_ros.report.sweep_paper import paper_comparison_applies
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
@@ -30,7 +31,6 @@ from pmr_ros.sweep.plan import (
     parse_nu_list,
     row_time_constant_ratio,
 )
-from pmr_ros.sweep.report import paper_comparison_applies
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
 SAMPLES = 2048

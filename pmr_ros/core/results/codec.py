@@ -76,7 +76,10 @@ IMPACT_KEY = "impact_all"
 SUMMARY_KEY = "summary"
 """The element's one-line summary: in JSON; on /diagnostics it is the status message, not a KeyValue."""
 
-PARTS: dict[str, type] = {"classic": ClassicResult, "parametric": ParametricResult}
+PARTS: dict[str, type[ClassicResult] | type[ParametricResult]] = {
+    "classic": ClassicResult,
+    "parametric": ParametricResult,
+}
 """Each method's result type, by the name of its part."""
 
 CSV_FIELDS = tuple(

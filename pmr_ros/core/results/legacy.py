@@ -119,7 +119,7 @@ def status_from_v01(
     """The element of one pmr_ros 0.1 /diagnostics status, and the status's diagnosis-wide values."""
     values = {key: _value(text) for key, text in raw.items()}
     no_verdict = values.get("verdict") == "insufficient_data"
-    common = {
+    common: dict[str, Any] = {
         "status": str(values.get("status", "insufficient_data")) if no_verdict else "ok",
         "reason": str(values.get("reason", "")),
         **{key: values[key] for key in ("window_samples", "first_sample", "last_sample") if key in values},
