@@ -30,6 +30,7 @@ from pmr_ros.core.parametric.verdicts import (
     trust_reasons,
 )
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
 from pmr_ros.core.stretch import Stretch
 from pmr_ros.report.table import format_classic_table, format_parametric_table
@@ -373,7 +374,7 @@ def test_results_of_every_kind_round_trip_and_read():
         ),
     }
     diagnosis = Diagnosis("parametric", "ok", "", 100, elements)
-    assert Diagnosis.from_dict(diagnosis.to_dict()) == diagnosis
+    assert diagnosis_from_json(diagnosis_to_json(diagnosis)) == diagnosis
     assert interaction.verdict == "mismatch" and level.verdict == "mismatch" and level.mismatches == ("gain",)
     assert edge.verdict == "inconclusive" and "inconclusive: delay at the search limit" in edge.summary()
     assert "τ" not in level.summary()

@@ -25,6 +25,7 @@ from ..contract.proposal import close_diagnosis
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import VERDICT, WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis, compare_diagnoses
+from ..core.results.codec import diagnosis_to_json
 from .reader import Bag
 from .schema import BagError
 
@@ -473,7 +474,9 @@ def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: Pm
         entry["equal"] = False
         return entry
     offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
-    entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], offline.to_dict()["elements"])
+    entry["differences"] = compare_diagnoses(
+        diagnosis_to_json(verdict.diagnosis)["elements"], diagnosis_to_json(offline)["elements"]
+    )
     entry["equal"] = not entry["differences"]
     return entry
 

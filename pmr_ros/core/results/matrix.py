@@ -3,8 +3,8 @@
 A :class:`Diagnosis` holds one :class:`ElementDiagnosis` per element of the
 controller's model.  Each element keeps its model element and the outcome of
 each method that ran (:mod:`.findings`); ``method`` says which of them gives
-the element's verdict.  :meth:`Diagnosis.to_dict` / :meth:`Diagnosis.from_dict`
-are the JSON form of :mod:`.codec` (the one place that spells flat forms).
+the element's verdict.  Their flat forms (JSON, KeyValues, estimates, CSV)
+are made by :mod:`.codec`, the one place that spells them.
 """
 
 from __future__ import annotations
@@ -95,19 +95,6 @@ class ElementDiagnosis:
         count = len(self.warnings)
         return self.summary() + (f" [data: {count} warning{'s' if count > 1 else ''}]" if count else "")
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (:func:`.codec.element_to_json`): verdict, method, model, each method's result, summary."""
-        from .codec import element_to_json
-
-        return element_to_json(self)
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> ElementDiagnosis:
-        """Inverse of :meth:`to_dict` (:func:`.codec.element_from_json`; derived keys are not read)."""
-        from .codec import element_from_json
-
-        return element_from_json(data)
-
 
 @dataclass(frozen=True)
 class Diagnosis:
@@ -152,16 +139,3 @@ class Diagnosis:
             for name, (i, k, model) in models.items()
         }
         return cls(method, "insufficient_data", reason, samples, elements)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (:func:`.codec.diagnosis_to_json`): status, reason, samples, method, impact, elements."""
-        from .codec import diagnosis_to_json
-
-        return diagnosis_to_json(self)
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Diagnosis:
-        """Inverse of :meth:`to_dict` (:func:`.codec.diagnosis_from_json`, which also reads earlier spellings)."""
-        from .codec import diagnosis_from_json
-
-        return diagnosis_from_json(data)
