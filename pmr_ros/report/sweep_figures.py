@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
     from matplotlib.typing import ColorType
     from numpy.typing import ArrayLike
 
@@ -95,11 +96,18 @@ def plot_sweep(
             place=(row, column, len(grid)),
             tau_threshold=tau_threshold,
         )
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
     title = _figure_title(
         method=method, element_swept=element_swept, quantity=quantity, name=axis_labels[quantity][0], paper=paper
     )
+    return _save(fig, axes, title, path)
+
+
+def _save(fig: Figure, axes: Any, title: str, path: Path) -> Path:
+    """The legend (from the first panel) and the title, then the PNG at ``path``."""
+    import matplotlib.pyplot as plt
+
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
