@@ -392,7 +392,6 @@ def result_from_csv_fields(row: Mapping[str, Any], method: str) -> Part | None:
     data-quality figures or an empty cell's interaction: those come back empty.
     """
     cls = PARTS[method]
-    own = [f.name for f in fields(cls) if f.name in row or f.name.endswith(INTERVAL)]
-    if all(row.get(key) is None for key in own if key in row):
+    if all(row.get(f.name) is None for f in fields(cls)):
         return None
     return _part_from(cls, {key: value for key, value in row.items() if key != "verdict"})
