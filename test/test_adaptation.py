@@ -17,6 +17,7 @@ from pmr_ros.core.loop.adaptation import (
     tracking_figures,
 )
 from pmr_ros.core.results import Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from pmr_ros.core.results.codec import diagnosis_from_json
 
 MODEL = ElementModel("foptd", 2.0, 10.0, 1)
 
@@ -109,7 +110,7 @@ def test_the_adaptation_serialises_every_figure():
         }
     ]
     assert out["tracking"]["ise_ratio"] == 0.75 and out["worse"] is False and not out["rolled_back"]
-    assert Diagnosis.from_dict(out["before"]) == before
+    assert diagnosis_from_json(out["before"]) == before
     assert config.adapt.ise_rise_tolerance_pct == 10.0
 
 

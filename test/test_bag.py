@@ -36,6 +36,7 @@ from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
 from pmr_ros.core.results import compare_diagnoses
 from pmr_ros.service.bag_diagnosis import compare, diagnose_bag
+from pmr_ros.core.results.codec import diagnosis_to_json
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
@@ -203,7 +204,7 @@ def test_reference_bag_rediagnosed_offline_gives_the_expected_and_the_recorded_v
     assert final.window == expected["node_set"]["window"]
     # the reference report was written by pmr_ros 0.1 (flat classic fields) on another machine:
     # flags, delays and verdicts exact, numbers within compare_diagnoses' tolerance
-    offline_elements = final.diagnosis.to_dict()["elements"].items()
+    offline_elements = diagnosis_to_json(final.diagnosis)["elements"].items()
     offline = {name: e["classic"] | {"verdict": e["verdict"]} for name, e in offline_elements}
     keys = (
         "gain_ratio",

@@ -21,12 +21,13 @@ from pmr_ros.bag.storage import BagError, RunConfig, typestore
 from pmr_ros.bag.writer import BagWriter
 from pmr_ros.cli import main
 from pmr_ros.config import load_config, parse_config
-from pmr_ros.contract.layout import element_pairs, encode_value, read_signal
+from pmr_ros.contract.layout import read_signal
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import STALE, VERDICT
 from pmr_ros.core.results import Diagnosis
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.service.bag_diagnosis import compare, diagnose_bag, judged_config
+from pmr_ros.core.results.codec import status_key_values
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"
@@ -351,10 +352,9 @@ def test_a_start_up_window_the_live_node_could_not_diagnose_is_no_disagreement(t
 
 def _diagnostics(diagnosis: Diagnosis, window: dict, state: str):
     ts = typestore().types
-    common = {"status": state, "reason": diagnosis.reason, **{k: encode_value(v) for k, v in window.items()}}
     statuses = []
     for name, element in diagnosis.elements.items():
-        pairs = {**common, **element_pairs(element)}
+        pairs = dict(status_key_values(diagnosis, element, state=state, window=window))
         statuses.append(
             ts["diagnostic_msgs/msg/DiagnosticStatus"](
                 level=3 if state == STALE else 2,

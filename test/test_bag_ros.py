@@ -22,6 +22,7 @@ from pmr_ros.config import flatten_parameters, parse_config  # noqa: E402
 from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.results import compare_diagnoses  # noqa: E402
+from pmr_ros.core.results.codec import diagnosis_to_json
 from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
 from pmr_ros.service.bag_diagnosis import diagnose_bag  # noqa: E402
 
@@ -47,7 +48,7 @@ def _final_numbers(node, last_sample: int):
     msg = node.last_published
     diagnosis, info = diagnosis_from_array(msg, node.get_name())
     assert info.get("last_sample") == last_sample, info
-    return classic_numbers(diagnosis.to_dict()["elements"]), info
+    return classic_numbers(diagnosis_to_json(diagnosis)["elements"]), info
 
 
 CLASSIC_KEYS = ("gain_ratio", "tau_index", "delay_mismatch_samples", "gain_mismatch", "tau_mismatch", "delay_mismatch")
@@ -295,7 +296,7 @@ def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_doma
         result = diagnose_bag(bag, namespace=namespace)
         assert result.comparisons and result.all_equal
         reported = json.loads((tmp_path / "a.json").read_text())["elements"]
-        offline = result.final.diagnosis.to_dict()["elements"]
+        offline = diagnosis_to_json(result.final.diagnosis)["elements"]
         assert compare_diagnoses(_without_impact(offline), _without_impact(reported)) == []  # the run adds impact
     capsys.readouterr()
     assert main(["diagnose", str(path), "--namespace", "column_b"]) == 2

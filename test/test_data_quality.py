@@ -28,6 +28,7 @@ from pmr_ros.core.records import Record
 from pmr_ros.core.results import DataQuality, Diagnosis, compare_diagnoses
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.sim.true_plant import OutputDisturbance
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.report.table import format_table
 from pmr_ros.ros import convert
 
@@ -189,7 +190,7 @@ def test_with_data_quality_sets_each_elements_figures_from_its_input_and_row(dia
 
 def test_data_quality_round_trips_through_json_diagnostics_and_a_bag(tmp_path, diagnosed):
     _, diagnosis = diagnosed
-    assert Diagnosis.from_dict(json.loads(json.dumps(diagnosis.to_dict()))) == diagnosis
+    assert diagnosis_from_json(json.loads(json.dumps(diagnosis_to_json(diagnosis)))) == diagnosis
     window = {"window_samples": diagnosis.samples}
     statuses = convert.diagnosis_statuses(diagnosis, node_name="pmr_diagnostician", hardware_id="wb", window=window)
     assert statuses[0].message.endswith("[data: 1 warning]")
@@ -211,7 +212,7 @@ def test_a_diagnosis_recorded_without_data_quality_still_agrees_on_everything_it
     _, diagnosis = diagnosed
     older = replace(diagnosis, elements={n: replace(e, data_quality=None) for n, e in diagnosis.elements.items()})
     assert compare_diagnoses(older, diagnosis) == []
-    old_dict = older.to_dict()
+    old_dict = diagnosis_to_json(older)
     for e in old_dict["elements"].values():
         del e["data_quality"]  # a report written before the field existed
     assert compare_diagnoses(old_dict, diagnosis) == []
@@ -236,7 +237,7 @@ def test_the_verdict_table_lists_the_data_warnings_for_either_method(disturbed, 
                 method="classic",
                 quality=config.quality,
             )
-        table = format_table(build_report(config, diagnosis, command="run", scenario="full", seed=3))
+        table = format_table(diagnosis, build_report(config, diagnosis, command="run", scenario="full", seed=3))
         notes = [line for line in table.splitlines() if "low-frequency disturbance on x_D" in line]
         assert [line.split(":")[0] for line in notes] == ["G11", "G12"], method
 

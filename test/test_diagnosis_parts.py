@@ -27,6 +27,7 @@ from pmr_ros.core.records import Record
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.sim.model import TransferMatrix
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.report.table import format_classic_table, format_parametric_table
 
 MIXED = TransferMatrix(
@@ -368,16 +369,15 @@ def test_results_of_every_kind_round_trip_and_read():
         ),
     }
     diagnosis = Diagnosis("parametric", "ok", "", 100, elements)
-    assert Diagnosis.from_dict(diagnosis.to_dict()) == diagnosis
+    assert diagnosis_from_json(diagnosis_to_json(diagnosis)) == diagnosis
     assert interaction.verdict == "mismatch" and level.verdict == "mismatch" and level.mismatches == ("gain",)
     assert edge.verdict == "inconclusive" and "inconclusive: delay at the search limit" in edge.summary()
     assert "τ" not in level.summary()
-    report = {"settings": {"parametric": {"confidence_level": 0.95}}, **diagnosis.to_dict()}
-    table = format_parametric_table(report)
+    table = format_parametric_table(diagnosis, confidence_level=0.95)
     assert "G13      no model: K +0.42 [+0.4,+0.44]!" in table and "+3 (99 %)" in table
     level_line = next(line for line in table.splitlines() if line.startswith("G21"))
     assert level_line.split()[1:7] == ["+15.0", "[", "+14.0,", "+16.0]!", "-", "+0"]  # no time constant: "-"
-    classic = format_classic_table(report)
+    classic = format_classic_table(diagnosis)
     assert classic.splitlines()[1].split() == ["G13", "-", "-", "-", "-", "-", "mismatch"]  # no classic result
     assert "G21           1.100" in classic and "G21: delay at the search limit" in classic
 

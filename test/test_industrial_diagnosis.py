@@ -28,6 +28,7 @@ from simulated import diagnose_record
 from pmr_ros.config import load_config
 from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 
 SEEDS = (1, 2, 3)
 
@@ -318,7 +319,7 @@ def test_an_industrial_diagnosis_round_trips_through_diagnostics_and_json(config
     import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up
 
     from pmr_ros.contract.layout import diagnosis_from_array, read_estimates
-    from pmr_ros.core.results import Diagnosis, compare_diagnoses
+    from pmr_ros.core.results import compare_diagnoses
     from pmr_ros.ros import convert
 
     diagnosis = diagnoses["3x5 plant", "full", 1, "parametric"]
@@ -327,7 +328,7 @@ def test_an_industrial_diagnosis_round_trips_through_diagnostics_and_json(config
     )
     back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0), "pmr_diagnostician")
     assert back == diagnosis
-    assert compare_diagnoses(Diagnosis.from_dict(json.loads(json.dumps(diagnosis.to_dict()))), diagnosis) == []
+    assert compare_diagnoses(diagnosis_from_json(json.loads(json.dumps(diagnosis_to_json(diagnosis)))), diagnosis) == []
     estimates = read_estimates(convert.estimates_message(diagnosis, 0.0, "x"))
     assert estimates["G13"]["parametric.unmodeled_gain"] == pytest.approx(
         diagnosis.elements["G13"].parametric.unmodeled_gain

@@ -27,6 +27,7 @@ from pmr_ros.core.results import compare_diagnoses  # noqa: E402
 from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
 from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
 from pmr_ros.service.closing import close_diagnosis  # noqa: E402
+from pmr_ros.core.results.codec import diagnosis_to_json
 
 pytestmark = pytest.mark.ros
 
@@ -135,7 +136,7 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
     expected = close_diagnosis(expected, config).diagnosis  # the diagnostician adds the control impact
     assert diagnosis.status == expected.status == "ok"
     # other processes: verdicts exact, numbers to the tolerance of core.results.compare_diagnoses
-    assert compare_diagnoses(diagnosis.to_dict()["elements"], expected.to_dict()["elements"]) == []
+    assert compare_diagnoses(diagnosis_to_json(diagnosis)["elements"], diagnosis_to_json(expected)["elements"]) == []
     assert info["first_sample"] == 0 and info["window_samples"] == samples
     for how, at in stopped_at.items():
         text = (tmp_path / f"record_{how.name}.log").read_text()
@@ -203,9 +204,9 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         report = json.loads((tmp_path / f"{name}.json").read_text())
         config = load_config(overrides={"run": {"samples": samples, "seed": seed}})
         batch = simulate(config)
-        expected = diagnose(
-            batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric
-        ).to_dict()["elements"]
+        expected = diagnosis_to_json(
+            diagnose(batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+        )["elements"]
         # the run adds the control impact of its mismatch verdicts; the batch diagnosis has none
         assert all(e["impact"] is not None for e in report["elements"].values() if e["verdict"] == "mismatch")
         reported = {n: {k: v for k, v in e.items() if k != "impact"} for n, e in report["elements"].items()}

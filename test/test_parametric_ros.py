@@ -40,9 +40,9 @@ def test_estimates_topic_has_the_intervals(parametric_diagnosis):
     values = read_estimates(estimates_message(parametric_diagnosis, 8191.0, "wood_berry"))
     g12 = values["G12"]
     assert (
-        g12["parametric.gain_mismatch_pct_interval.low"]
+        g12["parametric.gain_mismatch_pct_low"]
         < g12["parametric.gain_mismatch_pct"]
-        < g12["parametric.gain_mismatch_pct_interval.high"]
+        < g12["parametric.gain_mismatch_pct_high"]
     )
     assert g12["parametric.delay_mismatch_samples"] == 1 and g12["parametric.delay_confidence"] > 0.95
 

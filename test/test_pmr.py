@@ -13,6 +13,7 @@ from pmr_ros.core.pmr.implicit import estimate_pmr
 from pmr_ros.core.records import Record
 from pmr_ros.core.sim.batch import worker_context
 from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.results.codec import diagnosis_to_json
 
 
 def diagnose(r, u, y, model, settings):
@@ -49,7 +50,7 @@ def _run(args):
     path, scenario, seed = args
     config = load_config(path)
     rec = simulate(config, seed=seed, scenario=scenario)
-    return scenario, seed, diagnose(rec.r, rec.u, rec.y, config.model, config.pmr).to_dict()
+    return scenario, seed, diagnosis_to_json(diagnose(rec.r, rec.u, rec.y, config.model, config.pmr))
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +126,7 @@ def test_constant_setpoints_are_insufficient_data(wood_berry):
     assert d.status == "insufficient_data" and "no excitation" in d.reason
     assert all(e.classic is None and e.verdict == "inconclusive" for e in d.elements.values())
     assert d.elements["G11"].summary().startswith("insufficient data: no excitation")
-    assert d.to_dict()["elements"]["G11"]["reasons"] == [d.reason]
+    assert diagnosis_to_json(d)["elements"]["G11"]["reasons"] == [d.reason]
 
 
 def test_one_constant_setpoint_is_insufficient_data():

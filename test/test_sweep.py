@@ -18,6 +18,7 @@ from pmr_ros.core.records import Record
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.sim.model import SCENARIOS
 from pmr_ros.progress import ProgressBar, format_duration
+from pmr_ros.report.sweep_paper import paper_comparison_applies
 from pmr_ros.sweep import execute as sweep_execute
 from pmr_ros.sweep import store
 from pmr_ros.sweep.analysis import breakdowns, earliest, run_correctness, summarize
@@ -30,7 +31,6 @@ from pmr_ros.sweep.plan import (
     parse_nu_list,
     row_time_constant_ratio,
 )
-from pmr_ros.sweep.report import paper_comparison_applies
 from pmr_ros.sweep.tuning import STABILITY_LIMIT, loop_spectral_radius, stable_tuning
 
 SAMPLES = 2048
@@ -187,10 +187,15 @@ def test_baseline_point_equals_pmr_ros_run(small_sweep, tmp_path):
     elements = json.loads(report.read_text())["elements"]
     for row in (r for r in rows if r["method"] == "parametric"):
         e = elements[row["element"]]["parametric"]
-        assert row["gain_ratio"] == pytest.approx(1 + e["gain_mismatch_pct"] / 100, rel=1e-12)
+        assert row["gain_mismatch_pct"] == pytest.approx(e["gain_mismatch_pct"], rel=1e-12)
+        assert row["gain_ratio"] is None  # the classic M(0) is not a parametric column
         assert row["tau_mismatch_pct"] == pytest.approx(e["tau_mismatch_pct"], rel=1e-12)
-        assert [row["tau_mismatch_pct_low"], row["tau_mismatch_pct_high"]] == pytest.approx(
-            e["tau_mismatch_pct_interval"], rel=1e-12
+        for bound in ("tau_mismatch_pct_low", "tau_mismatch_pct_high", "gain_mismatch_pct_low"):
+            assert row[bound] == pytest.approx(e[bound], rel=1e-12)
+        assert (row["gain_verdict"], row["tau_verdict"], row["delay_verdict"]) == (
+            e["gain_verdict"],
+            e["tau_verdict"],
+            e["delay_verdict"],
         )
         assert row["delay_mismatch_samples"] == e["delay_mismatch_samples"] and row["verdict"] == e["verdict"]
 

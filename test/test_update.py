@@ -19,6 +19,7 @@ from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
 from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 
 
 def _diagnose(config, record):
@@ -131,8 +132,8 @@ def test_impact_ranks_the_mismatches_by_what_they_do_to_control(wood_berry_diagn
     base = loop_figures(config, config.model, samples=2048)
     alone = loop_figures(config, update.model, samples=2048)
     np.testing.assert_allclose(with_impact.impact.ise_ratio, alone.ise / base.ise, rtol=1e-12)
-    assert with_impact.to_dict()["elements"][first.name]["impact"]["rank"] == 1
-    assert Diagnosis.from_dict(with_impact.to_dict()) == with_impact
+    assert diagnosis_to_json(with_impact)["elements"][first.name]["impact"]["rank"] == 1
+    assert diagnosis_from_json(diagnosis_to_json(with_impact)) == with_impact
 
 
 def test_a_plant_that_breaks_the_loop_has_an_impact_far_beyond_any_estimated_mismatch():

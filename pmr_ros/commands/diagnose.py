@@ -209,14 +209,11 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
-        report = offline_report(
-            result,
-            bag,
-            close_and_write(result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None)),
-        )
+        diagnosis = close_and_write(result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None))
+        report = offline_report(result, bag, diagnosis)
     except BagError as exc:
         raise CommandError(str(exc)) from None
-    sys.stdout.write(format_table(report))
+    sys.stdout.write(format_table(diagnosis, report))
     print_data_notes(result, bag)
     print_comparison(report, result)
     _write_bag_outputs(args, report, result, bag)

@@ -138,7 +138,7 @@ def diagnose_table(args: argparse.Namespace) -> int:
     diagnosis, data, stretches = found.diagnosis, found.data, found.stretches
     report = _data_report(config, diagnosis, data, str(args.bag))
     if diagnosis.status == "ok":
-        sys.stdout.write(format_table(report))
+        sys.stdout.write(format_table(diagnosis, report))
         _print_cleaning(data)
     _write_outputs(args, report, ReportInput(report, diagnosis, stretches, data, config))
     if diagnosis.status != "ok":

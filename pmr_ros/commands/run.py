@@ -165,7 +165,7 @@ def handle(args: argparse.Namespace) -> int:
     check_model_output(args)
     _check_before_running(args, config)
     diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
-    sys.stdout.write(format_table(report))
+    sys.stdout.write(format_table(diagnosis, report))
     for line in adaptation_lines(report):
         print(line)
     if args.json:

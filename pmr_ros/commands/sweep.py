@@ -362,8 +362,8 @@ def _done_runs(results: Path, n_elements: int) -> set[tuple]:
 
 
 def _write_report(results: Path, report_path: Path, config: PmrConfig, manifest: dict) -> None:
+    from ..report.sweep_document import write_report
     from ..sweep import store
-    from ..sweep.report import write_report
 
     try:
         rows = store.read_rows(results)

@@ -10,6 +10,7 @@ from typing import Any
 from .. import __version__
 from ..config import PmrConfig
 from ..core.results import Diagnosis
+from ..core.results.codec import diagnosis_to_json
 
 __all__ = ["build_report", "injected_mismatch", "write_json"]
 
@@ -32,8 +33,8 @@ def build_report(
 ) -> dict[str, Any]:
     """The JSON-ready report of a diagnosis.
 
-    The diagnosis's :meth:`~pmr_ros.core.results.Diagnosis.to_dict` (status,
-    reason, samples, method, ``elements``) with the tool, command, system,
+    The diagnosis's JSON form (:func:`~pmr_ros.core.results.codec.diagnosis_to_json`:
+    status, reason, samples, method, ``elements``) with the tool, command, system,
     settings and, for simulated runs, the ``injected`` truth.
     """
     report: dict[str, Any] = {
@@ -50,7 +51,7 @@ def build_report(
             "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None,
         },
     }
-    report.update(diagnosis.to_dict())
+    report.update(diagnosis_to_json(diagnosis))
     if scenario is not None:
         report["injected"] = injected_mismatch(config, scenario)
     return report

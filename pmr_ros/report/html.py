@@ -35,8 +35,10 @@ class ReportInput:
     Attributes
     ----------
     report : dict
-        The JSON report (:func:`pmr_ros.report.build_report`): system, method, settings, elements.
+        The JSON report (:func:`pmr_ros.report.build_report`), read for the heading only: system,
+        source or config, sample time, version.
     diagnosis : Diagnosis
+        What the page shows: every verdict, number, reason and warning is read from it.
     stretches : sequence of Record
         The data the diagnosis read (for the spectral estimate and its band).
     data : PlantData
@@ -132,6 +134,7 @@ def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: l
     return environment.from_string(TEMPLATE).render(
         title=f"PMR diagnosis: {report.get('system') or 'system'}",
         report=report,
+        diagnosis=page.diagnosis,
         counts=_counts(page.diagnosis),
         colours=COLOURS,
         matrix=matrix,

@@ -34,12 +34,12 @@ TEMPLATE = """<!DOCTYPE html>
 <body>
 <h1>{{ title }}</h1>
 <p class="meta">
- {{ report.get("source", report.get("config")) }} &middot; method {{ report.method }} &middot;
- {{ report.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
+ {{ report.get("source", report.get("config")) }} &middot; method {{ diagnosis.method }} &middot;
+ {{ diagnosis.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
  sample time {{ report.sample_time }} (model time unit) &middot; pmr_ros {{ report.version }}
 </p>
-{% if report.status != "ok" %}
-<p class="badge" style="background: {{ colours.inconclusive }}">no verdict: {{ report.reason }}</p>
+{% if diagnosis.status != "ok" %}
+<p class="badge" style="background: {{ colours.inconclusive }}">no verdict: {{ diagnosis.reason }}</p>
 {% endif %}
 <p class="counts">
  <span class="badge" style="background: {{ colours.mismatch }}">{{ counts.mismatch }} mismatch</span>

@@ -1,23 +1,35 @@
-"""The verdict table people read in a terminal, from a JSON report."""
+"""The verdict table people read in a terminal, rendered from the :class:`Diagnosis` itself.
+
+Every number, verdict, reason and warning comes from the diagnosis object;
+the JSON report (:func:`pmr_ros.report.build_report`) gives only the heading:
+what was diagnosed, where it came from, the confidence level and, for a
+simulated run, the injected mismatch.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
+
+from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ImpactResult, ParametricResult
 
 __all__ = ["format_classic_table", "format_parametric_table", "format_table"]
 
 MARKS = {"ok": "", "mismatch": "!", "inconclusive": "?"}
 """Table marks of a parameter's verdict."""
 
+Injected = Mapping[str, Mapping[str, Any]]
+"""Element name to the injected ``gain_pct``, ``time_constant_pct`` and ``delay_samples`` (a report's ``injected``)."""
 
-def _interval(value: float | None, interval: list[float] | None) -> str:
+
+def _interval(value: float | None, interval: tuple[float, float] | None) -> str:
     if value is None or interval is None:
         return "-"
     return f"{value:+6.1f} [{interval[0]:+6.1f},{interval[1]:+6.1f}]"
 
 
-def _injected(report: dict[str, Any], name: str) -> str:
-    t = report["injected"][name]
+def _injected(injected: Injected, name: str) -> str:
+    t = injected[name]
     return f" {t['gain_pct']:+.0f}, {t['time_constant_pct']:+.0f}, {t['delay_samples']:+d}"
 
 
@@ -27,115 +39,113 @@ def _delay_text(samples: int | None, confidence: float | None, verdict: str | No
     return f"{samples:+d} ({100 * confidence:.0f} %)" + MARKS.get(verdict or "ok", "")
 
 
-def _data_warnings(element: dict[str, Any]) -> list[str]:
-    """The element's data-quality warnings (saturation, slow disturbances), whatever the method."""
-    return list((element.get("data_quality") or {}).get("warnings", []))
-
-
-def _parametric_line(name: str, element: dict[str, Any]) -> str:
-    p = element.get("parametric") or {}
-    if element["model"]["kind"] == "none":
-        return _interaction_line(name, element, p)
-    gain = (
-        _interval(p.get("gain_mismatch_pct"), p.get("gain_mismatch_pct_interval"))
-        + MARKS[p.get("gain_verdict") or "ok"]
-    )
+def _parametric_line(element: ElementDiagnosis) -> str:
+    p = element.parametric if element.parametric is not None else _NO_FIT
+    name = element.name
+    if element.model.kind == "none":
+        return _interaction_line(element, p)
+    gain = _interval(p.gain_mismatch_pct, p.gain_mismatch_pct_interval) + MARKS[p.gain_verdict or "ok"]
     tau = "-"  # an integrating element has no time constant
-    if p.get("tau_verdict") is not None or p.get("tau_mismatch_pct") is not None:
-        tau = (
-            _interval(p.get("tau_mismatch_pct"), p.get("tau_mismatch_pct_interval"))
-            + MARKS[p.get("tau_verdict") or "ok"]
-        )
-    delay = _delay_text(p.get("delay_mismatch_samples"), p.get("delay_confidence"), p.get("delay_verdict"))
-    return f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {element['verdict']:13s} {_impact(element.get('impact')):11s}"
+    if p.tau_verdict is not None or p.tau_mismatch_pct is not None:
+        tau = _interval(p.tau_mismatch_pct, p.tau_mismatch_pct_interval) + MARKS[p.tau_verdict or "ok"]
+    delay = _delay_text(p.delay_mismatch_samples, p.delay_confidence, p.delay_verdict)
+    return f"{name:8s} {gain:26s} {tau:26s} {delay:16s} {element.verdict:13s} {_impact(element.impact):11s}"
 
 
-def _impact(impact: dict[str, Any] | None) -> str:
+_NO_FIT = ParametricResult(gain_verdict=None, tau_verdict=None, delay_verdict=None)
+"""What the table shows of an element without a parametric result: no numbers, no marks."""
+
+
+def _impact(impact: ImpactResult | None) -> str:
     """``x1.23 (#1)``: the ISE ratio and rank of an element's mismatch, or nothing."""
-    if not impact:
+    if impact is None:
         return ""
-    return f"x{impact['ise_ratio']:.2f} (#{impact['rank']})" if impact["rank"] else f"x{impact['ise_ratio']:.2f}"
+    return f"x{impact.ise_ratio:.2f} (#{impact.rank})" if impact.rank else f"x{impact.ise_ratio:.2f}"
 
 
-def _impact_lines(report: dict[str, Any]) -> list[str]:
-    together = report.get("impact")
-    if not together:
+def _impact_lines(diagnosis: Diagnosis) -> list[str]:
+    together = diagnosis.impact
+    if together is None:
         return []
     return [
         f"control impact (configured MPC, noise-free, plant as estimated vs as modelled): all together ISE "
-        f"x{together['ise_ratio']:.2f}, input moves x{together['input_movement_ratio']:.2f}; "
+        f"x{together.ise_ratio:.2f}, input moves x{together.input_movement_ratio:.2f}; "
         "per element: ISE ratio with that mismatch alone (#1 matters most)"
     ]
 
 
-def _interaction_line(name: str, element: dict[str, Any], p: dict[str, Any]) -> str:
+def _interaction_line(element: ElementDiagnosis, p: ParametricResult) -> str:
     """An empty cell: the gain [interval] and delay of the plant's interaction there, across the dK and dtau columns."""
-    gain, interval = p.get("unmodeled_gain"), p.get("unmodeled_gain_interval")
+    gain, interval = p.unmodeled_gain, p.unmodeled_gain_interval
     text = "no model, not tested"
     if gain is not None and interval is not None:
-        mark = MARKS[p.get("unmodeled_verdict") or "ok"]
+        mark = MARKS[p.unmodeled_verdict or "ok"]
         text = f"no model: K {gain:+.3g} [{interval[0]:+.3g},{interval[1]:+.3g}]{mark}"
-    delay = _delay_text(p.get("unmodeled_delay_samples"), p.get("delay_confidence"), None)
-    delay = delay if gain is not None and p.get("unmodeled_verdict") == "mismatch" else "-"
-    return f"{name:8s} {text:53s} {delay:16s} {element['verdict']:13s} {_impact(element.get('impact')):11s}"
+    delay = _delay_text(p.unmodeled_delay_samples, p.delay_confidence, None)
+    delay = delay if gain is not None and p.unmodeled_verdict == "mismatch" else "-"
+    return f"{element.name:8s} {text:53s} {delay:16s} {element.verdict:13s} {_impact(element.impact):11s}"
 
 
-def format_parametric_table(report: dict[str, Any]) -> str:
-    """The parametric method's table: estimates with intervals and verdicts, then the reasons."""
-    level = 100 * report["settings"]["parametric"]["confidence_level"]
-    injected = report.get("injected")
+def _notes(element: ElementDiagnosis, result: ClassicResult | ParametricResult | None) -> list[str]:
+    """The element's reasons, its method's reasons and warnings, then its data-quality warnings."""
+    texts = [*element.reasons, *(result.reasons if result is not None else ())]
+    texts += [*getattr(result, "warnings", ()), *element.warnings]
+    return [f"{element.name}: {text}" for text in texts]
+
+
+def format_parametric_table(diagnosis: Diagnosis, *, confidence_level: float, injected: Injected | None = None) -> str:
+    """The parametric method's table: estimates with intervals and verdicts, then the reasons.
+
+    ``confidence_level`` of the intervals [0..1]; ``injected`` adds the truth of a simulated run.
+    """
+    level = 100 * confidence_level
     cols = (
         f"{'element':8s} {'dK % [' + f'{level:.0f} % interval]':26s} {'dtau % [interval]':26s} "
         f"{'dD (confidence)':16s} {'verdict':13s} {'impact ISE':11s}"
     )
     lines = [cols + (" injected dK %, dtau %, dD" if injected else "")]
     notes = []
-    for name, e in report["elements"].items():
-        lines.append(_parametric_line(name, e) + (_injected(report, name) if injected else ""))
-        p = e.get("parametric") or {}
-        texts = [*e.get("reasons", []), *p.get("reasons", []), *p.get("warnings", []), *_data_warnings(e)]
-        notes += [f"{name}: {text}" for text in texts]
+    for e in diagnosis:
+        lines.append(_parametric_line(e) + (_injected(injected, e.name) if injected else ""))
+        notes += _notes(e, e.parametric)
     lines.append("")
     lines.append("! mismatch (whole interval beyond the tolerance), ? inconclusive; dD = D - Dhat [samples]")
-    if any(e["model"]["kind"] == "none" for e in report["elements"].values()):
+    if any(e.model.kind == "none" for e in diagnosis):
         lines.append(
             "no model: an empty cell; K [interval] and delay of the plant's interaction there (! one the model lacks)"
         )
-    lines += _impact_lines(report)
+    lines += _impact_lines(diagnosis)
     lines += notes
     return "\n".join(lines) + "\n"
 
 
-def _classic_line(name: str, element: dict[str, Any]) -> str:
-    c = element.get("classic")
+def _classic_line(element: ElementDiagnosis) -> str:
+    c, name = element.classic, element.name
     if c is None:
-        return f"{name:8s} {'-':>10s}  {'-':14s} {'-':>9s}  {'-':15s} {'-':>5s}  {element['verdict']:9s}"
-    direction = ("higher" if c["gain_ratio"] > 1 else "lower") if c["gain_mismatch"] else "ok"
-    gain = f"{100 * (c['gain_ratio'] - 1):+.1f} % {direction}" if c["gain_mismatch"] else "ok"
-    if c.get("tau_index") is None:
+        return f"{name:8s} {'-':>10s}  {'-':14s} {'-':>9s}  {'-':15s} {'-':>5s}  {element.verdict:9s}"
+    gain = f"{100 * (c.gain_ratio - 1):+.1f} % {c.gain_direction}" if c.gain_mismatch else "ok"
+    if c.tau_index is None:
         index, tau = f"{'-':>9s}", "-"
     else:
-        index = f"{c['tau_index']:+9.1f}"
-        tau = ("larger" if c["tau_index"] > 0 else "smaller") if c["tau_mismatch"] else "ok"
+        index = f"{c.tau_index:+9.1f}"
+        tau = ("larger" if c.tau_index > 0 else "smaller") if c.tau_mismatch else "ok"
     return (
-        f"{name:8s} {c['gain_ratio']:10.3f}  {gain:14s} {index}  {tau:15s} "
-        f"{c['delay_mismatch_samples']:+5d}  {element['verdict']:9s}"
+        f"{name:8s} {c.gain_ratio:10.3f}  {gain:14s} {index}  {tau:15s} "
+        f"{c.delay_mismatch_samples:+5d}  {element.verdict:9s}"
     )
 
 
-def format_classic_table(report: dict[str, Any]) -> str:
-    """The classic method's table: gain ratio, tau index, delay and the flags."""
-    injected = report.get("injected")
+def format_classic_table(diagnosis: Diagnosis, *, injected: Injected | None = None) -> str:
+    """The classic method's table: gain ratio, tau index, delay and the flags (``injected``: the simulated truth)."""
     cols = (
         f"{'element':8s} {'gain ratio':>10s}  {'gain':14s} {'tau index':>9s}  {'time constant':15s} {'delay':>5s}  "
         f"{'verdict':9s}"
     )
     lines = [cols + ("  injected dK %, dtau %, dD" if injected else "")]
     notes = []
-    for name, e in report["elements"].items():
-        lines.append(_classic_line(name, e) + (" " + _injected(report, name) if injected else ""))
-        c = e.get("classic") or {}
-        notes += [f"{name}: {text}" for text in [*e.get("reasons", []), *c.get("reasons", []), *_data_warnings(e)]]
+    for e in diagnosis:
+        lines.append(_classic_line(e) + (" " + _injected(injected, e.name) if injected else ""))
+        notes += _notes(e, e.classic)
     lines.append("")
     lines.append(
         "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; "
@@ -145,14 +155,29 @@ def format_classic_table(report: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def format_table(report: dict[str, Any]) -> str:
-    """The verdict table of a report, one line per element, headed by what was diagnosed."""
+def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
+    """The verdict table of a diagnosis, one line per element, headed by what was diagnosed.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What the table shows.
+    report : mapping
+        The JSON report of it (:func:`pmr_ros.report.build_report`), read for the heading only:
+        ``system``, ``command``, ``source`` or ``scenario``/``seed``, ``settings.parametric.confidence_level``
+        and ``injected``.
+    """
     origin = report.get("source") or f"scenario {report['scenario']}, seed {report['seed']}"
     head = (
-        f"{report['system'] or 'system'}: {report['command']} ({report['method']} PMR), {origin}, "
-        f"{report['samples']} samples"
+        f"{report['system'] or 'system'}: {report['command']} ({diagnosis.method} PMR), {origin}, "
+        f"{diagnosis.samples} samples"
     )
-    if report["status"] != "ok":
-        return f"{head}\nINSUFFICIENT DATA: {report['reason']}\n"
-    body = format_parametric_table(report) if report["method"] == "parametric" else format_classic_table(report)
+    if diagnosis.status != "ok":
+        return f"{head}\nINSUFFICIENT DATA: {diagnosis.reason}\n"
+    injected = report.get("injected")
+    if diagnosis.method == "parametric":
+        level = report["settings"]["parametric"]["confidence_level"]
+        body = format_parametric_table(diagnosis, confidence_level=level, injected=injected)
+    else:
+        body = format_classic_table(diagnosis, injected=injected)
     return f"{head}\n\n{body}"

@@ -3,8 +3,8 @@
 Layouts follow ``msg_defs/topics.yaml``: signals are ``sensor_msgs/JointState``
 (stamp = sample time, ``name`` = channel names, ``position`` = values), the
 verdicts a ``diagnostic_msgs/DiagnosticArray`` with one status per element
-(KeyValues from :mod:`pmr_ros.contract.layout`), the numeric estimates a
-``JointState`` named ``<element>/<quantity>``.  Floats travel as float64
+(KeyValues spelled by :mod:`pmr_ros.core.results.codec`), the numeric estimates a
+``JointState`` named ``<element>/<quantity>`` (the same codec).  Floats travel as float64
 (signals) or shortest round-tripping JSON (KeyValues): both lossless.  The
 readers live in :mod:`pmr_ros.contract.layout`, free of ROS imports, so bags
 decoded with ``rosbags`` are read by the same code.
@@ -12,7 +12,6 @@ decoded with ``rosbags`` are read by the same code.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -22,9 +21,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..contract.layout import CONFLICT, STALE, diagnosis_pairs, element_pairs, encode_value, estimate_pairs
+from ..contract.layout import CONFLICT, STALE
 from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
+from ..core.results.codec import estimate_names_values, status_key_values
 from .messages import message_class
 
 __all__ = [
@@ -93,8 +93,8 @@ def element_level(element: ElementDiagnosis) -> bytes:
     return DiagnosticStatus.WARN if count == 1 else DiagnosticStatus.ERROR
 
 
-def _key_values(pairs: dict[str, str]) -> list[KeyValue]:
-    return [KeyValue(key=k, value=v) for k, v in pairs.items()]
+def _key_values(pairs: list[tuple[str, str]]) -> list[KeyValue]:
+    return [KeyValue(key=k, value=v) for k, v in pairs]
 
 
 def diagnosis_statuses(
@@ -117,12 +117,6 @@ def diagnosis_statuses(
         default: the diagnosis's status (``ok`` or ``insufficient_data``, WARN).
     """
     state = state or diagnosis.status
-    common = {
-        "status": state,
-        "reason": diagnosis.reason,
-        **{k: encode_value(v) for k, v in window.items()},
-        **diagnosis_pairs(diagnosis),
-    }
     statuses = []
     for name, element in diagnosis.elements.items():
         if state == "ok":
@@ -130,7 +124,7 @@ def diagnosis_statuses(
         else:
             level = _NO_VERDICT_LEVELS.get(state, DiagnosticStatus.WARN)
             message = f"{_NO_VERDICT_WORDS.get(state, 'insufficient data')}: {diagnosis.reason}"
-        pairs = {**common, **element_pairs(element)}
+        pairs = status_key_values(diagnosis, element, state=state, window=window)
         statuses.append(
             DiagnosticStatus(
                 level=level,
@@ -152,10 +146,5 @@ def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> Diagno
 
 def estimates_message(diagnosis: Diagnosis, stamp_s: float, frame_id: str) -> JointState:
     """The numeric estimates of a diagnosis, named ``<element>/<part>.<quantity>`` (NaN where there is none)."""
-    names: list[str] = []
-    values: list[float] = []
-    for name, element in diagnosis.elements.items():
-        for quantity, value in estimate_pairs(element).items():
-            names.append(f"{name}/{quantity}")
-            values.append(math.nan if value is None else float(value))
+    names, values = estimate_names_values(diagnosis)
     return signal_message(values, names, stamp_s, frame_id)

@@ -35,6 +35,7 @@ from ..contract.topics import SIGNAL_TOPICS, topic
 from ..contract.windowing import VERDICT, WindowOutcome, window_dither
 from ..core.records import Record
 from ..core.results import Diagnosis, compare_diagnoses
+from ..core.results.codec import diagnosis_to_json
 from ..data import PlantData
 from .closing import close_diagnosis
 
@@ -152,7 +153,9 @@ def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: Pm
         entry["equal"] = False
         return entry
     offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
-    entry["differences"] = compare_diagnoses(verdict.diagnosis.to_dict()["elements"], offline.to_dict()["elements"])
+    entry["differences"] = compare_diagnoses(
+        diagnosis_to_json(verdict.diagnosis)["elements"], diagnosis_to_json(offline)["elements"]
+    )
     entry["equal"] = not entry["differences"]
     return entry
 

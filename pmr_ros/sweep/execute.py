@@ -23,7 +23,7 @@ import numpy as np
 from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose
 from ..core.records import Record
-from ..core.results import Diagnosis, ElementDiagnosis
+from ..core.results.codec import csv_fields
 from ..core.sim.batch import run_lockstep, worker_context
 from ..core.sim.model import TransferMatrix
 from ..progress import ProgressBar
@@ -32,77 +32,10 @@ from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
 from .tuning import stable_tuning
 
 
-def _classic_fields(element: ElementDiagnosis) -> dict[str, Any]:
-    c = element.classic
-    return {
-        "gain_ratio": None if c is None else c.gain_ratio,
-        "tau_index": None if c is None else c.tau_index,
-        "delay_mismatch_samples": None if c is None else c.delay_mismatch_samples,
-        "gain_mismatch": None if c is None else c.gain_mismatch,
-        "tau_mismatch": None if c is None else c.tau_mismatch,
-        "delay_mismatch": None if c is None else c.delay_mismatch,
-        "verdict": element.verdict,
-    }
-
-
-def classic_fields(diagnosis: Diagnosis) -> dict[str, dict[str, Any]]:
-    """The classic (Table 1) CSV fields of every element: gain ratio, tau index, delay, flags, verdict."""
-    return {name: _classic_fields(e) for name, e in diagnosis.elements.items()}
-
-
-def parametric_fields(diagnosis: Diagnosis) -> dict[str, dict[str, Any]]:
-    """The parametric CSV fields of every element: fitted dK, dtau, dD with intervals, flags and verdict.
-
-    ``gain_ratio`` is the fitted ``1 + dK/100``; ``tau_index`` stays the classic
-    index (for reference), the fitted time constant is ``tau_mismatch_pct``.
-    """
-    elements = {}
-    for name, e in diagnosis.elements.items():
-        p = e.parametric
-        if p is None:  # insufficient data: no numbers at all
-            elements[name] = {**_classic_fields(e), **dict.fromkeys(PARAMETRIC_ONLY)}
-            continue
-        gain_interval = p.gain_mismatch_pct_interval or (None, None)
-        tau_interval = p.tau_mismatch_pct_interval or (None, None)
-        elements[name] = {
-            **_classic_fields(e),
-            "gain_ratio": None if p.gain_mismatch_pct is None else 1.0 + p.gain_mismatch_pct / 100.0,
-            "delay_mismatch_samples": p.delay_mismatch_samples,
-            "gain_mismatch": p.gain_verdict == "mismatch",
-            "tau_mismatch": p.tau_verdict == "mismatch",
-            "delay_mismatch": p.delay_verdict == "mismatch",
-            "tau_mismatch_pct": p.tau_mismatch_pct,
-            "gain_mismatch_pct_low": gain_interval[0],
-            "gain_mismatch_pct_high": gain_interval[1],
-            "tau_mismatch_pct_low": tau_interval[0],
-            "tau_mismatch_pct_high": tau_interval[1],
-            "delay_confidence": p.delay_confidence,
-        }
-    return elements
-
-
-PARAMETRIC_ONLY = (
-    "tau_mismatch_pct",
-    "gain_mismatch_pct_low",
-    "gain_mismatch_pct_high",
-    "tau_mismatch_pct_low",
-    "tau_mismatch_pct_high",
-    "delay_confidence",
-)
-"""CSV fields of the parametric method beyond the classic ones."""
-
-
-ROW_FIELDS: dict[str, Callable[[Diagnosis], dict[str, dict[str, Any]]]] = {
-    "classic": classic_fields,
-    "parametric": parametric_fields,
-}
-"""Per diagnosis method, the CSV fields of each element of its diagnosis."""
-
-
 def method_fields(
     method: str, record: Record, model: TransferMatrix, config: PmrConfig
 ) -> tuple[str, dict[str, dict[str, Any]]]:
-    """Diagnose one run with ``method``: its status and each element's CSV fields."""
+    """Diagnose one run with ``method``: its status and each element's CSV fields (:func:`csv_fields`)."""
     diagnosis = diagnose(
         record.r,
         record.u,
@@ -113,7 +46,7 @@ def method_fields(
         method=method,
         dither=record.dither,
     )
-    return diagnosis.status, ROW_FIELDS[method](diagnosis)
+    return diagnosis.status, {name: csv_fields(e) for name, e in diagnosis.elements.items()}
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,8 @@ import math
 from collections.abc import Iterable
 from pathlib import Path
 
+from ..core.results.codec import CSV_FIELDS, CSV_TYPES
+
 COLUMNS = (
     "method",
     "sweep",
@@ -35,22 +37,10 @@ COLUMNS = (
     "true_time_constant_pct",
     "true_delay_samples",
     "status",
-    "gain_ratio",
-    "tau_index",
-    "delay_mismatch_samples",
-    "gain_mismatch",
-    "tau_mismatch",
-    "delay_mismatch",
-    "verdict",
-    "tau_mismatch_pct",
-    "gain_mismatch_pct_low",
-    "gain_mismatch_pct_high",
-    "tau_mismatch_pct_low",
-    "tau_mismatch_pct_high",
-    "delay_confidence",
+    *CSV_FIELDS,
 )
-"""Column order of ``results.csv``.  A method adds rows (``method``); the last seven columns are
-the parametric method's own (empty on classic rows, whose verdict is filled)."""
+"""Column order of ``results.csv``.  A method adds rows (``method``); the result columns are the codec's
+:data:`~pmr_ros.core.results.codec.CSV_FIELDS` (each method fills its own, the other's stay empty)."""
 
 RESULTS_FILE = "results.csv"
 MANIFEST_FILE = "sweep.json"
@@ -63,26 +53,19 @@ _INT_COLUMNS = {
     "mpc_solves",
     "mpc_failures",
     "true_delay_samples",
-    "delay_mismatch_samples",
+    *(name for name, kind in CSV_TYPES.items() if kind is int),
 }
-_FLOAT_COLUMNS = {
-    "nu",
-    "time_constant_swept",
-    "row_time_constant_ratio",
-    "loop_spectral_radius",
-    "tracking_rms",
-    "true_gain_ratio",
-    "true_time_constant_pct",
-    "gain_ratio",
-    "tau_index",
-    "tau_mismatch_pct",
-    "gain_mismatch_pct_low",
-    "gain_mismatch_pct_high",
-    "tau_mismatch_pct_low",
-    "tau_mismatch_pct_high",
-    "delay_confidence",
+_TEXT_COLUMNS = {
+    "method",
+    "sweep",
+    "element_swept",
+    "scenario",
+    "element",
+    "status",
+    *(name for name, kind in CSV_TYPES.items() if kind is str),
 }
-_BOOL_COLUMNS = {"gain_mismatch", "tau_mismatch", "delay_mismatch"}
+_BOOL_COLUMNS = {name for name, kind in CSV_TYPES.items() if kind is bool}
+_FLOAT_COLUMNS = set(COLUMNS) - _INT_COLUMNS - _TEXT_COLUMNS - _BOOL_COLUMNS
 
 
 def _format(value: object) -> str:

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..results import Diagnosis, ElementModel
+from ..results.codec import diagnosis_to_json
 
 __all__ = [
     "AdaptSettings",
@@ -233,7 +234,7 @@ class Adaptation:
         """JSON-ready: the earlier window's verdicts, the changes, the tracking figures, the judgement."""
         before, after = self.tracking
         return {
-            "before": self.before.to_dict(),
+            "before": diagnosis_to_json(self.before),
             "changes": [
                 {"element": name, "before": _model_dict(old), "after": _model_dict(new)}
                 for name, old, new in self.changes
