@@ -13,6 +13,7 @@ names of other trees — is listed in ``IGNORED`` with the reason.
 from __future__ import annotations
 
 import ast
+import os
 import re
 from functools import cache
 from pathlib import Path
@@ -29,17 +30,11 @@ EXTENSIONS = (".py", ".yaml", ".yml", ".md", ".sh", ".toml", ".cfg", ".xml", ".p
 
 # prefix or exact token -> why it cannot be checked against the clone
 IGNORED: dict[str, str] = {
-    "runs/": "outputs the walkthrough and the README's examples write (not in the repository)",
-    "install/": "what colcon build writes into a workspace",
+    "runs/": "outputs the walkthrough's commands write (not in the repository)",
     "rosdep/": "files of the ros/rosdistro repository, where the rosdep keys were checked",
     "jazzy/": "files of the ros/rosdistro repository, where the rosdep keys were checked",
     "results.csv": "written by pmr-ros sweep into its output folder",
-    "index.html": "written by --report into its output folder",
-    "out.json": "an example --json output file",
-    "report.json": "an example --json output file",
-    "it.yaml": "a user's own params file in an example",
-    "my_controller.yaml": "a user's own params file in an example",
-    "export.csv": "a user's historian export in an example",
+    "export.csv": "a user's historian export in an example command",
 }
 
 SPAN = re.compile(r"(?<!`)`([^`\n]+)`(?!`)")
@@ -59,7 +54,7 @@ def _ignored(token: str) -> bool:
 
 def _is_path(token: str) -> bool:
     """Whether a token names a file or folder of the repository (not a topic, an option or a URL)."""
-    if not token or token[0] in "-/~$<." and not token.startswith(".ci/") or "://" in token:
+    if not token or "://" in token or (token[0] in "-/~$<." and not token.startswith(".ci/")):
         return False
     if any(char in token for char in "*<>{}…|=,:'\"()[]") or token.startswith("../") or "..." in token:
         return False
@@ -67,8 +62,8 @@ def _is_path(token: str) -> bool:
     return ("/" in token and head in TOP_LEVEL) or token.rstrip("/").endswith(EXTENSIONS)
 
 
-def _named(page: Path) -> tuple[set[str], set[str]]:
-    """The repository paths and the dotted module names a page names."""
+def _named_all(page: Path) -> tuple[set[str], set[str]]:
+    """The repository paths (ignored ones included) and the dotted module names a page names."""
     text = _prose(page)
     paths, modules = set(), set()
     for span in SPAN.findall(text):
@@ -78,12 +73,22 @@ def _named(page: Path) -> tuple[set[str], set[str]]:
         target = target.split("#", 1)[0]
         if target and "://" not in target and not target.startswith("mailto:"):
             paths.add(target)
+    return paths, modules
+
+
+def _named(page: Path) -> tuple[set[str], set[str]]:
+    """The repository paths and the dotted module names a page names, less the ignored ones."""
+    paths, modules = _named_all(page)
     return {p for p in paths if not _ignored(p)}, modules
 
 
 @cache
 def _file_names() -> frozenset[str]:
-    return frozenset(p.name for p in ROOT.rglob("*") if ".git" not in p.parts and ".venv" not in p.parts)
+    names: set[str] = set()
+    for _folder, subfolders, files in os.walk(ROOT):
+        subfolders[:] = [d for d in subfolders if d not in {".git", ".venv", "__pycache__", "build", "install"}]
+        names.update(files)
+    return frozenset(names)
 
 
 def _exists(path: str, page: Path) -> bool:
@@ -136,6 +141,12 @@ def test_every_named_path_and_module_exists(page):
     assert missing == [], f"{page.relative_to(ROOT)} names what does not exist: {missing}"
 
 
+def test_every_ignored_name_is_named_somewhere():
+    named = set().union(*(_named_all(page)[0] for page in PAGES))
+    unused = [key for key in IGNORED if not any(p == key or (key.endswith("/") and p.startswith(key)) for p in named)]
+    assert unused == [], f"IGNORED entries no page names any more (drop them): {unused}"
+
+
 def test_readme_is_short():
     lines = (ROOT / "README.md").read_text(encoding="utf-8").count("\n")
     assert lines <= README_MAX_LINES, f"README.md has {lines} lines, at most {README_MAX_LINES}"
@@ -145,7 +156,7 @@ def test_the_checker_finds_a_stale_name(tmp_path):
     page = tmp_path / "page.md"
     page.write_text(
         "The model is in `foptd.py` and `pmr_ros/core/foptd.py`, read by `pmr_ros.core.nowhere`;\n"
-        "topics like `pmr/setpoint`, options like `--json out.json` and `runs/report/` are no paths.\n"
+        "topics like `pmr/setpoint`, options like `--json` and outputs like `runs/report/` are no paths.\n"
         "See [the theory](nowhere.md).\n```\ncode/blocks.py are not read\n```\n",
         encoding="utf-8",
     )
