@@ -1,4 +1,4 @@
-"""The README's baseline table: Wood-Berry with the paper's mismatch over seeds, both methods (prints a table).
+"""docs/results.md's baseline table: Wood-Berry with the paper's mismatch over seeds, both methods (prints a table).
 
 Per element, the mean +/- standard deviation over ``--seeds`` runs of the shipped configuration
 (``config/wood_berry.yaml``, scenario ``full``, 16,384 samples) of the classic gain ratio M(0), its
