@@ -35,8 +35,8 @@ from pmr_ros.contract.layout import diagnosis_from_array, level_name, read_estim
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import INSUFFICIENT, STALE, VERDICT, evaluate_window, offer_signal, window_info
 from pmr_ros.core.results import compare_diagnoses
-from pmr_ros.service.bag_diagnosis import compare, diagnose_bag
 from pmr_ros.core.results.codec import diagnosis_to_json
+from pmr_ros.service.bag_diagnosis import compare, diagnose_bag
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"

@@ -25,9 +25,9 @@ from pmr_ros.contract.layout import read_signal
 from pmr_ros.contract.topics import topic
 from pmr_ros.contract.windowing import STALE, VERDICT
 from pmr_ros.core.results import Diagnosis
+from pmr_ros.core.results.codec import status_key_values
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.service.bag_diagnosis import compare, diagnose_bag, judged_config
-from pmr_ros.core.results.codec import status_key_values
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "wood_berry_full"

@@ -25,10 +25,10 @@ from pmr_ros.core.pmr.data_quality import (
 )
 from pmr_ros.core.pmr.diagnosis import diagnose, diagnose_stretches, with_data_quality
 from pmr_ros.core.records import Record
-from pmr_ros.core.results import DataQuality, Diagnosis, compare_diagnoses
+from pmr_ros.core.results import DataQuality, compare_diagnoses
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.sim.true_plant import OutputDisturbance
-from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.report.table import format_table
 from pmr_ros.ros import convert
 

@@ -25,9 +25,9 @@ from pmr_ros.core.pmr.parametric.verdicts import element_result, trust_reasons
 from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
 from pmr_ros.core.records import Record
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.sim.model import TransferMatrix
-from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.report.table import format_classic_table, format_parametric_table
 
 MIXED = TransferMatrix(

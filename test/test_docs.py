@@ -13,6 +13,7 @@ names of other trees — is listed in ``IGNORED`` with the reason.
 from __future__ import annotations
 
 import ast
+import importlib
 import os
 import re
 from functools import cache
@@ -106,6 +107,9 @@ def _top_level_names(source: Path) -> set[str]:
         elif isinstance(node, (ast.Assign, ast.AnnAssign)):
             targets = node.targets if isinstance(node, ast.Assign) else [node.target]
             names.update(t.id for t in targets if isinstance(t, ast.Name))
+            # A package front file that loads its names on first use lists them in __all__.
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets) and node.value is not None:
+                names.update(c.value for c in ast.walk(node.value) if isinstance(c, ast.Constant))
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             names.update((alias.asname or alias.name).split(".")[0] for alias in node.names)
     return names
@@ -125,7 +129,12 @@ def _module_exists(dotted: str) -> bool:
     if _module_file(parts) is not None:
         return True
     owner = _module_file(parts[:-1])
-    return owner is not None and parts[-1] in _top_level_names(owner)
+    if owner is None:
+        return False
+    if parts[-1] in _top_level_names(owner):
+        return True
+    # A front file that loads its names on first use (module __getattr__): ask the module itself.
+    return hasattr(importlib.import_module(".".join(parts[:-1])), parts[-1])
 
 
 def _missing(page: Path) -> list[str]:

@@ -26,9 +26,9 @@ import yaml
 from simulated import diagnose_record
 
 from pmr_ros.config import load_config
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
-from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 
 SEEDS = (1, 2, 3)
 

@@ -24,10 +24,10 @@ from pmr_ros.contract.layout import diagnosis_from_array, read_signal  # noqa: E
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.pmr.diagnosis import diagnose  # noqa: E402
 from pmr_ros.core.results import compare_diagnoses  # noqa: E402
+from pmr_ros.core.results.codec import diagnosis_to_json
 from pmr_ros.core.sim.closed_loop import simulate  # noqa: E402
 from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
 from pmr_ros.service.closing import close_diagnosis  # noqa: E402
-from pmr_ros.core.results.codec import diagnosis_to_json
 
 pytestmark = pytest.mark.ros
 

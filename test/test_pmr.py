@@ -11,9 +11,9 @@ from pmr_ros.core.pmr.checks import InsufficientData, check_record, check_stretc
 from pmr_ros.core.pmr.classic import diagnose_classic
 from pmr_ros.core.pmr.implicit import estimate_pmr
 from pmr_ros.core.records import Record
+from pmr_ros.core.results.codec import diagnosis_to_json
 from pmr_ros.core.sim.batch import worker_context
 from pmr_ros.core.sim.closed_loop import simulate
-from pmr_ros.core.results.codec import diagnosis_to_json
 
 
 def diagnose(r, u, y, model, settings):

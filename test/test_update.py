@@ -17,9 +17,9 @@ from pmr_ros.core.loop.impact import control_impact, loop_figures
 from pmr_ros.core.loop.update import NotCorrectable, corrected_model
 from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
+from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
-from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 
 
 def _diagnose(config, record):

@@ -209,7 +209,9 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
-        diagnosis = close_and_write(result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None))
+        diagnosis = close_and_write(
+            result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None)
+        )
         report = offline_report(result, bag, diagnosis)
     except BagError as exc:
         raise CommandError(str(exc)) from None

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..config import PmrConfig
-from ..core.model import SCENARIOS
+from ..core.sim.model import SCENARIOS
 from ..sweep.analysis import (
     DIAGNOSES,
     PointSummary,

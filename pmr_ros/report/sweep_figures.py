@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..config import PmrConfig
-from ..core.model import SCENARIOS
+from ..core.sim.model import SCENARIOS
 from ..sweep.analysis import (
     PointSummary,
 )

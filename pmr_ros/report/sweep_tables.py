@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import PmrConfig
-from ..core.model import SCENARIOS
+from ..core.sim.model import SCENARIOS
 from ..sweep.analysis import (
     DIAGNOSES,
     GAIN_TOLERANCE,
