@@ -1,0 +1,22 @@
+"""The monitor: rolling windows over a long record, when each parameter began to move, the trend table.
+
+``windows`` plans the windows and cuts them as views of the one record,
+``changepoint`` fits steps and ramps to overlapping window estimates (GLS),
+``onset`` decides none / step / drift with an interval on the onset time,
+``trend`` lays the per-window results out as a table (CSV, Parquet).
+"""
+
+from .onset import KINDS, Onset, detect_onset, first_lasting_mismatch, standard_errors
+from .windows import Span, parse_span, window_plan, window_views
+
+__all__ = [
+    "KINDS",
+    "Onset",
+    "Span",
+    "detect_onset",
+    "first_lasting_mismatch",
+    "parse_span",
+    "standard_errors",
+    "window_plan",
+    "window_views",
+]

@@ -1,0 +1,284 @@
+"""When a parameter began to move, and whether it stepped (a valve change) or drifted (fouling).
+
+The input is one parameter of one element (``dK`` %, ``dtau`` % or ``dD``)
+over the rolling windows: each window's estimate, its standard error and the
+time the window ends.  Three explanations are fitted by generalized least
+squares with the overlap covariance of :mod:`.changepoint`: no change (a
+constant), a step at ``t0``, and a ramp from ``t0`` that may level off (a
+plateau from ``t0 + d``).  A change is declared when the largest likelihood
+ratio over all candidate onsets and rise times beats its simulated no-change
+quantile (the false alarm rate is ``significance``); step or drift is then
+decided by BIC.  The onset interval is the set of ``t0`` whose profile
+likelihood ratio to the best stays below the chi-square(1) quantile.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from scipy.stats import chi2, norm
+
+from .changepoint import Fit, Shapes, fit_shapes, null_quantile, ramp_shapes, shapes_for
+
+__all__ = ["KINDS", "Onset", "detect_onset", "first_lasting_mismatch", "standard_errors"]
+
+KINDS = ("none", "step", "drift", "insufficient")
+"""What :func:`detect_onset` can find: no change, a step, a drift (ramp, maybe levelling off), too few windows."""
+
+
+@dataclass(frozen=True)
+class Onset:
+    """The change found in one parameter's window estimates.
+
+    Times are in the unit of the window end times given (seconds, days ...).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+    time : float or None
+        When the parameter began to move (step or start of the ramp).
+    interval : (float, float) or None
+        Onset times not rejected by the profile likelihood ratio at the
+        confidence level (the hull of that set).
+    end : float or None
+        Drift only: when the ramp levelled off; None while it still rises at
+        the last window (and for steps).
+    size : float or None
+        The change, plateau (or last-window ramp value) minus the level
+        before [parameter unit]; for a ramp still rising, its full rise over
+        the fitted rise time.
+    level : float or None
+        The level before the change (of the whole record when none)
+        [parameter unit].
+    statistic : float
+        Largest ``2 log LR`` of a change against none [-].
+    threshold : float
+        Its simulated no-change quantile at ``1 - significance`` [-].
+    p_value : float or None
+        Share of simulated no-change records with a statistic at least as large.
+    windows : int
+        Windows used (finite estimate and standard error).
+    """
+
+    kind: str
+    time: float | None
+    interval: tuple[float, float] | None
+    end: float | None
+    size: float | None
+    level: float | None
+    statistic: float
+    threshold: float
+    p_value: float | None
+    windows: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready (the interval as a list)."""
+        out = asdict(self)
+        out["interval"] = None if self.interval is None else list(self.interval)
+        return out
+
+
+def standard_errors(*, low: np.ndarray, high: np.ndarray, level: float = 0.95) -> np.ndarray:
+    """Standard errors from two-sided normal intervals ``(low, high)`` at ``level``.
+
+    Parameters
+    ----------
+    low, high : array_like
+        Interval bounds [parameter unit]; NaN where a window has none.
+    level : float
+        Their confidence level (0..1).
+
+    Returns
+    -------
+    ndarray
+        ``(high - low) / (2 z)`` with ``z`` the normal ``(1 + level)/2`` quantile.
+    """
+    z = norm.ppf(0.5 + level / 2)
+    return (np.asarray(high, dtype=float) - np.asarray(low, dtype=float)) / (2 * z)
+
+
+def _checked(estimates: Any, errors: Any, end_times: Any, window: float) -> tuple[np.ndarray, ...]:
+    """The usable windows (finite estimate, positive finite error) as float arrays."""
+    y, s, t = (np.asarray(a, dtype=float) for a in (estimates, errors, end_times))
+    if not y.shape == s.shape == t.shape or y.ndim != 1:
+        raise ValueError(f"estimates, errors, end_times: shapes {y.shape}, {s.shape}, {t.shape} differ")
+    if np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)):
+        raise ValueError("end_times: the window end times must be finite and increasing")
+    if not window > 0:
+        raise ValueError(f"window: {window!r} must be positive")
+    keep = np.isfinite(y) & np.isfinite(s) & (s > 0)
+    return y[keep], s[keep], t[keep], t
+
+
+def _family_best(fit: Fit, members: np.ndarray) -> int:
+    """Index of the candidate of a family (a boolean mask) with the largest drop."""
+    return int(np.flatnonzero(members)[np.argmax(fit.drop[members])])
+
+
+def _profile(onsets: np.ndarray, drops: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The onset grid and, per onset, the largest drop over the other shape parameters."""
+    grid = np.unique(onsets)
+    profile = np.full(grid.size, -np.inf)
+    np.maximum.at(profile, np.searchsorted(grid, onsets), drops)
+    return grid, profile
+
+
+def _profile_interval(onsets: np.ndarray, drops: np.ndarray, confidence: float) -> tuple[float, float]:
+    """Hull of the onsets whose profile ``2 log LR`` to the best is below the chi2(1) quantile."""
+    grid, profile = _profile(onsets, drops)
+    kept = grid[profile >= profile.max() - chi2.ppf(confidence, 1)]
+    # the onset lies anywhere between grid points: half a grid step either side of the kept ones
+    half = float(np.min(np.diff(grid), initial=0.0)) / 2
+    return float(kept.min()) - half, float(kept.max()) + half
+
+
+def _refined(fit: Fit, shapes: Shapes, data: tuple[np.ndarray, ...], window: float, step: float) -> tuple[Fit, Shapes]:
+    """The coarse candidates plus ramps with fine rise times from every onset near the coarse best ramp."""
+    y, s, t = data
+    ramps = shapes.duration > 0
+    grid, profile = _profile(shapes.onset[ramps], fit.drop[ramps])
+    near = grid[profile >= profile.max() - _REFINE_MARGIN]
+    fine = ramp_shapes(ends=t, window=window, onsets=near, resolution=step)
+    more = fit_shapes(estimates=y, errors=s, ends=t, window=window, shapes=fine)
+    merged = Fit(
+        rss_none=fit.rss_none,
+        mean=fit.mean,
+        drop=np.concatenate([fit.drop, more.drop]),
+        level=np.concatenate([fit.level, more.level]),
+        size=np.concatenate([fit.size, more.size]),
+    )
+    onset, duration = np.concatenate([shapes.onset, fine.onset]), np.concatenate([shapes.duration, fine.duration])
+    return merged, Shapes(onset, duration, np.empty((t.size, 0)))
+
+
+NULL_DRAWS = 2000
+"""Simulated no-change records behind the threshold (once per set of window times, cached)."""
+
+_REFINE_MARGIN = 25.0
+"""Onsets whose coarse ramp profile is within this ``2 log LR`` of the best get fine rise times."""
+
+
+def _change(fit: Fit, shapes: Shapes, ends: np.ndarray, confidence: float) -> dict[str, Any]:
+    """Step or drift by BIC, with its onset, interval, end, size and level."""
+    steps = shapes.duration == 0
+    best_step, best_ramp = _family_best(fit, steps), _family_best(fit, ~steps)
+    # -2 log L + k ln n: a step has level, size, onset; a ramp also its rise time
+    bic_step = -fit.drop[best_step] + 3 * np.log(ends.size)
+    bic_ramp = -fit.drop[best_ramp] + 4 * np.log(ends.size)
+    drift = bool(bic_ramp < bic_step)
+    best, members = (best_ramp, ~steps) if drift else (best_step, steps)
+    onset, duration = float(shapes.onset[best]), float(shapes.duration[best])
+    return {
+        "kind": "drift" if drift else "step",
+        "time": onset,
+        "interval": _profile_interval(shapes.onset[members], fit.drop[members], confidence),
+        "end": onset + duration if drift and onset + duration < ends[-1] else None,
+        "size": float(fit.size[best]),
+        "level": float(fit.level[best]),
+    }
+
+
+def detect_onset(
+    *,
+    estimates: Sequence[float] | np.ndarray,
+    errors: Sequence[float] | np.ndarray,
+    end_times: Sequence[float] | np.ndarray,
+    window: float,
+    significance: float = 0.01,
+    confidence: float = 0.95,
+    resolution: float | None = None,
+    min_windows: int = 8,
+) -> Onset:
+    """When one parameter began to move over rolling windows, and as a step or a drift.
+
+    Parameters
+    ----------
+    estimates : array_like, shape (n,)
+        The parameter per window (``dK`` [%], ``dtau`` [%] or ``dD``
+        [samples]); NaN for a window without one (inconclusive): it is left out.
+    errors : array_like, shape (n,)
+        Their standard errors [same unit] (:func:`standard_errors` from 95 %
+        intervals); a NaN or non-positive one leaves the window out.
+    end_times : array_like, shape (n,)
+        When each window ends, increasing [any time unit: s, days ...].
+    window : float
+        Window length [the unit of ``end_times``]; sets the overlap correlation.
+    significance : float
+        False alarm probability of declaring a change where there is none.
+    confidence : float
+        Level of the onset interval.
+    resolution : float, optional
+        Spacing of the candidate onsets [time unit]; default the median
+        spacing of ``end_times`` (the step).
+    min_windows : int
+        Fewer usable windows give kind ``insufficient``.
+
+    Returns
+    -------
+    Onset
+
+    Raises
+    ------
+    ValueError
+        Arrays of different shapes, end times not increasing, a window of zero or less.
+    """
+    y, s, t, every = _checked(estimates, errors, end_times, window)
+    if y.size < max(min_windows, 3):
+        return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, int(y.size))
+    step = float(resolution) if resolution is not None else float(np.median(np.diff(every)))
+    shapes = shapes_for(tuple(t.tolist()), float(window), step)
+    fit = fit_shapes(estimates=y, errors=s, ends=t, window=window, shapes=shapes)
+    threshold, maxima = null_quantile(
+        ends=t, window=window, resolution=step, significance=significance, draws=NULL_DRAWS
+    )
+    statistic = float(np.max(fit.drop))
+    p_value = float((np.sum(maxima >= statistic) + 1) / (maxima.size + 1))
+    common: dict[str, Any] = {
+        "statistic": statistic,
+        "threshold": threshold,
+        "p_value": p_value,
+        "windows": int(y.size),
+    }
+    if statistic < threshold:
+        return Onset(kind="none", time=None, interval=None, end=None, size=None, level=fit.mean, **common)
+    fit, shapes = _refined(fit, shapes, (y, s, t), float(window), step)
+    return Onset(**_change(fit, shapes, t, confidence), **common)
+
+
+def first_lasting_mismatch(
+    verdicts: Sequence[str | None], *, ignore: Sequence[str | None] = ("inconclusive",)
+) -> int | None:
+    """The first window from which the verdict stays ``mismatch`` to the last window.
+
+    Parameters
+    ----------
+    verdicts : sequence of str or None
+        One verdict per window, in time order.
+    ignore : sequence of str or None
+        Verdicts that neither break nor start the run (a window the data could
+        not decide).
+
+    Returns
+    -------
+    int or None
+        Index of the run's first ``mismatch`` window; None when the last
+        decided verdict is not ``mismatch``.
+
+    Examples
+    --------
+    >>> first_lasting_mismatch(["ok", "mismatch", "ok", "mismatch", "inconclusive", "mismatch"])
+    3
+    """
+    first = None
+    for index in range(len(verdicts) - 1, -1, -1):
+        verdict = verdicts[index]
+        if verdict in ignore:
+            continue
+        if verdict != "mismatch":
+            break
+        first = index
+    return first
