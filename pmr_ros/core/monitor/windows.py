@@ -21,7 +21,7 @@ __all__ = ["Span", "parse_span", "window_plan", "window_views"]
 UNITS: dict[str, float] = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
 """Clock units a window or step may carry, in seconds."""
 
-_SPAN = re.compile(r"^\s*(?P<value>[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*(?P<unit>[a-z]*)\s*$")
+_SPAN = re.compile(r"^\s*(?P<value>[-+]?[0-9]*\.?[0-9]+(?:[eE][+-]?[0-9]+)?)\s*(?P<unit>[a-z]*)\s*$")
 
 
 @dataclass(frozen=True)
