@@ -132,7 +132,7 @@ def _profile_interval(onsets: np.ndarray, drops: np.ndarray, confidence: float) 
     grid, profile = _profile(onsets, drops)
     kept = grid[profile >= profile.max() - chi2.ppf(confidence, 1)]
     # the onset lies anywhere between grid points: half a grid step either side of the kept ones
-    half = float(np.min(np.diff(grid), initial=0.0)) / 2
+    half = float(np.min(np.diff(grid))) / 2 if grid.size > 1 else 0.0
     return float(kept.min()) - half, float(kept.max()) + half
 
 
