@@ -3,20 +3,27 @@
 ``windows`` plans the windows and cuts them as views of the one record,
 ``changepoint`` fits steps and ramps to overlapping window estimates (GLS),
 ``onset`` decides none / step / drift with an interval on the onset time,
-``trend`` lays the per-window results out as a table (CSV, Parquet).
+``trend`` lays the per-window results out as a table (CSV, Parquet) and
+finds every element's onsets from it.
 """
 
 from .onset import KINDS, Onset, detect_onset, first_lasting_mismatch, standard_errors
+from .trend import ELEMENT_KEYS, PARAMETERS, trend_onsets, trend_table, write_trend
 from .windows import Span, parse_span, window_plan, window_views
 
 __all__ = [
+    "ELEMENT_KEYS",
     "KINDS",
+    "PARAMETERS",
     "Onset",
     "Span",
     "detect_onset",
     "first_lasting_mismatch",
     "parse_span",
     "standard_errors",
+    "trend_onsets",
+    "trend_table",
     "window_plan",
     "window_views",
+    "write_trend",
 ]
