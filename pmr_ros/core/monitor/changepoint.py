@@ -28,6 +28,7 @@ __all__ = [
     "Fit",
     "Shapes",
     "candidate_shapes",
+    "fine_shapes_for",
     "fit_shapes",
     "null_quantile",
     "overlap_correlation",
@@ -118,8 +119,15 @@ class Shapes:
     duration: np.ndarray
     matrix: np.ndarray
 
+    def subset(self, *, rows: np.ndarray | None = None, columns: np.ndarray | None = None) -> Shapes:
+        """Some windows (boolean ``rows``: the windows kept) and some candidates (boolean ``columns``)."""
+        matrix = self.matrix if rows is None or rows.all() else self.matrix[rows]
+        if columns is None:
+            return Shapes(self.onset, self.duration, matrix)
+        return Shapes(self.onset[columns], self.duration[columns], matrix[:, columns])
 
-def candidate_shapes(*, ends: np.ndarray, window: float, resolution: float, durations: int = 16) -> Shapes:
+
+def candidate_shapes(*, ends: np.ndarray, window: float, resolution: float, durations: int = 8) -> Shapes:
     """Steps and ramps on a grid: onsets every ``resolution``, rise times geometric from ``2 resolution``.
 
     Parameters
@@ -273,6 +281,14 @@ def fit_shapes(*, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, w
 def shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
     """:func:`candidate_shapes`, cached per window times (every element and parameter shares them)."""
     return candidate_shapes(ends=np.asarray(ends), window=window, resolution=resolution)
+
+
+@lru_cache(maxsize=4)
+def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
+    """:func:`ramp_shapes` from every onset of :func:`shapes_for`, cached (the refinement picks its onsets)."""
+    coarse = shapes_for(ends, window, resolution)
+    times = np.asarray(ends)
+    return ramp_shapes(ends=times, window=window, onsets=coarse.onset[coarse.duration == 0], resolution=resolution)
 
 
 @lru_cache(maxsize=32)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2, norm
 
-from .changepoint import Fit, Shapes, fit_shapes, null_quantile, ramp_shapes, shapes_for
+from .changepoint import Fit, Shapes, fine_shapes_for, fit_shapes, null_quantile, shapes_for
 
 __all__ = ["KINDS", "Onset", "detect_onset", "first_lasting_mismatch", "standard_errors"]
 
@@ -101,8 +101,21 @@ def standard_errors(*, low: np.ndarray, high: np.ndarray, level: float = 0.95) -
     return (np.asarray(high, dtype=float) - np.asarray(low, dtype=float)) / (2 * z)
 
 
-def _checked(estimates: Any, errors: Any, end_times: Any, window: float) -> tuple[np.ndarray, ...]:
-    """The usable windows (finite estimate, positive finite error) as float arrays."""
+@dataclass(frozen=True)
+class _Record:
+    """One parameter's windows: the usable ones (``keep``) and the grid they sit on (every window)."""
+
+    estimates: np.ndarray
+    errors: np.ndarray
+    ends: np.ndarray
+    keep: np.ndarray
+    grid: tuple[float, ...]
+    window: float
+    resolution: float
+
+
+def _checked(estimates: Any, errors: Any, end_times: Any, window: float, resolution: float | None) -> _Record:
+    """The usable windows (finite estimate, positive finite error) and the window grid, checked."""
     y, s, t = (np.asarray(a, dtype=float) for a in (estimates, errors, end_times))
     if not y.shape == s.shape == t.shape or y.ndim != 1:
         raise ValueError(f"estimates, errors, end_times: shapes {y.shape}, {s.shape}, {t.shape} differ")
@@ -110,8 +123,11 @@ def _checked(estimates: Any, errors: Any, end_times: Any, window: float) -> tupl
         raise ValueError("end_times: the window end times must be finite and increasing")
     if not window > 0:
         raise ValueError(f"window: {window!r} must be positive")
+    if resolution is not None and not resolution > 0:
+        raise ValueError(f"resolution: {resolution!r} must be positive")
     keep = np.isfinite(y) & np.isfinite(s) & (s > 0)
-    return y[keep], s[keep], t[keep], t
+    step = float(resolution) if resolution is not None else float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    return _Record(y[keep], s[keep], t[keep], keep, tuple(t.tolist()), float(window), step)
 
 
 def _family_best(fit: Fit, members: np.ndarray) -> int:
@@ -136,14 +152,17 @@ def _profile_interval(onsets: np.ndarray, drops: np.ndarray, confidence: float) 
     return float(kept.min()) - half, float(kept.max()) + half
 
 
-def _refined(fit: Fit, shapes: Shapes, data: tuple[np.ndarray, ...], window: float, step: float) -> tuple[Fit, Shapes]:
+def _refined(fit: Fit, shapes: Shapes, record: _Record) -> tuple[Fit, Shapes]:
     """The coarse candidates plus ramps with fine rise times from every onset near the coarse best ramp."""
-    y, s, t = data
     ramps = shapes.duration > 0
     grid, profile = _profile(shapes.onset[ramps], fit.drop[ramps])
-    near = grid[profile >= profile.max() - _REFINE_MARGIN]
-    fine = ramp_shapes(ends=t, window=window, onsets=near, resolution=step)
-    more = fit_shapes(estimates=y, errors=s, ends=t, window=window, shapes=fine)
+    best = grid[np.argmax(profile)]
+    near = grid[(profile >= profile.max() - _REFINE_MARGIN) | (np.abs(grid - best) <= record.window)]
+    every = fine_shapes_for(record.grid, record.window, record.resolution)
+    fine = every.subset(rows=record.keep, columns=np.isin(every.onset, near))
+    more = fit_shapes(
+        estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=fine
+    )
     merged = Fit(
         rss_none=fit.rss_none,
         mean=fit.mean,
@@ -152,14 +171,15 @@ def _refined(fit: Fit, shapes: Shapes, data: tuple[np.ndarray, ...], window: flo
         size=np.concatenate([fit.size, more.size]),
     )
     onset, duration = np.concatenate([shapes.onset, fine.onset]), np.concatenate([shapes.duration, fine.duration])
-    return merged, Shapes(onset, duration, np.empty((t.size, 0)))
+    return merged, Shapes(onset, duration, np.empty((record.ends.size, 0)))
 
 
 NULL_DRAWS = 2000
 """Simulated no-change records behind the threshold (once per set of window times, cached)."""
 
 _REFINE_MARGIN = 25.0
-"""Onsets whose coarse ramp profile is within this ``2 log LR`` of the best get fine rise times."""
+"""Onsets whose coarse ramp profile is within this ``2 log LR`` of the best get fine rise times (and those
+within a window length of the best)."""
 
 
 def _change(fit: Fit, shapes: Shapes, ends: np.ndarray, confidence: float) -> dict[str, Any]:
@@ -217,6 +237,13 @@ def detect_onset(
     min_windows : int
         Fewer usable windows give kind ``insufficient``.
 
+    Notes
+    -----
+    The no-change threshold is simulated once per window grid (``end_times``
+    and ``window``) with equal errors, and shared by every element and
+    parameter on that grid: exact when the errors are equal, and conservative
+    (fewer false alarms than ``significance``) where windows are left out.
+
     Returns
     -------
     Onset
@@ -226,27 +253,29 @@ def detect_onset(
     ValueError
         Arrays of different shapes, end times not increasing, a window of zero or less.
     """
-    y, s, t, every = _checked(estimates, errors, end_times, window)
-    if y.size < max(min_windows, 3):
-        return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, int(y.size))
-    step = float(resolution) if resolution is not None else float(np.median(np.diff(every)))
-    shapes = shapes_for(tuple(t.tolist()), float(window), step)
-    fit = fit_shapes(estimates=y, errors=s, ends=t, window=window, shapes=shapes)
+    record = _checked(estimates, errors, end_times, window, resolution)
+    n = record.ends.size
+    if n < max(min_windows, 3):
+        return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, n)
+    # candidates and threshold on the whole window grid (shared by every element), the fit on the usable windows
+    shapes = shapes_for(record.grid, record.window, record.resolution).subset(rows=record.keep)
+    fit = fit_shapes(
+        estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=shapes
+    )
     threshold, maxima = null_quantile(
-        ends=t, window=window, resolution=step, significance=significance, draws=NULL_DRAWS
+        ends=np.asarray(record.grid),
+        window=record.window,
+        resolution=record.resolution,
+        significance=significance,
+        draws=NULL_DRAWS,
     )
     statistic = float(np.max(fit.drop))
     p_value = float((np.sum(maxima >= statistic) + 1) / (maxima.size + 1))
-    common: dict[str, Any] = {
-        "statistic": statistic,
-        "threshold": threshold,
-        "p_value": p_value,
-        "windows": int(y.size),
-    }
+    common: dict[str, Any] = {"statistic": statistic, "threshold": threshold, "p_value": p_value, "windows": n}
     if statistic < threshold:
         return Onset(kind="none", time=None, interval=None, end=None, size=None, level=fit.mean, **common)
-    fit, shapes = _refined(fit, shapes, (y, s, t), float(window), step)
-    return Onset(**_change(fit, shapes, t, confidence), **common)
+    fit, shapes = _refined(fit, shapes, record)
+    return Onset(**_change(fit, shapes, record.ends, confidence), **common)
 
 
 def first_lasting_mismatch(
