@@ -52,7 +52,7 @@ def main() -> None:
 
     start = time.perf_counter()
     shapes_for(tuple(ends.tolist()), float(WINDOW), 1.0)
-    null_quantile(ends=ends, window=WINDOW, resolution=1.0, significance=0.01, draws=2000, seed=0)
+    null_quantile(grid=ends, window=WINDOW, resolution=1.0, significance=0.01)
     once = time.perf_counter() - start
     start, cpu = time.perf_counter(), time.process_time()
     found = [

@@ -93,7 +93,7 @@ def test_candidate_and_refined_shapes_cover_steps_and_ramps():
 def test_null_quantile_is_the_false_alarm_rate_of_the_largest_drop():
     # fresh no-change records, fitted as the onset fit does: the largest drop beats the 10 % quantile one time in ten
     ends = np.arange(15.0, 115.0)
-    threshold, maxima = null_quantile(ends=ends, window=14.0, resolution=1.0, significance=0.10, draws=2000, seed=5)
+    threshold, maxima = null_quantile(grid=ends, window=14.0, resolution=1.0, significance=0.10, draws=2000)
     assert maxima.size == 2000 and np.all(np.diff(maxima) >= 0)
     shapes = candidate_shapes(ends=ends, window=14.0, resolution=1.0)
     chol = cholesky(overlap_correlation(end_times=ends, window=14.0), lower=True)

@@ -97,6 +97,18 @@ def test_no_change_is_none_in_at_least_95_of_100_records():
     assert len(alarms) <= 5
 
 
+def test_no_change_with_windows_left_out_keeps_its_false_alarm_rate():
+    # the threshold is simulated on the windows kept: a third left out changes the law of the largest ratio
+    left_out = np.random.default_rng(11).random(ENDS.size) < 0.3
+    alarms = 0
+    for seed in range(60):
+        estimates, errors = window_estimates(np.zeros(DAYS), error=1.0, seed=3000 + seed)
+        estimates[left_out] = np.nan
+        alarms += _onset(estimates, errors, significance=0.05).kind != "none"
+    print(f"false alarms with 30 % of the windows left out: {alarms} of 60 (significance 0.05)")
+    assert alarms <= 8  # 3 expected
+
+
 @pytest.mark.parametrize(
     ("path", "truth", "error"), [(GAIN_RAMP, RAMP_DAY, GAIN_ERROR), (DELAY_STEP, STEP_DAY, DELAY_ERROR)]
 )

@@ -291,20 +291,21 @@ def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float) -
     return ramp_shapes(ends=times, window=window, onsets=coarse.onset[coarse.duration == 0], resolution=resolution)
 
 
-@lru_cache(maxsize=32)
-def _null_maxima(ends: tuple[float, ...], window: float, resolution: float, draws: int, seed: int) -> np.ndarray:
-    """Largest drop over all shapes in ``draws`` simulated no-change records, sorted."""
-    times = np.asarray(ends)
+@lru_cache(maxsize=64)
+def _null_maxima(grid: tuple[float, ...], keep: bytes, window: float, resolution: float, draws: int) -> np.ndarray:
+    """Largest drop over all shapes in ``draws`` simulated no-change records on the kept windows, sorted."""
+    rows = np.frombuffer(keep, dtype=bool) if keep else np.ones(len(grid), dtype=bool)
+    times = np.asarray(grid)[rows]
     white = whiten(
         _correlation_band(times, window),
-        np.column_stack([np.ones(times.size), shapes_for(ends, window, resolution).matrix]),
+        np.column_stack([np.ones(times.size), shapes_for(grid, window, resolution).subset(rows=rows).matrix]),
     )
     ones, shapes = white[:, 0], white[:, 1:]
     orth = shapes - np.outer(ones, (shapes.T @ ones) / (ones @ ones))
     norm = np.sqrt(np.einsum("ij,ij->j", orth, orth))
     unit = orth[:, norm > 1e-9 * norm.max()] / norm[norm > 1e-9 * norm.max()]
     # whitened no-change noise is standard normal whatever the level: the drop of a shape is (u^T z)^2
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(NULL_SEED)
     maxima = np.empty(draws)
     for start in range(0, draws, 200):
         z = rng.standard_normal((times.size, min(200, draws - start)))
@@ -312,30 +313,42 @@ def _null_maxima(ends: tuple[float, ...], window: float, resolution: float, draw
     return np.sort(maxima)
 
 
+NULL_SEED = 0
+"""Seed of the no-change simulation: the threshold is the same on every run."""
+
+
 def null_quantile(
-    *, ends: np.ndarray, window: float, resolution: float, significance: float, draws: int = 2000, seed: int = 0
+    *,
+    grid: np.ndarray,
+    window: float,
+    resolution: float,
+    significance: float,
+    keep: np.ndarray | None = None,
+    draws: int = 2000,
 ) -> tuple[float, np.ndarray]:
     """The threshold of the largest drop over all candidates under no change, by simulation.
 
     The largest of many correlated likelihood ratios has no chi-square law,
-    so its law is drawn: records of pure overlap-correlated noise, fitted with
-    every candidate.  The standard errors are taken equal across windows here
-    (exact when they are; the statistic does not depend on their common
-    scale), so one simulation serves every element and parameter sharing the
-    window times (cached).
+    so its law is drawn: records of pure overlap-correlated noise on the kept
+    windows, fitted with every candidate of :func:`shapes_for` on the grid.
+    The standard errors are taken equal across windows here (exact when they
+    are; the statistic does not depend on their common scale), so one
+    simulation serves every element and parameter with the same usable
+    windows (cached; a new set of left-out windows costs a new simulation,
+    since leaving windows out changes the law).
 
     Parameters
     ----------
-    ends : ndarray
-        Window end times [time unit].
+    grid : ndarray
+        End times of every window [time unit].
     window, resolution : float
         As for :func:`candidate_shapes` [time unit].
     significance : float
         False alarm probability of the no-change test (0..1).
+    keep : ndarray of bool, optional
+        The windows with a usable estimate (default all).
     draws : int
         Simulated records.
-    seed : int
-        Seed of the simulation (the threshold is reproducible).
 
     Returns
     -------
@@ -344,5 +357,7 @@ def null_quantile(
     maxima : ndarray
         The simulated largest drops, sorted (for p-values).
     """
-    maxima = _null_maxima(tuple(np.asarray(ends, dtype=float).tolist()), float(window), float(resolution), draws, seed)
+    times = tuple(np.asarray(grid, dtype=float).tolist())
+    mask = b"" if keep is None or np.all(keep) else np.asarray(keep, dtype=bool).tobytes()
+    maxima = _null_maxima(times, mask, float(window), float(resolution), draws)
     return float(np.quantile(maxima, 1.0 - significance)), maxima

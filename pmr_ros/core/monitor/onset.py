@@ -239,10 +239,11 @@ def detect_onset(
 
     Notes
     -----
-    The no-change threshold is simulated once per window grid (``end_times``
-    and ``window``) with equal errors, and shared by every element and
-    parameter on that grid: exact when the errors are equal, and conservative
-    (fewer false alarms than ``significance``) where windows are left out.
+    The no-change threshold is simulated with equal errors once per window
+    grid and set of usable windows, and shared by every element and parameter
+    with the same ones: exact when the errors are equal.  Each new set of
+    left-out windows costs one simulation (about a second for a year of
+    daily windows).
 
     Returns
     -------
@@ -257,16 +258,17 @@ def detect_onset(
     n = record.ends.size
     if n < max(min_windows, 3):
         return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, n)
-    # candidates and threshold on the whole window grid (shared by every element), the fit on the usable windows
+    # candidates on the whole window grid (shared by every element), the fit and threshold on the usable windows
     shapes = shapes_for(record.grid, record.window, record.resolution).subset(rows=record.keep)
     fit = fit_shapes(
         estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=shapes
     )
     threshold, maxima = null_quantile(
-        ends=np.asarray(record.grid),
+        grid=np.asarray(record.grid),
         window=record.window,
         resolution=record.resolution,
         significance=significance,
+        keep=record.keep,
         draws=NULL_DRAWS,
     )
     statistic = float(np.max(fit.drop))
