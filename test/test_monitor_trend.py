@@ -141,3 +141,16 @@ def test_onsets_by_sample_index_when_the_data_have_no_clock():
     onsets = trend_onsets(table, window=float(WINDOW), time="last").set_index(["element", "parameter"])
     # ends at the last sample: a day earlier than the window's end instant
     np.testing.assert_allclose(onsets.loc[("G12", "delay"), "onset"], 80 - 1, atol=3)
+
+
+def test_a_parameter_without_intervals_takes_its_default_error():
+    table = trend_table(_windows(nested=False))
+    table[["delay_mismatch_samples_low", "delay_mismatch_samples_high"]] = np.nan  # dD has a value, no interval
+    without = trend_onsets(table, window=WINDOW * 86400.0).set_index(["element", "parameter"])
+    assert without.loc[("G12", "delay"), "kind"] == "insufficient"
+    assert without.loc[("G12", "delay"), "windows"] == 0
+    given = trend_onsets(table, window=WINDOW * 86400.0, default_errors={"delay": ERRORS["delay"]})
+    found = given.set_index(["element", "parameter"]).loc[("G12", "delay")]
+    start = pd.Timestamp("2026-01-01", tz="UTC").timestamp()
+    assert found["kind"] == "step" and found["windows"] == len(PLAN)
+    np.testing.assert_allclose((found["onset"] - start) / 86400, 80, atol=3)

@@ -160,7 +160,22 @@ def _seconds(values: Any) -> np.ndarray:
     return np.asarray((stamps - pandas.Timestamp(0, tz="UTC")) / pandas.Timedelta(seconds=1), dtype=float)
 
 
-def trend_onsets(table: Any, *, window: float, time: str = "end", significance: float = 0.01) -> Any:
+def _errors(rows: Any, key: str, default: float | None) -> np.ndarray:
+    """Standard errors from the 95 % interval columns; ``default`` where a window has an estimate but none."""
+    errors = standard_errors(low=rows[f"{key}_low"].to_numpy(), high=rows[f"{key}_high"].to_numpy())
+    if default is not None:
+        errors = np.where(np.isfinite(errors), errors, default)
+    return errors
+
+
+def trend_onsets(
+    table: Any,
+    *,
+    window: float,
+    time: str = "end",
+    significance: float = 0.01,
+    default_errors: Mapping[str, float] | None = None,
+) -> Any:
     """The onset of every element's parameters from a trend table, and the window the mismatch lasts from.
 
     Parameters
@@ -173,6 +188,10 @@ def trend_onsets(table: Any, *, window: float, time: str = "end", significance: 
         Column with each window's time: ``end`` (clock) or ``last`` (samples).
     significance : float
         False alarm probability of an onset where nothing changed.
+    default_errors : mapping of str to float, optional
+        Standard error per parameter (``gain``, ``tau``, ``delay``; its unit)
+        for the windows with an estimate but no interval (the delay has none
+        today): without one such windows are left out.
 
     Returns
     -------
@@ -193,7 +212,7 @@ def trend_onsets(table: Any, *, window: float, time: str = "end", significance: 
         lasting = first_lasting_mismatch(list(ordered["verdict"]))
         first = None if lasting is None else int(ordered["window"].iloc[lasting])
         for parameter, key in PARAMETERS.items():
-            errors = standard_errors(low=ordered[f"{key}_low"].to_numpy(), high=ordered[f"{key}_high"].to_numpy())
+            errors = _errors(ordered, key, (default_errors or {}).get(parameter))
             found = detect_onset(
                 estimates=ordered[key].to_numpy(dtype=float),
                 errors=errors,
