@@ -15,7 +15,14 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from pmr_ros.core.monitor import detect_onset, first_lasting_mismatch, standard_errors, window_plan, window_views
+from pmr_ros.core.monitor import (
+    OnsetSettings,
+    detect_onset,
+    first_lasting_mismatch,
+    standard_errors,
+    window_plan,
+    window_views,
+)
 
 DAYS, WINDOW = 365, 14
 PLAN = window_plan(n_samples=DAYS, window=WINDOW, step=1)
@@ -97,6 +104,25 @@ def test_no_change_is_none_in_at_least_95_of_100_records():
     assert len(alarms) <= 5
 
 
+def test_intervals_too_narrow_are_seen_and_scaling_the_errors_keeps_the_false_alarm_rate():
+    # the windows scatter twice as much as their intervals say: half the true standard error is given
+    plain, scaled = [], []
+    for seed in range(20):
+        estimates, errors = window_estimates(np.zeros(DAYS), error=1.0, seed=4000 + seed)
+        plain.append(_onset(estimates, errors / 2))
+        scaled.append(_onset(estimates, errors / 2, settings=OnsetSettings(scale_errors=True)))
+    np.testing.assert_allclose(np.median([found.error_scale for found in plain]), 2.0, rtol=0.1)
+    alarms = [sum(found.kind != "none" for found in run) for run in (plain, scaled)]
+    print(f"false alarms with intervals half as wide as the scatter: {alarms[0]} of 20, scaled {alarms[1]} of 20")
+    assert alarms[0] >= 10 and alarms[1] <= 2
+    # stated right, the scale is about one and a ramp is still found with scaling on
+    estimates, errors = window_estimates(GAIN_RAMP, error=GAIN_ERROR, seed=5)
+    found = _onset(estimates, errors, settings=OnsetSettings(scale_errors=True))
+    np.testing.assert_allclose(found.error_scale, 1.0, atol=0.15)
+    assert found.kind == "drift"
+    np.testing.assert_allclose(found.time, RAMP_DAY, atol=3)
+
+
 def test_no_change_with_windows_left_out_keeps_its_false_alarm_rate():
     # the threshold is simulated on the windows kept: a third left out changes the law of the largest ratio
     left_out = np.random.default_rng(11).random(ENDS.size) < 0.3
@@ -104,7 +130,7 @@ def test_no_change_with_windows_left_out_keeps_its_false_alarm_rate():
     for seed in range(60):
         estimates, errors = window_estimates(np.zeros(DAYS), error=1.0, seed=3000 + seed)
         estimates[left_out] = np.nan
-        alarms += _onset(estimates, errors, significance=0.05).kind != "none"
+        alarms += _onset(estimates, errors, settings=OnsetSettings(significance=0.05)).kind != "none"
     print(f"false alarms with 30 % of the windows left out: {alarms} of 60 (significance 0.05)")
     assert alarms <= 8  # 3 expected
 

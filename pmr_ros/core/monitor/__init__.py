@@ -7,7 +7,7 @@
 finds every element's onsets from it.
 """
 
-from .onset import KINDS, Onset, detect_onset, first_lasting_mismatch, standard_errors
+from .onset import KINDS, Onset, OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
 from .trend import ELEMENT_KEYS, PARAMETERS, trend_onsets, trend_table, write_trend
 from .windows import Span, parse_span, window_plan, window_views
 
@@ -16,6 +16,7 @@ __all__ = [
     "KINDS",
     "PARAMETERS",
     "Onset",
+    "OnsetSettings",
     "Span",
     "detect_onset",
     "first_lasting_mismatch",

@@ -15,7 +15,7 @@ likelihood ratio to the best stays below the chi-square(1) quantile.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -23,10 +23,38 @@ from scipy.stats import chi2, norm
 
 from .changepoint import Fit, Shapes, fine_shapes_for, fit_shapes, null_quantile, shapes_for
 
-__all__ = ["KINDS", "Onset", "detect_onset", "first_lasting_mismatch", "standard_errors"]
+__all__ = ["KINDS", "Onset", "OnsetSettings", "detect_onset", "first_lasting_mismatch", "standard_errors"]
 
 KINDS = ("none", "step", "drift", "insufficient")
 """What :func:`detect_onset` can find: no change, a step, a drift (ramp, maybe levelling off), too few windows."""
+
+
+@dataclass(frozen=True)
+class OnsetSettings:
+    """How :func:`detect_onset` decides.
+
+    Attributes
+    ----------
+    significance : float
+        False alarm probability of declaring a change where there is none (0..1).
+    confidence : float
+        Level of the onset interval (0..1).
+    resolution : float or None
+        Spacing of the candidate onsets [unit of the end times]; None: the
+        median spacing of the end times (the step).
+    min_windows : int
+        Fewer usable windows give kind ``insufficient``.
+    scale_errors : bool
+        Scale the standard errors up by the scatter about the best fit when
+        the windows scatter more than their intervals say (never down): a
+        guard against intervals that are too narrow, at some loss of power.
+    """
+
+    significance: float = 0.01
+    confidence: float = 0.95
+    resolution: float | None = None
+    min_windows: int = 8
+    scale_errors: bool = False
 
 
 @dataclass(frozen=True)
@@ -62,6 +90,9 @@ class Onset:
         Share of simulated no-change records with a statistic at least as large.
     windows : int
         Windows used (finite estimate and standard error).
+    error_scale : float or None
+        Scatter of the windows about the best fit over what their standard
+        errors say (about 1 when the intervals are right) [-].
     """
 
     kind: str
@@ -74,6 +105,7 @@ class Onset:
     threshold: float
     p_value: float | None
     windows: int
+    error_scale: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (the interval as a list)."""
@@ -202,16 +234,18 @@ def _change(fit: Fit, shapes: Shapes, ends: np.ndarray, confidence: float) -> di
     }
 
 
+def _error_scale(fit: Fit, n: int) -> float:
+    """Scatter about the best candidate over what the standard errors say (a ramp has four parameters)."""
+    return float(np.sqrt(max(fit.rss_none - float(np.max(fit.drop)), 0.0) / max(n - 4, 1)))
+
+
 def detect_onset(
     *,
     estimates: Sequence[float] | np.ndarray,
     errors: Sequence[float] | np.ndarray,
     end_times: Sequence[float] | np.ndarray,
     window: float,
-    significance: float = 0.01,
-    confidence: float = 0.95,
-    resolution: float | None = None,
-    min_windows: int = 8,
+    settings: OnsetSettings | None = None,
 ) -> Onset:
     """When one parameter began to move over rolling windows, and as a step or a drift.
 
@@ -227,23 +261,8 @@ def detect_onset(
         When each window ends, increasing [any time unit: s, days ...].
     window : float
         Window length [the unit of ``end_times``]; sets the overlap correlation.
-    significance : float
-        False alarm probability of declaring a change where there is none.
-    confidence : float
-        Level of the onset interval.
-    resolution : float, optional
-        Spacing of the candidate onsets [time unit]; default the median
-        spacing of ``end_times`` (the step).
-    min_windows : int
-        Fewer usable windows give kind ``insufficient``.
-
-    Notes
-    -----
-    The no-change threshold is simulated with equal errors once per window
-    grid and set of usable windows, and shared by every element and parameter
-    with the same ones: exact when the errors are equal.  Each new set of
-    left-out windows costs one simulation (about a second for a year of
-    daily windows).
+    settings : OnsetSettings, optional
+        Significance, interval level, onset grid, ... (default :class:`OnsetSettings`).
 
     Returns
     -------
@@ -252,32 +271,47 @@ def detect_onset(
     Raises
     ------
     ValueError
-        Arrays of different shapes, end times not increasing, a window of zero or less.
+        Arrays of different shapes, end times not increasing, a window or
+        resolution of zero or less.
+
+    Notes
+    -----
+    The no-change threshold is simulated with equal errors once per window
+    grid and set of usable windows, and shared by every element and parameter
+    with the same ones: exact when the errors are equal.  Each new set of
+    left-out windows costs one simulation (about a second for a year of
+    daily windows).
     """
-    record = _checked(estimates, errors, end_times, window, resolution)
+    settings = settings or OnsetSettings()
+    record = _checked(estimates, errors, end_times, window, settings.resolution)
     n = record.ends.size
-    if n < max(min_windows, 3):
+    if n < max(settings.min_windows, 3):
         return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, n)
     # candidates on the whole window grid (shared by every element), the fit and threshold on the usable windows
     shapes = shapes_for(record.grid, record.window, record.resolution).subset(rows=record.keep)
     fit = fit_shapes(
         estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=shapes
     )
+    scale = _error_scale(fit, n)
+    # intervals narrower than the scatter: every likelihood ratio shrinks by the squared scale (never grows)
+    factor = scale**2 if settings.scale_errors and scale > 1.0 else 1.0
     threshold, maxima = null_quantile(
         grid=np.asarray(record.grid),
         window=record.window,
         resolution=record.resolution,
-        significance=significance,
+        significance=settings.significance,
         keep=record.keep,
         draws=NULL_DRAWS,
     )
-    statistic = float(np.max(fit.drop))
+    statistic = float(np.max(fit.drop)) / factor
     p_value = float((np.sum(maxima >= statistic) + 1) / (maxima.size + 1))
     common: dict[str, Any] = {"statistic": statistic, "threshold": threshold, "p_value": p_value, "windows": n}
+    common["error_scale"] = scale
     if statistic < threshold:
         return Onset(kind="none", time=None, interval=None, end=None, size=None, level=fit.mean, **common)
     fit, shapes = _refined(fit, shapes, record)
-    return Onset(**_change(fit, shapes, record.ends, confidence), **common)
+    fit = replace(fit, drop=fit.drop / factor)
+    return Onset(**_change(fit, shapes, record.ends, settings.confidence), **common)
 
 
 def first_lasting_mismatch(

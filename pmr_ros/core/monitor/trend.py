@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .onset import detect_onset, first_lasting_mismatch, standard_errors
+from .onset import OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
 
 __all__ = ["ELEMENT_KEYS", "PARAMETERS", "trend_onsets", "trend_table", "write_trend"]
 
@@ -173,7 +173,7 @@ def trend_onsets(
     *,
     window: float,
     time: str = "end",
-    significance: float = 0.01,
+    settings: OnsetSettings | None = None,
     default_errors: Mapping[str, float] | None = None,
 ) -> Any:
     """The onset of every element's parameters from a trend table, and the window the mismatch lasts from.
@@ -186,8 +186,8 @@ def trend_onsets(
         Window length [unit of the ``time`` column; seconds for date-times].
     time : str
         Column with each window's time: ``end`` (clock) or ``last`` (samples).
-    significance : float
-        False alarm probability of an onset where nothing changed.
+    settings : OnsetSettings, optional
+        How the onsets are decided (significance ...).
     default_errors : mapping of str to float, optional
         Standard error per parameter (``gain``, ``tau``, ``delay``; its unit)
         for the windows with an estimate but no interval (the delay has none
@@ -218,7 +218,7 @@ def trend_onsets(
                 errors=errors,
                 end_times=ends,
                 window=window,
-                significance=significance,
+                settings=settings,
             )
             low, high = found.interval or (None, None)
             rows.append(
