@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.stats import norm
 
-from pmr_ros.core.monitor import ELEMENT_KEYS, trend_onsets, trend_table, window_plan, window_views, write_trend
+from pmr_ros.core.monitor import (
+    ELEMENT_KEYS,
+    onset_entries,
+    trend_onsets,
+    trend_table,
+    window_plan,
+    window_views,
+    write_trend,
+)
 
 DAYS, WINDOW = 120, 14
 PLAN = window_plan(n_samples=DAYS, window=WINDOW, step=1)
@@ -154,3 +164,27 @@ def test_a_parameter_without_intervals_takes_its_default_error():
     start = pd.Timestamp("2026-01-01", tz="UTC").timestamp()
     assert found["kind"] == "step" and found["windows"] == len(PLAN)
     np.testing.assert_allclose((found["onset"] - start) / 86400, 80, atol=3)
+
+
+def test_onset_entries_are_plain_json_per_element():
+    onsets = trend_onsets(trend_table(_windows(nested=False)), window=WINDOW * 86400.0)
+    entries = onset_entries(onsets)
+    assert set(entries) == {"G11", "G12", "G21"}
+    assert set(entries["G12"]) == {"lasting_mismatch_window", "gain", "tau", "delay"}
+    back = json.loads(json.dumps(entries))
+    row = onsets.set_index(["element", "parameter"]).loc[("G12", "delay")]
+    assert back["G12"]["delay"]["kind"] == "step"
+    np.testing.assert_allclose(back["G12"]["delay"]["interval"], [row["onset_low"], row["onset_high"]])
+    np.testing.assert_allclose(back["G12"]["delay"]["onset"], row["onset"])
+    assert back["G12"]["lasting_mismatch_window"] == row["lasting_mismatch_window"]
+    assert back["G21"]["gain"] | {"level": None, "p_value": None} == {
+        "kind": "none",
+        "onset": None,
+        "interval": None,
+        "end": None,
+        "size": None,
+        "level": None,
+        "p_value": None,
+        "windows": len(PLAN),
+    }
+    assert back["G21"]["lasting_mismatch_window"] is None

@@ -8,7 +8,7 @@ finds every element's onsets from it.
 """
 
 from .onset import KINDS, Onset, OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
-from .trend import ELEMENT_KEYS, PARAMETERS, trend_onsets, trend_table, write_trend
+from .trend import ELEMENT_KEYS, PARAMETERS, onset_entries, trend_onsets, trend_table, write_trend
 from .windows import Span, parse_span, window_plan, window_views
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "Span",
     "detect_onset",
     "first_lasting_mismatch",
+    "onset_entries",
     "parse_span",
     "standard_errors",
     "trend_onsets",

@@ -30,7 +30,7 @@ import numpy as np
 
 from .onset import OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
 
-__all__ = ["ELEMENT_KEYS", "PARAMETERS", "trend_onsets", "trend_table", "write_trend"]
+__all__ = ["ELEMENT_KEYS", "PARAMETERS", "onset_entries", "trend_onsets", "trend_table", "write_trend"]
 
 PARAMETERS: dict[str, str] = {
     "gain": "gain_mismatch_pct",
@@ -228,3 +228,43 @@ def trend_onsets(
             )
     # a window number or none: pandas' nullable integers, not floats with NaN
     return pandas.DataFrame(rows, columns=list(_ONSET_COLUMNS)).astype({"lasting_mismatch_window": "Int64"})
+
+
+def _plain(value: Any) -> Any:
+    """A table cell as JSON: None for NaN / NA, Python numbers for numpy ones."""
+    import pandas
+
+    if value is None or (not isinstance(value, str) and pandas.isna(value)):
+        return None
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def onset_entries(onsets: Any) -> dict[str, dict[str, Any]]:
+    """The onsets table as the JSON's ``onset`` entry per element.
+
+    Parameters
+    ----------
+    onsets : pandas.DataFrame
+        From :func:`trend_onsets`.
+
+    Returns
+    -------
+    dict
+        ``{element: {"lasting_mismatch_window": int or None, "gain": {...},
+        "tau": {...}, "delay": {...}}}``, each parameter's entry with
+        ``kind``, ``onset``, ``interval`` ([low, high] or None), ``end``,
+        ``size``, ``level``, ``p_value`` and ``windows``; plain Python values.
+    """
+    entries: dict[str, dict[str, Any]] = {}
+    for row in onsets.to_dict(orient="records"):
+        entry = entries.setdefault(
+            str(row["element"]), {"lasting_mismatch_window": _plain(row["lasting_mismatch_window"])}
+        )
+        low, high = _plain(row["onset_low"]), _plain(row["onset_high"])
+        entry[str(row["parameter"])] = {
+            "kind": row["kind"],
+            "onset": _plain(row["onset"]),
+            "interval": None if low is None else [low, high],
+            **{key: _plain(row[key]) for key in ("end", "size", "level", "p_value", "windows")},
+        }
+    return entries
