@@ -76,6 +76,7 @@ def test_a_gain_ramp_is_a_drift_from_its_first_day(seed):
     np.testing.assert_allclose(found.time, RAMP_DAY, atol=3)
     np.testing.assert_allclose(found.end, RAMP_DAY + 14, atol=4)
     np.testing.assert_allclose([found.size, found.level], [20.0, 0.0], atol=1.5)
+    np.testing.assert_allclose(found.rate, 20.0 / 14, rtol=0.3)
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -83,7 +84,7 @@ def test_a_delay_step_is_a_step_on_its_day(seed):
     found = _onset(*window_estimates(DELAY_STEP, error=DELAY_ERROR, seed=100 + seed))
     print(f"step seed {seed}: onset error {found.time - STEP_DAY:+.0f} d, interval {found.interval}")
     assert found.kind == "step"
-    assert found.end is None
+    assert found.end is None and found.rate is None
     np.testing.assert_allclose(found.time, STEP_DAY, atol=3)
     np.testing.assert_allclose([found.size, found.level], [2.0, 0.0], atol=0.25)
 
@@ -174,6 +175,18 @@ def test_unequal_errors_and_clock_seconds():
     assert found.kind == "step"
     np.testing.assert_allclose(found.time / 86400, STEP_DAY, atol=3)
     json.dumps(found.to_dict())
+
+
+def test_a_drift_still_rising_reports_how_far_it_has_come_and_its_rate():
+    # fouling: +1 % a day from day 300 to the end of the year, no plateau yet (in 2 of 20 seeds the noise of
+    # the last windows makes a plateau in their last days fit better at 95 %: then ``end`` is given)
+    path = ramp_path(300, 1000, 1000.0)
+    found = _onset(*window_estimates(path, error=GAIN_ERROR, seed=0))
+    assert isinstance(found.size, float) and isinstance(found.rate, float)
+    assert found.kind == "drift" and found.end is None
+    np.testing.assert_allclose(found.time, 300, atol=3)
+    np.testing.assert_allclose(found.rate, 1.0, rtol=0.15)
+    np.testing.assert_allclose(found.size, ENDS[-1] - 300, rtol=0.15)  # 65 days at 1 % a day
 
 
 def test_too_few_windows_are_insufficient():

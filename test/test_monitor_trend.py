@@ -183,6 +183,7 @@ def test_onset_entries_are_plain_json_per_element():
         "interval": None,
         "end": None,
         "size": None,
+        "rate": None,
         "level": None,
         "p_value": None,
         "windows": len(PLAN),

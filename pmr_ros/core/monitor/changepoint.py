@@ -35,6 +35,7 @@ __all__ = [
     "ramp_shapes",
     "shapes_for",
     "whiten",
+    "window_means",
 ]
 
 
@@ -277,13 +278,13 @@ def fit_shapes(*, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, w
     )
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=8)
 def shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
     """:func:`candidate_shapes`, cached per window times (every element and parameter shares them)."""
     return candidate_shapes(ends=np.asarray(ends), window=window, resolution=resolution)
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=2)
 def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
     """:func:`ramp_shapes` from every onset of :func:`shapes_for`, cached (the refinement picks its onsets)."""
     coarse = shapes_for(ends, window, resolution)

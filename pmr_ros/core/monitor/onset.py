@@ -73,12 +73,14 @@ class Onset:
         Onset times not rejected by the profile likelihood ratio at the
         confidence level (the hull of that set).
     end : float or None
-        Drift only: when the ramp levelled off; None while it still rises at
-        the last window (and for steps).
+        Drift only: when the ramp levelled off; None while it may still rise
+        at the last window (a ramp rising to the end fits within the
+        confidence level), and for steps.
     size : float or None
-        The change, plateau (or last-window ramp value) minus the level
-        before [parameter unit]; for a ramp still rising, its full rise over
-        the fitted rise time.
+        How far the parameter has moved by the last window's end: the step,
+        or the ramp's rise up to its plateau or to then [parameter unit].
+    rate : float or None
+        Drift only: its slope while it rises [parameter unit per time unit].
     level : float or None
         The level before the change (of the whole record when none)
         [parameter unit].
@@ -106,6 +108,7 @@ class Onset:
     p_value: float | None
     windows: int
     error_scale: float | None = None
+    rate: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (the interval as a list)."""
@@ -214,6 +217,14 @@ _REFINE_MARGIN = 25.0
 within a window length of the best)."""
 
 
+def _levelled_off(fit: Fit, shapes: Shapes, best: int, last: float, confidence: float) -> bool:
+    """Whether the best ramp's plateau is seen: a ramp still rising at ``last`` fits clearly worse."""
+    rising = (shapes.duration > 0) & (shapes.onset + shapes.duration >= last)
+    if shapes.onset[best] + shapes.duration[best] >= last:
+        return False
+    return not rising.any() or fit.drop[best] - np.max(fit.drop[rising]) >= chi2.ppf(confidence, 1)
+
+
 def _change(fit: Fit, shapes: Shapes, ends: np.ndarray, confidence: float) -> dict[str, Any]:
     """Step or drift by BIC, with its onset, interval, end, size and level."""
     steps = shapes.duration == 0
@@ -223,13 +234,15 @@ def _change(fit: Fit, shapes: Shapes, ends: np.ndarray, confidence: float) -> di
     bic_ramp = -fit.drop[best_ramp] + 4 * np.log(ends.size)
     drift = bool(bic_ramp < bic_step)
     best, members = (best_ramp, ~steps) if drift else (best_step, steps)
-    onset, duration = float(shapes.onset[best]), float(shapes.duration[best])
+    onset, duration, size = float(shapes.onset[best]), float(shapes.duration[best]), float(fit.size[best])
+    reached = min(1.0, float(ends[-1] - onset) / duration) if drift else 1.0
     return {
         "kind": "drift" if drift else "step",
         "time": onset,
         "interval": _profile_interval(shapes.onset[members], fit.drop[members], confidence),
-        "end": onset + duration if drift and onset + duration < ends[-1] else None,
-        "size": float(fit.size[best]),
+        "end": onset + duration if drift and _levelled_off(fit, shapes, best, ends[-1], confidence) else None,
+        "size": size * reached,
+        "rate": size / duration if drift else None,
         "level": float(fit.level[best]),
     }
 

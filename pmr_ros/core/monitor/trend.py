@@ -47,7 +47,7 @@ ELEMENT_KEYS: tuple[str, ...] = (
 
 _WINDOW_COLUMNS = ("window", "first", "last", "start", "end", "element", "verdict")
 _ONSET_COLUMNS: tuple[str, ...] = ("element", "parameter", "kind", "onset", "onset_low", "onset_high", "end")
-_ONSET_COLUMNS += ("size", "level", "p_value", "windows", "lasting_mismatch_window")
+_ONSET_COLUMNS += ("size", "rate", "level", "p_value", "windows", "lasting_mismatch_window")
 
 
 def _field(element: Mapping[str, Any], key: str) -> Any:
@@ -198,7 +198,7 @@ def trend_onsets(
     pandas.DataFrame
         One row per element and parameter: ``element``, ``parameter``,
         ``kind``, ``onset``, ``onset_low``, ``onset_high``, ``end``, ``size``,
-        ``level``, ``p_value``, ``windows``, and ``lasting_mismatch_window``
+        ``rate``, ``level``, ``p_value``, ``windows``, and ``lasting_mismatch_window``
         (the ``window`` from which the element's verdict stays mismatch, or
         None).  Onset times are in the unit of ``time`` (seconds since the
         epoch for date-times).
@@ -223,7 +223,8 @@ def trend_onsets(
             low, high = found.interval or (None, None)
             rows.append(
                 {"element": element, "parameter": parameter, "kind": found.kind, "onset": found.time}
-                | {"onset_low": low, "onset_high": high, "end": found.end, "size": found.size, "level": found.level}
+                | {"onset_low": low, "onset_high": high, "end": found.end, "size": found.size, "rate": found.rate}
+                | {"level": found.level}
                 | {"p_value": found.p_value, "windows": found.windows, "lasting_mismatch_window": first}
             )
     # a window number or none: pandas' nullable integers, not floats with NaN
@@ -253,7 +254,8 @@ def onset_entries(onsets: Any) -> dict[str, dict[str, Any]]:
         ``{element: {"lasting_mismatch_window": int or None, "gain": {...},
         "tau": {...}, "delay": {...}}}``, each parameter's entry with
         ``kind``, ``onset``, ``interval`` ([low, high] or None), ``end``,
-        ``size``, ``level``, ``p_value`` and ``windows``; plain Python values.
+        ``size``, ``rate``, ``level``, ``p_value`` and ``windows``; plain
+        Python values.
     """
     entries: dict[str, dict[str, Any]] = {}
     for row in onsets.to_dict(orient="records"):
@@ -265,6 +267,6 @@ def onset_entries(onsets: Any) -> dict[str, dict[str, Any]]:
             "kind": row["kind"],
             "onset": _plain(row["onset"]),
             "interval": None if low is None else [low, high],
-            **{key: _plain(row[key]) for key in ("end", "size", "level", "p_value", "windows")},
+            **{key: _plain(row[key]) for key in ("end", "size", "rate", "level", "p_value", "windows")},
         }
     return entries
