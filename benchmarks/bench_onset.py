@@ -19,7 +19,8 @@ import time
 import numpy as np
 
 from pmr_ros.core.monitor import detect_onset, window_plan, window_views
-from pmr_ros.core.monitor.changepoint import null_quantile, shapes_for
+from pmr_ros.core.monitor.changepoint import shapes_for
+from pmr_ros.core.monitor.nochange import null_quantile
 
 WINDOW = 14
 

@@ -11,12 +11,13 @@ from pmr_ros.core.monitor.changepoint import (
     _band,
     candidate_shapes,
     fit_shapes,
-    null_quantile,
     overlap_correlation,
     ramp_shapes,
     whiten,
     window_means,
+    window_shapes,
 )
+from pmr_ros.core.monitor.nochange import null_quantile
 
 
 def test_overlap_correlation_is_that_of_window_means_of_white_noise():
@@ -40,17 +41,18 @@ def test_window_means_equal_the_mean_of_the_path_over_each_window(onset, duratio
         np.testing.assert_allclose(got[index, 0], path.mean(), atol=2e-4)
 
 
-def _covariance(ends, errors, window):
-    return overlap_correlation(end_times=ends, window=window) * np.outer(errors, errors)
+def _covariance(ends, errors, window, nugget=0.0):
+    return overlap_correlation(end_times=ends, window=window, nugget=nugget) * np.outer(errors, errors)
 
 
-def test_whiten_equals_the_dense_cholesky_solve():
+@pytest.mark.parametrize("nugget", [0.0, 0.02, 0.5])
+def test_whiten_equals_the_dense_cholesky_solve(nugget):
     rng = np.random.default_rng(2)
     ends = np.sort(rng.choice(np.arange(200.0), size=120, replace=False))  # irregular: missing windows
     errors = rng.uniform(0.5, 2.0, ends.size)
     columns = rng.standard_normal((ends.size, 7))
-    dense = solve_triangular(cholesky(_covariance(ends, errors, 14.0), lower=True), columns, lower=True)
-    np.testing.assert_allclose(whiten(_band(ends, errors, 14.0), columns), dense, rtol=1e-9, atol=1e-9)
+    dense = solve_triangular(cholesky(_covariance(ends, errors, 14.0, nugget), lower=True), columns, lower=True)
+    np.testing.assert_allclose(whiten(_band(ends, errors, 14.0, nugget), columns), dense, rtol=1e-8, atol=1e-8)
 
 
 def test_fit_shapes_equals_dense_generalized_least_squares():
@@ -59,8 +61,8 @@ def test_fit_shapes_equals_dense_generalized_least_squares():
     errors = rng.uniform(0.5, 1.5, ends.size)
     shapes = candidate_shapes(ends=ends, window=14.0, resolution=1.0, durations=4)
     estimates = 2.0 + 5.0 * shapes.matrix[:, 300] + rng.standard_normal(ends.size)
-    fit = fit_shapes(estimates=estimates, errors=errors, ends=ends, window=14.0, shapes=shapes)
-    factor = cho_factor(_covariance(ends, errors, 14.0))
+    fit = fit_shapes(estimates=estimates, errors=errors, ends=ends, window=14.0, shapes=shapes, nugget=0.02)
+    factor = cho_factor(_covariance(ends, errors, 14.0, 0.02))
 
     def gls(design):
         beta = np.linalg.solve(design.T @ cho_solve(factor, design), design.T @ cho_solve(factor, estimates))
@@ -104,3 +106,13 @@ def test_null_quantile_is_the_false_alarm_rate_of_the_largest_drop():
         fit = fit_shapes(estimates=record, errors=np.full(ends.size, 0.7), ends=ends, window=14.0, shapes=shapes)
         alarms += fit.drop.max() >= threshold
     assert 15 <= alarms <= 47  # binomial(300, 0.10): 30 expected, limits at about +-3 standard deviations
+
+
+def test_midpoint_shapes_are_the_path_at_each_window_middle():
+    ends, onset = np.arange(20.0, 80.0, 2.5), np.array([37.3, 37.3])
+    got = window_shapes(ends=ends, window=14.0, onset=onset, duration=np.array([0.0, 5.5]), follow="midpoint")
+    middle = ends - 7.0
+    np.testing.assert_array_equal(got[:, 0], middle >= 37.3)
+    np.testing.assert_allclose(got[:, 1], np.clip((middle - 37.3) / 5.5, 0, 1), rtol=1e-12)
+    means = window_shapes(ends=ends, window=14.0, onset=onset, duration=np.array([0.0, 5.5]))
+    np.testing.assert_allclose(means, window_means(ends=ends, window=14.0, onset=onset, duration=np.array([0.0, 5.5])))

@@ -110,15 +110,16 @@ def test_intervals_too_narrow_are_seen_and_scaling_the_errors_keeps_the_false_al
     plain, scaled = [], []
     for seed in range(20):
         estimates, errors = window_estimates(np.zeros(DAYS), error=1.0, seed=4000 + seed)
-        plain.append(_onset(estimates, errors / 2))
-        scaled.append(_onset(estimates, errors / 2, settings=OnsetSettings(scale_errors=True)))
+        # no nugget: the noise here is purely overlap-correlated, and the error scale is then exact
+        plain.append(_onset(estimates, errors / 2, settings=OnsetSettings(nugget=0.0)))
+        scaled.append(_onset(estimates, errors / 2, settings=OnsetSettings(scale_errors=True, nugget=0.0)))
     np.testing.assert_allclose(np.median([found.error_scale for found in plain]), 2.0, rtol=0.1)
     alarms = [sum(found.kind != "none" for found in run) for run in (plain, scaled)]
     print(f"false alarms with intervals half as wide as the scatter: {alarms[0]} of 20, scaled {alarms[1]} of 20")
     assert alarms[0] >= 10 and alarms[1] <= 2
     # stated right, the scale is about one and a ramp is still found with scaling on
     estimates, errors = window_estimates(GAIN_RAMP, error=GAIN_ERROR, seed=5)
-    found = _onset(estimates, errors, settings=OnsetSettings(scale_errors=True))
+    found = _onset(estimates, errors, settings=OnsetSettings(scale_errors=True, nugget=0.0))
     np.testing.assert_allclose(found.error_scale, 1.0, atol=0.15)
     assert found.kind == "drift"
     np.testing.assert_allclose(found.time, RAMP_DAY, atol=3)
@@ -187,6 +188,28 @@ def test_a_drift_still_rising_reports_how_far_it_has_come_and_its_rate():
     np.testing.assert_allclose(found.time, 300, atol=3)
     np.testing.assert_allclose(found.rate, 1.0, rtol=0.15)
     np.testing.assert_allclose(found.size, ENDS[-1] - 300, rtol=0.15)  # 65 days at 1 % a day
+
+
+def test_an_integer_delay_that_jumps_half_a_window_late_follows_the_midpoint():
+    # an integer delay chosen by likelihood takes the delay of most of the window: it jumps when the window's
+    # middle passes the change, with now and then a window one sample off
+    middle = ENDS - WINDOW / 2
+    estimates = np.where(middle >= STEP_DAY, 2.0, 0.0)
+    off = np.random.default_rng(13).random(ENDS.size) < 0.03
+    estimates[off] += 1.0
+    errors = np.full(ENDS.size, 0.3)
+    midpoint = _onset(estimates, errors, settings=OnsetSettings(follow="midpoint", scale_errors=True))
+    assert midpoint.kind == "step"
+    np.testing.assert_allclose(midpoint.time, STEP_DAY, atol=3)
+    # read as window means, the same estimates put the change days late
+    mean = _onset(estimates, errors, settings=OnsetSettings(follow="mean", scale_errors=True))
+    assert mean.error_scale > midpoint.error_scale
+    with pytest.raises(ValueError, match="follow: 'median' is not one of"):
+        _onset(estimates, errors, settings=OnsetSettings(follow="median"))
+    with pytest.raises(ValueError, match=r"nugget: 1.0 must be in \[0, 1\)"):
+        _onset(estimates, errors, settings=OnsetSettings(nugget=1.0))
+    with pytest.raises(ValueError, match="resolution: 0.0 must be positive"):
+        _onset(estimates, errors, settings=OnsetSettings(resolution=0.0))
 
 
 def test_too_few_windows_are_insufficient():

@@ -52,7 +52,11 @@ def _windows(*, nested: bool) -> list[dict]:
     for name, paths in _paths().items():
         for parameter, path in paths.items():
             daily = rng.standard_normal(DAYS) * ERRORS[parameter] * np.sqrt(WINDOW)
-            estimates[name, parameter] = [view.mean() for view in window_views(path + daily, PLAN)]
+            noise = np.array([view.mean() for view in window_views(daily, PLAN)])
+            if parameter == "delay":  # an integer delay takes the value of most of the window: its middle day's
+                estimates[name, parameter] = path[[first + WINDOW // 2 for first, _ in PLAN]] + noise
+            else:
+                estimates[name, parameter] = [view.mean() for view in window_views(path, PLAN)] + noise
     windows = []
     for index, (first, last) in enumerate(PLAN):
         elements = {}

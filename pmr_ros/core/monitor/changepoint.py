@@ -25,22 +25,29 @@ import numpy as np
 from scipy.linalg import cholesky_banded
 
 __all__ = [
+    "FOLLOWS",
     "Fit",
     "Shapes",
     "candidate_shapes",
+    "correlation_band",
     "fine_shapes_for",
     "fit_shapes",
-    "null_quantile",
     "overlap_correlation",
     "ramp_shapes",
     "shapes_for",
     "whiten",
     "window_means",
+    "window_shapes",
 ]
 
 
-def _correlation_band(ends: np.ndarray, window: float) -> np.ndarray:
-    """``R`` in lower banded storage (row ``k``: correlation with the window ``k`` places earlier)."""
+def correlation_band(ends: np.ndarray, window: float, nugget: float = 0.0) -> np.ndarray:
+    """``R`` in lower banded storage (row ``k``: correlation with the window ``k`` places earlier).
+
+    ``nugget`` is the share of each window's error variance taken as its own
+    (independent of its neighbours): the off-diagonal correlations shrink by
+    ``1 - nugget``.
+    """
     n = ends.size
     # ends increase, so the closest pair k places apart only grows with k: the band ends at the first k beyond W
     width = 1
@@ -49,10 +56,11 @@ def _correlation_band(ends: np.ndarray, window: float) -> np.ndarray:
     band = np.zeros((width, n))
     for k in range(width):
         band[k, : n - k] = np.maximum(0.0, 1.0 - (ends[k:] - ends[: n - k]) / window)
+    band[1:] *= 1.0 - nugget
     return band
 
 
-def overlap_correlation(*, end_times: np.ndarray, window: float) -> np.ndarray:
+def overlap_correlation(*, end_times: np.ndarray, window: float, nugget: float = 0.0) -> np.ndarray:
     """The correlation matrix of window estimates from overlapping windows.
 
     Parameters
@@ -61,15 +69,20 @@ def overlap_correlation(*, end_times: np.ndarray, window: float) -> np.ndarray:
         When each window ends, increasing [any time unit].
     window : float
         Window length [the same unit].
+    nugget : float
+        Share of each window's error that is its own (0..1).
 
     Returns
     -------
     ndarray, shape (n, n)
-        ``max(0, 1 - |t_i - t_j| / window)``: windows one step ``S`` apart
-        correlate ``1 - S/W``, windows a window length or more apart not at all.
+        ``(1 - nugget) max(0, 1 - |t_i - t_j| / window)`` off the diagonal, 1
+        on it: windows one step ``S`` apart correlate ``1 - S/W``, windows a
+        window length or more apart not at all.
     """
     ends = np.asarray(end_times, dtype=float)
-    return np.maximum(0.0, 1.0 - np.abs(ends[:, None] - ends[None, :]) / window)
+    correlation = (1.0 - nugget) * np.maximum(0.0, 1.0 - np.abs(ends[:, None] - ends[None, :]) / window)
+    np.fill_diagonal(correlation, 1.0)
+    return correlation
 
 
 def _ramp_integral(t: np.ndarray, onset: np.ndarray, duration: np.ndarray) -> np.ndarray:
@@ -102,6 +115,35 @@ def window_means(*, ends: np.ndarray, window: float, onset: np.ndarray, duration
     return (upper - lower) / window
 
 
+FOLLOWS = ("mean", "midpoint")
+"""How a window's estimate follows a path that changes inside the window: its mean over the window (a gain or
+a time constant fitted by least squares), or its value at the window's middle (an integer delay chosen by
+likelihood takes the delay of most of the window)."""
+
+
+def window_shapes(
+    *, ends: np.ndarray, window: float, onset: np.ndarray, duration: np.ndarray, follow: str = "mean"
+) -> np.ndarray:
+    """What each window estimates of each ramp-then-plateau path: :func:`window_means`, or the path at its middle.
+
+    Parameters
+    ----------
+    ends, window, onset, duration
+        As for :func:`window_means`.
+    follow : str
+        One of :data:`FOLLOWS`.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+    """
+    if follow == "mean":
+        return window_means(ends=ends, window=window, onset=onset, duration=duration)
+    x = (ends[:, None] - window / 2) - onset[None, :]
+    d = duration[None, :]
+    return np.where(d > 0, np.clip(x / np.where(d > 0, d, 1.0), 0.0, 1.0), (x >= 0).astype(float))
+
+
 @dataclass(frozen=True)
 class Shapes:
     """Candidate changes: onset and rise time of each, and their window-mean shapes.
@@ -128,7 +170,9 @@ class Shapes:
         return Shapes(self.onset[columns], self.duration[columns], matrix[:, columns])
 
 
-def candidate_shapes(*, ends: np.ndarray, window: float, resolution: float, durations: int = 8) -> Shapes:
+def candidate_shapes(
+    *, ends: np.ndarray, window: float, resolution: float, durations: int = 8, follow: str = "mean"
+) -> Shapes:
     """Steps and ramps on a grid: onsets every ``resolution``, rise times geometric from ``2 resolution``.
 
     Parameters
@@ -142,6 +186,8 @@ def candidate_shapes(*, ends: np.ndarray, window: float, resolution: float, dura
     durations : int
         Rise times per onset; the longest outlasts the record (a ramp still
         rising at the last window).
+    follow : str
+        How a window estimate follows the path (:data:`FOLLOWS`).
 
     Returns
     -------
@@ -154,11 +200,13 @@ def candidate_shapes(*, ends: np.ndarray, window: float, resolution: float, dura
     rise = np.geomspace(2 * resolution, span, durations) if span > 2 * resolution else np.array([span])
     onset = np.concatenate([onsets, np.repeat(onsets, rise.size)])
     duration = np.concatenate([np.zeros(onsets.size), np.tile(rise, onsets.size)])
-    matrix = window_means(ends=ends, window=window, onset=onset, duration=duration)
+    matrix = window_shapes(ends=ends, window=window, onset=onset, duration=duration, follow=follow)
     return Shapes(onset, duration, matrix)
 
 
-def ramp_shapes(*, ends: np.ndarray, window: float, onsets: np.ndarray, resolution: float) -> Shapes:
+def ramp_shapes(
+    *, ends: np.ndarray, window: float, onsets: np.ndarray, resolution: float, follow: str = "mean"
+) -> Shapes:
     """Ramps from the given onsets with fine rise times: every ``resolution`` up to 40 of them, then geometric.
 
     The coarse grid of :func:`candidate_shapes` finds where a ramp starts;
@@ -173,6 +221,8 @@ def ramp_shapes(*, ends: np.ndarray, window: float, onsets: np.ndarray, resoluti
         As for :func:`candidate_shapes` [time unit].
     onsets : ndarray
         The onsets to refine.
+    follow : str
+        How a window estimate follows the path (:data:`FOLLOWS`).
 
     Returns
     -------
@@ -182,7 +232,8 @@ def ramp_shapes(*, ends: np.ndarray, window: float, onsets: np.ndarray, resoluti
     rise = resolution * np.arange(2, 41)
     rise = np.unique(np.concatenate([rise[rise < span], np.geomspace(min(40 * resolution, span), span, 12)]))
     onset, duration = np.repeat(onsets, rise.size), np.tile(rise, onsets.size)
-    return Shapes(onset, duration, window_means(ends=ends, window=window, onset=onset, duration=duration))
+    matrix = window_shapes(ends=ends, window=window, onset=onset, duration=duration, follow=follow)
+    return Shapes(onset, duration, matrix)
 
 
 @dataclass(frozen=True)
@@ -208,9 +259,9 @@ class Fit:
     size: np.ndarray
 
 
-def _band(ends: np.ndarray, errors: np.ndarray, window: float) -> np.ndarray:
+def _band(ends: np.ndarray, errors: np.ndarray, window: float, nugget: float) -> np.ndarray:
     """``Sigma = D R D`` in lower banded storage."""
-    band = _correlation_band(ends, window)
+    band = correlation_band(ends, window, nugget)
     for k in range(band.shape[0]):
         band[k, : ends.size - k] *= errors[k:] * errors[: ends.size - k]
     return band
@@ -243,7 +294,9 @@ def whiten(band: np.ndarray, columns: np.ndarray) -> np.ndarray:
     return out
 
 
-def fit_shapes(*, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, window: float, shapes: Shapes) -> Fit:
+def fit_shapes(
+    *, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, window: float, shapes: Shapes, nugget: float = 0.0
+) -> Fit:
     """Each candidate's GLS fit to the window estimates with the overlap covariance.
 
     Parameters
@@ -256,12 +309,15 @@ def fit_shapes(*, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, w
         Window length [time unit].
     shapes : Shapes
         From :func:`candidate_shapes` on the same ``ends``.
+    nugget : float
+        Share of each window's error that is its own (:func:`correlation_band`).
 
     Returns
     -------
     Fit
     """
-    white = whiten(_band(ends, errors, window), np.column_stack([estimates, np.ones(ends.size), shapes.matrix]))
+    columns = np.column_stack([estimates, np.ones(ends.size), shapes.matrix])
+    white = whiten(_band(ends, errors, window, nugget), columns)
     wy, w1, wg = white[:, 0], white[:, 1], white[:, 2:]
     c11, c1y = w1 @ w1, w1 @ wy
     g1 = wg.T @ w1
@@ -279,86 +335,14 @@ def fit_shapes(*, estimates: np.ndarray, errors: np.ndarray, ends: np.ndarray, w
 
 
 @lru_cache(maxsize=8)
-def shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
+def shapes_for(ends: tuple[float, ...], window: float, resolution: float, follow: str = "mean") -> Shapes:
     """:func:`candidate_shapes`, cached per window times (every element and parameter shares them)."""
-    return candidate_shapes(ends=np.asarray(ends), window=window, resolution=resolution)
+    return candidate_shapes(ends=np.asarray(ends), window=window, resolution=resolution, follow=follow)
 
 
 @lru_cache(maxsize=2)
-def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float) -> Shapes:
+def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float, follow: str = "mean") -> Shapes:
     """:func:`ramp_shapes` from every onset of :func:`shapes_for`, cached (the refinement picks its onsets)."""
-    coarse = shapes_for(ends, window, resolution)
-    times = np.asarray(ends)
-    return ramp_shapes(ends=times, window=window, onsets=coarse.onset[coarse.duration == 0], resolution=resolution)
-
-
-@lru_cache(maxsize=64)
-def _null_maxima(grid: tuple[float, ...], keep: bytes, window: float, resolution: float, draws: int) -> np.ndarray:
-    """Largest drop over all shapes in ``draws`` simulated no-change records on the kept windows, sorted."""
-    rows = np.frombuffer(keep, dtype=bool) if keep else np.ones(len(grid), dtype=bool)
-    times = np.asarray(grid)[rows]
-    white = whiten(
-        _correlation_band(times, window),
-        np.column_stack([np.ones(times.size), shapes_for(grid, window, resolution).subset(rows=rows).matrix]),
-    )
-    ones, shapes = white[:, 0], white[:, 1:]
-    orth = shapes - np.outer(ones, (shapes.T @ ones) / (ones @ ones))
-    norm = np.sqrt(np.einsum("ij,ij->j", orth, orth))
-    unit = orth[:, norm > 1e-9 * norm.max()] / norm[norm > 1e-9 * norm.max()]
-    # whitened no-change noise is standard normal whatever the level: the drop of a shape is (u^T z)^2
-    rng = np.random.default_rng(NULL_SEED)
-    maxima = np.empty(draws)
-    for start in range(0, draws, 200):
-        z = rng.standard_normal((times.size, min(200, draws - start)))
-        maxima[start : start + z.shape[1]] = np.max((unit.T @ z) ** 2, axis=0)
-    return np.sort(maxima)
-
-
-NULL_SEED = 0
-"""Seed of the no-change simulation: the threshold is the same on every run."""
-
-
-def null_quantile(
-    *,
-    grid: np.ndarray,
-    window: float,
-    resolution: float,
-    significance: float,
-    keep: np.ndarray | None = None,
-    draws: int = 2000,
-) -> tuple[float, np.ndarray]:
-    """The threshold of the largest drop over all candidates under no change, by simulation.
-
-    The largest of many correlated likelihood ratios has no chi-square law,
-    so its law is drawn: records of pure overlap-correlated noise on the kept
-    windows, fitted with every candidate of :func:`shapes_for` on the grid.
-    The standard errors are taken equal across windows here (exact when they
-    are; the statistic does not depend on their common scale), so one
-    simulation serves every element and parameter with the same usable
-    windows (cached; a new set of left-out windows costs a new simulation,
-    since leaving windows out changes the law).
-
-    Parameters
-    ----------
-    grid : ndarray
-        End times of every window [time unit].
-    window, resolution : float
-        As for :func:`candidate_shapes` [time unit].
-    significance : float
-        False alarm probability of the no-change test (0..1).
-    keep : ndarray of bool, optional
-        The windows with a usable estimate (default all).
-    draws : int
-        Simulated records.
-
-    Returns
-    -------
-    threshold : float
-        The ``1 - significance`` quantile of the largest drop [-].
-    maxima : ndarray
-        The simulated largest drops, sorted (for p-values).
-    """
-    times = tuple(np.asarray(grid, dtype=float).tolist())
-    mask = b"" if keep is None or np.all(keep) else np.asarray(keep, dtype=bool).tobytes()
-    maxima = _null_maxima(times, mask, float(window), float(resolution), draws)
-    return float(np.quantile(maxima, 1.0 - significance)), maxima
+    coarse = shapes_for(ends, window, resolution, follow)
+    onsets = coarse.onset[coarse.duration == 0]
+    return ramp_shapes(ends=np.asarray(ends), window=window, onsets=onsets, resolution=resolution, follow=follow)

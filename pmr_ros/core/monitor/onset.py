@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2, norm
 
-from .changepoint import Fit, Shapes, fine_shapes_for, fit_shapes, null_quantile, shapes_for
+from .changepoint import FOLLOWS, Fit, Shapes, fine_shapes_for, fit_shapes, shapes_for
+from .nochange import null_quantile
 
 __all__ = ["KINDS", "Onset", "OnsetSettings", "detect_onset", "first_lasting_mismatch", "standard_errors"]
 
@@ -48,6 +49,17 @@ class OnsetSettings:
         Scale the standard errors up by the scatter about the best fit when
         the windows scatter more than their intervals say (never down): a
         guard against intervals that are too narrow, at some loss of power.
+    follow : str
+        How a window's estimate follows a change inside the window
+        (:data:`~.changepoint.FOLLOWS`): ``mean`` (dK, dtau: least squares
+        average the window) or ``midpoint`` (dD: an integer delay takes the
+        value of most of the window, so it jumps half a window after the change).
+    nugget : float
+        Share of each window's error variance that is its own, independent of
+        the overlapping windows (0..1).  The overlap correlation alone makes
+        neighbouring windows nearly collinear, and a lone outlier (an integer
+        delay one sample off in one window) then weighs like a change; a
+        little independent error keeps the fit robust to it.
     """
 
     significance: float = 0.01
@@ -55,6 +67,8 @@ class OnsetSettings:
     resolution: float | None = None
     min_windows: int = 8
     scale_errors: bool = False
+    follow: str = "mean"
+    nugget: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -147,9 +161,11 @@ class _Record:
     grid: tuple[float, ...]
     window: float
     resolution: float
+    follow: str
+    nugget: float
 
 
-def _checked(estimates: Any, errors: Any, end_times: Any, window: float, resolution: float | None) -> _Record:
+def _checked(estimates: Any, errors: Any, end_times: Any, window: float, settings: OnsetSettings) -> _Record:
     """The usable windows (finite estimate, positive finite error) and the window grid, checked."""
     y, s, t = (np.asarray(a, dtype=float) for a in (estimates, errors, end_times))
     if not y.shape == s.shape == t.shape or y.ndim != 1:
@@ -158,11 +174,17 @@ def _checked(estimates: Any, errors: Any, end_times: Any, window: float, resolut
         raise ValueError("end_times: the window end times must be finite and increasing")
     if not window > 0:
         raise ValueError(f"window: {window!r} must be positive")
+    resolution = settings.resolution
     if resolution is not None and not resolution > 0:
         raise ValueError(f"resolution: {resolution!r} must be positive")
+    if settings.follow not in FOLLOWS:
+        raise ValueError(f"follow: {settings.follow!r} is not one of {FOLLOWS}")
     keep = np.isfinite(y) & np.isfinite(s) & (s > 0)
     step = float(resolution) if resolution is not None else float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    return _Record(y[keep], s[keep], t[keep], keep, tuple(t.tolist()), float(window), step)
+    if not 0 <= settings.nugget < 1:
+        raise ValueError(f"nugget: {settings.nugget!r} must be in [0, 1)")
+    grid = tuple(t.tolist())
+    return _Record(y[keep], s[keep], t[keep], keep, grid, float(window), step, settings.follow, settings.nugget)
 
 
 def _family_best(fit: Fit, members: np.ndarray) -> int:
@@ -193,10 +215,15 @@ def _refined(fit: Fit, shapes: Shapes, record: _Record) -> tuple[Fit, Shapes]:
     grid, profile = _profile(shapes.onset[ramps], fit.drop[ramps])
     best = grid[np.argmax(profile)]
     near = grid[(profile >= profile.max() - _REFINE_MARGIN) | (np.abs(grid - best) <= record.window)]
-    every = fine_shapes_for(record.grid, record.window, record.resolution)
+    every = fine_shapes_for(record.grid, record.window, record.resolution, record.follow)
     fine = every.subset(rows=record.keep, columns=np.isin(every.onset, near))
     more = fit_shapes(
-        estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=fine
+        estimates=record.estimates,
+        errors=record.errors,
+        ends=record.ends,
+        window=record.window,
+        shapes=fine,
+        nugget=record.nugget,
     )
     merged = Fit(
         rss_none=fit.rss_none,
@@ -296,14 +323,19 @@ def detect_onset(
     daily windows).
     """
     settings = settings or OnsetSettings()
-    record = _checked(estimates, errors, end_times, window, settings.resolution)
+    record = _checked(estimates, errors, end_times, window, settings)
     n = record.ends.size
     if n < max(settings.min_windows, 3):
         return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, n)
     # candidates on the whole window grid (shared by every element), the fit and threshold on the usable windows
-    shapes = shapes_for(record.grid, record.window, record.resolution).subset(rows=record.keep)
+    shapes = shapes_for(record.grid, record.window, record.resolution, record.follow).subset(rows=record.keep)
     fit = fit_shapes(
-        estimates=record.estimates, errors=record.errors, ends=record.ends, window=record.window, shapes=shapes
+        estimates=record.estimates,
+        errors=record.errors,
+        ends=record.ends,
+        window=record.window,
+        shapes=shapes,
+        nugget=record.nugget,
     )
     scale = _error_scale(fit, n)
     # intervals narrower than the scatter: every likelihood ratio shrinks by the squared scale (never grows)
@@ -315,6 +347,8 @@ def detect_onset(
         significance=settings.significance,
         keep=record.keep,
         draws=NULL_DRAWS,
+        follow=record.follow,
+        nugget=record.nugget,
     )
     statistic = float(np.max(fit.drop)) / factor
     p_value = float((np.sum(maxima >= statistic) + 1) / (maxima.size + 1))

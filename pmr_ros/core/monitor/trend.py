@@ -23,6 +23,7 @@ are the data extra's: imported when a table is made.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +31,7 @@ import numpy as np
 
 from .onset import OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
 
-__all__ = ["ELEMENT_KEYS", "PARAMETERS", "onset_entries", "trend_onsets", "trend_table", "write_trend"]
+__all__ = ["ELEMENT_KEYS", "FOLLOW", "PARAMETERS", "onset_entries", "trend_onsets", "trend_table", "write_trend"]
 
 PARAMETERS: dict[str, str] = {
     "gain": "gain_mismatch_pct",
@@ -38,6 +39,10 @@ PARAMETERS: dict[str, str] = {
     "delay": "delay_mismatch_samples",
 }
 """Each parameter and its estimate's key: dK [%], dtau [%], dD [samples]; ``<key>_interval`` is its (low, high)."""
+
+FOLLOW: dict[str, str] = {"gain": "mean", "tau": "mean", "delay": "midpoint"}
+"""How each parameter's window estimate follows a change inside the window (:class:`OnsetSettings` ``follow``):
+least squares average dK and dtau over the window; the integer dD takes the delay of most of the window."""
 
 ELEMENT_KEYS: tuple[str, ...] = (
     "verdict",
@@ -187,7 +192,8 @@ def trend_onsets(
     time : str
         Column with each window's time: ``end`` (clock) or ``last`` (samples).
     settings : OnsetSettings, optional
-        How the onsets are decided (significance ...).
+        How the onsets are decided (significance ...); its ``follow`` is
+        each parameter's of :data:`FOLLOW`.
     default_errors : mapping of str to float, optional
         Standard error per parameter (``gain``, ``tau``, ``delay``; its unit)
         for the windows with an estimate but no interval (the delay has none
@@ -218,7 +224,7 @@ def trend_onsets(
                 errors=errors,
                 end_times=ends,
                 window=window,
-                settings=settings,
+                settings=replace(settings or OnsetSettings(), follow=FOLLOW[parameter]),
             )
             low, high = found.interval or (None, None)
             rows.append(
