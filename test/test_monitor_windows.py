@@ -73,7 +73,10 @@ def test_clock_windows_across_a_gap_hold_fewer_samples_and_empty_ones_are_left_o
         ({"n_samples": 100, "window": "14 fortnights", "step": 1}, r"window: '14 fortnights' is not a length"),
         ({"n_samples": 100, "window": 10.5, "step": 1}, r"window: 10.5 samples is not a whole number"),
         ({"n_samples": 100, "window": "2h", "step": 5, "times": 60.0 * np.arange(100)}, r"step: '5' and window '2h'"),
-        ({"n_samples": 100, "window": "2h", "step": "1h", "times": 60.0 * np.arange(100)}, r"window: 2h is longer"),
+        (
+            {"n_samples": 100, "window": "2h", "step": "1h", "times": 60.0 * np.arange(100)},
+            r"window: 2h is longer than the data \(1.667 h\)",
+        ),
         ({"n_samples": 100, "window": "1h", "step": "1h", "times": np.arange(99.0)}, r"times: 99 stamps for 100"),
         ({"n_samples": 3, "window": "1s", "step": "1s", "times": [0.0, 2.0, 1.0]}, r"times: .*non-decreasing"),
     ],

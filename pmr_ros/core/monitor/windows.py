@@ -36,11 +36,14 @@ class Span:
         Whether the length is clock time.
     text : str
         As given (for messages).
+    unit : str
+        Its clock unit (a key of :data:`UNITS`), empty for samples.
     """
 
     value: float
     seconds: bool
     text: str
+    unit: str = ""
 
 
 def parse_span(value: int | float | str, *, option: str) -> Span:
@@ -76,7 +79,7 @@ def parse_span(value: int | float | str, *, option: str) -> Span:
     unit = match["unit"]
     if not unit and number != int(number):
         raise ValueError(f"{option}: {value!r} samples is not a whole number")
-    return Span(number * UNITS[unit] if unit else number, bool(unit), str(value))
+    return Span(number * UNITS[unit] if unit else number, bool(unit), str(value), unit)
 
 
 def _clock(times: np.ndarray | Sequence[float], n_samples: int) -> np.ndarray:
@@ -107,7 +110,8 @@ def _clock_plan(times: np.ndarray, window: Span, step: Span) -> list[tuple[int, 
     period = float(np.median(np.diff(times))) if times.size > 1 else 0.0
     duration = times[-1] - times[0] + period
     if window.value > duration * (1 + 1e-9):
-        raise ValueError(f"window: {window.text} is longer than the data ({duration:g} s)")
+        given = f"{duration / UNITS[window.unit]:.4g} {window.unit}"
+        raise ValueError(f"window: {window.text} is longer than the data ({given})")
     ends = times[-1] - step.value * np.arange(int((duration - window.value) // step.value + 1e-9) + 1)
     ends = ends[::-1]
     lasts = np.searchsorted(times, ends, side="right") - 1
