@@ -1,0 +1,278 @@
+"""The trend table: one row per window and element (estimates, intervals, verdicts, data quality), and its onsets.
+
+The per-window results come in as plain mappings, so that any writer of them
+(today's ``ElementDiagnosis.to_dict()``, a rewritten result type, a JSON file
+read back) can feed the table.  A window is a mapping with
+
+``first``, ``last`` : int
+    Its first and last sample (inclusive).
+``start``, ``end`` : float, str or None
+    Its clock time at those samples (seconds, or ISO 8601 text), if any.
+``elements`` : mapping of name to element, or sequence of elements
+    One mapping per element (a sequence's items name themselves by ``element``).
+``quality`` : mapping of str to float, optional
+    The window's data-quality figures (one column each, ``quality_<name>``).
+
+and an element is a mapping with any of :data:`ELEMENT_KEYS` (a missing key is
+an empty cell), read from the element itself or, failing that, from its
+``parametric`` part (the ``to_dict()`` shape); its ``data_quality`` mapping, if
+any, also gives ``quality_<name>`` columns.  pandas (and pyarrow for Parquet)
+are the data extra's: imported when a table is made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .onset import OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
+
+__all__ = ["ELEMENT_KEYS", "FOLLOW", "PARAMETERS", "onset_entries", "trend_onsets", "trend_table", "write_trend"]
+
+PARAMETERS: dict[str, str] = {
+    "gain": "gain_mismatch_pct",
+    "tau": "tau_mismatch_pct",
+    "delay": "delay_mismatch_samples",
+}
+"""Each parameter and its estimate's key: dK [%], dtau [%], dD [samples]; ``<key>_interval`` is its (low, high)."""
+
+FOLLOW: dict[str, str] = {"gain": "mean", "tau": "mean", "delay": "midpoint"}
+"""How each parameter's window estimate follows a change inside the window (:class:`OnsetSettings` ``follow``):
+least squares average dK and dtau over the window; the integer dD takes the delay of most of the window."""
+
+ELEMENT_KEYS: tuple[str, ...] = (
+    "verdict",
+    *(key for parameter, value in PARAMETERS.items() for key in (value, f"{value}_interval", f"{parameter}_verdict")),
+)
+"""The keys of an element mapping the table reads: its verdict, and per parameter estimate, interval and verdict."""
+
+_WINDOW_COLUMNS = ("window", "first", "last", "start", "end", "element", "verdict")
+_ONSET_COLUMNS: tuple[str, ...] = ("element", "parameter", "kind", "onset", "onset_low", "onset_high", "end")
+_ONSET_COLUMNS += ("size", "rate", "level", "p_value", "windows", "lasting_mismatch_window")
+
+
+def _field(element: Mapping[str, Any], key: str) -> Any:
+    """``element[key]``, else its ``parametric`` part's (the ``to_dict()`` shape), else None."""
+    if element.get(key) is not None:
+        return element[key]
+    part = element.get("parametric")
+    return part.get(key) if isinstance(part, Mapping) else None
+
+
+def _named(elements: Mapping[str, Any] | Sequence[Mapping[str, Any]]) -> list[tuple[str, Mapping[str, Any]]]:
+    """``(name, element)`` pairs from a mapping or from a sequence of self-naming elements."""
+    if isinstance(elements, Mapping):
+        return [(str(name), element) for name, element in elements.items()]
+    return [(str(element["element"]), element) for element in elements]
+
+
+def _element_row(element: Mapping[str, Any]) -> dict[str, Any]:
+    """The element's estimates, interval bounds, verdicts and per-element data quality."""
+    row: dict[str, Any] = {"verdict": _field(element, "verdict")}
+    for parameter, key in PARAMETERS.items():
+        value, interval = _field(element, key), _field(element, f"{key}_interval")
+        low, high = (np.nan, np.nan) if interval is None else (float(interval[0]), float(interval[1]))
+        row.update({key: np.nan if value is None else float(value), f"{key}_low": low, f"{key}_high": high})
+        row[f"{parameter}_verdict"] = _field(element, f"{parameter}_verdict")
+    quality = element.get("data_quality")
+    if isinstance(quality, Mapping):
+        row.update({f"quality_{name}": value for name, value in quality.items() if not isinstance(value, Sequence)})
+    return row
+
+
+def trend_table(windows: Sequence[Mapping[str, Any]]) -> Any:
+    """One row per window and element, in window order.
+
+    Parameters
+    ----------
+    windows : sequence of mapping
+        The per-window results, in time order (keys in the module docstring).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``window`` (0-based position), ``first``, ``last``, ``start``,
+        ``end``, ``element``, ``verdict``; per parameter of :data:`PARAMETERS`
+        its estimate, ``<key>_low``, ``<key>_high`` (NaN where none) and
+        ``<parameter>_verdict``; then ``quality_<name>`` for every data-quality
+        figure given (window-level and element-level).
+
+    Raises
+    ------
+    ValueError
+        A window without ``first``/``last`` or ``elements`` (named by position).
+    """
+    import pandas
+
+    rows = []
+    for index, window in enumerate(windows):
+        missing = [key for key in ("first", "last", "elements") if key not in window]
+        if missing:
+            raise ValueError(f"windows[{index}]: no {', '.join(missing)}")
+        head: dict[str, Any] = {"window": index, "first": int(window["first"]), "last": int(window["last"])}
+        head.update(start=window.get("start"), end=window.get("end"))
+        quality = {f"quality_{name}": value for name, value in (window.get("quality") or {}).items()}
+        for name, element in _named(window["elements"]):
+            rows.append({**head, "element": name, **_element_row(element), **quality})
+    columns = [*_WINDOW_COLUMNS, *(c for c in _element_row({}) if c != "verdict")]
+    table = pandas.DataFrame(rows, columns=None if rows else columns)
+    extra = [c for c in table.columns if c not in columns]
+    return table[[*columns, *extra]]
+
+
+def write_trend(table: Any, path: str | Path) -> Path:
+    """Write the trend table as CSV or Parquet, by the file's suffix.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        From :func:`trend_table`.
+    path : str or Path
+        ``*.csv`` or ``*.parquet``.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    ValueError
+        Another suffix (the path named).
+    """
+    target = Path(path)
+    suffix = target.suffix.lower()
+    if suffix == ".csv":
+        table.to_csv(target, index=False)
+    elif suffix == ".parquet":
+        table.to_parquet(target, index=False)
+    else:
+        raise ValueError(f"--trend {target}: the trend file must end in .csv or .parquet, not {suffix or 'nothing'!r}")
+    return target
+
+
+def _seconds(values: Any) -> np.ndarray:
+    """Window times as float seconds: numbers as they are, ISO text or date-times since the epoch."""
+    import pandas
+
+    if pandas.api.types.is_numeric_dtype(values):
+        return np.asarray(values, dtype=float)
+    stamps = pandas.to_datetime(values, utc=True)
+    return np.asarray((stamps - pandas.Timestamp(0, tz="UTC")) / pandas.Timedelta(seconds=1), dtype=float)
+
+
+def _errors(rows: Any, key: str, default: float | None) -> np.ndarray:
+    """Standard errors from the 95 % interval columns; ``default`` where a window has an estimate but none."""
+    errors = standard_errors(low=rows[f"{key}_low"].to_numpy(), high=rows[f"{key}_high"].to_numpy())
+    if default is not None:
+        errors = np.where(np.isfinite(errors), errors, default)
+    return errors
+
+
+def trend_onsets(
+    table: Any,
+    *,
+    window: float,
+    time: str = "end",
+    settings: OnsetSettings | None = None,
+    default_errors: Mapping[str, float] | None = None,
+) -> Any:
+    """The onset of every element's parameters from a trend table, and the window the mismatch lasts from.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        From :func:`trend_table` (one row per window and element).
+    window : float
+        Window length [unit of the ``time`` column; seconds for date-times].
+    time : str
+        Column with each window's time: ``end`` (clock) or ``last`` (samples).
+    settings : OnsetSettings, optional
+        How the onsets are decided (significance ...); its ``follow`` is
+        each parameter's of :data:`FOLLOW`.
+    default_errors : mapping of str to float, optional
+        Standard error per parameter (``gain``, ``tau``, ``delay``; its unit)
+        for the windows with an estimate but no interval (the delay has none
+        today): without one such windows are left out.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per element and parameter: ``element``, ``parameter``,
+        ``kind``, ``onset``, ``onset_low``, ``onset_high``, ``end``, ``size``,
+        ``rate``, ``level``, ``p_value``, ``windows``, and ``lasting_mismatch_window``
+        (the ``window`` from which the element's verdict stays mismatch, or
+        None).  Onset times are in the unit of ``time`` (seconds since the
+        epoch for date-times).
+    """
+    import pandas
+
+    rows = []
+    for element, rows_of in table.groupby("element", sort=False):
+        ordered = rows_of.sort_values("window")
+        ends = _seconds(ordered[time])
+        lasting = first_lasting_mismatch(list(ordered["verdict"]))
+        first = None if lasting is None else int(ordered["window"].iloc[lasting])
+        for parameter, key in PARAMETERS.items():
+            errors = _errors(ordered, key, (default_errors or {}).get(parameter))
+            found = detect_onset(
+                estimates=ordered[key].to_numpy(dtype=float),
+                errors=errors,
+                end_times=ends,
+                window=window,
+                settings=replace(settings or OnsetSettings(), follow=FOLLOW[parameter]),
+            )
+            low, high = found.interval or (None, None)
+            rows.append(
+                {"element": element, "parameter": parameter, "kind": found.kind, "onset": found.time}
+                | {"onset_low": low, "onset_high": high, "end": found.end, "size": found.size, "rate": found.rate}
+                | {"level": found.level}
+                | {"p_value": found.p_value, "windows": found.windows, "lasting_mismatch_window": first}
+            )
+    # a window number or none: pandas' nullable integers, not floats with NaN
+    return pandas.DataFrame(rows, columns=list(_ONSET_COLUMNS)).astype({"lasting_mismatch_window": "Int64"})
+
+
+def _plain(value: Any) -> Any:
+    """A table cell as JSON: None for NaN / NA, Python numbers for numpy ones."""
+    import pandas
+
+    if value is None or (not isinstance(value, str) and pandas.isna(value)):
+        return None
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def onset_entries(onsets: Any) -> dict[str, dict[str, Any]]:
+    """The onsets table as the JSON's ``onset`` entry per element.
+
+    Parameters
+    ----------
+    onsets : pandas.DataFrame
+        From :func:`trend_onsets`.
+
+    Returns
+    -------
+    dict
+        ``{element: {"lasting_mismatch_window": int or None, "gain": {...},
+        "tau": {...}, "delay": {...}}}``, each parameter's entry with
+        ``kind``, ``onset``, ``interval`` ([low, high] or None), ``end``,
+        ``size``, ``rate``, ``level``, ``p_value`` and ``windows``; plain
+        Python values.
+    """
+    entries: dict[str, dict[str, Any]] = {}
+    for row in onsets.to_dict(orient="records"):
+        entry = entries.setdefault(
+            str(row["element"]), {"lasting_mismatch_window": _plain(row["lasting_mismatch_window"])}
+        )
+        low, high = _plain(row["onset_low"]), _plain(row["onset_high"])
+        entry[str(row["parameter"])] = {
+            "kind": row["kind"],
+            "onset": _plain(row["onset"]),
+            "interval": None if low is None else [low, high],
+            **{key: _plain(row[key]) for key in ("end", "size", "rate", "level", "p_value", "windows")},
+        }
+    return entries
