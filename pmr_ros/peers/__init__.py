@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from .classic_pmr import classic_pmr
 from .outcome import PeerOutcome, Tolerances, from_diagnosis
+from .partial_correlation import partial_correlation_test
 from .pem import NOISE_MODELS, pem_diagnosis
 
 __all__ = [
@@ -24,5 +25,6 @@ __all__ = [
     "Tolerances",
     "classic_pmr",
     "from_diagnosis",
+    "partial_correlation_test",
     "pem_diagnosis",
 ]
