@@ -8,6 +8,7 @@ from numpy.testing import assert_allclose
 
 from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.model import Mismatch, TransferMatrix
 from pmr_ros.peers import Tolerances, pem_diagnosis
 
 NAMES = ("G11", "G12", "G21", "G22")
@@ -36,6 +37,26 @@ def test_noise_free_foptd_rows_are_recovered_exactly(noise_model):
     assert_allclose([out[n].tau_pct for n in NAMES], tau, rtol=1e-6)
     assert [out[n].delay_samples for n in NAMES] == delay.tolist()
     assert [out[n].verdict for n in NAMES] == ["mismatch"] * 4
+
+
+def test_integrating_element_and_empty_cell():
+    """A row of a FOPTD, an integrating element (pole fixed at 1, K per time unit) and an empty cell, noise-free."""
+    model = TransferMatrix(
+        gain=[[2.0, 0.05, 0.0]],
+        time_constant=[[8.0, np.nan, np.nan]],
+        delay=[[2.0, 1.0, 0.0]],
+        sample_time=1.0,
+        element_type=np.array([["foptd", "integrating", "none"]], dtype=object),
+    )
+    injected = Mismatch(np.array([[20.0, -10.0, 0.0]]), np.array([[-15.0, 0.0, 0.0]]), np.array([[1, 2, 0]]))
+    u = _prbs(2000, 3, seed=5)
+    u[:, 1] -= u[:, 1].mean()  # no net drift of the integrated input
+    y = model.with_mismatch(injected).element_outputs(u).sum(axis=2)
+    out = pem_diagnosis(u, y, model=model, max_delay_shift=3, start=0)
+    assert_allclose([out["G11"].gain_pct, out["G11"].tau_pct, out["G12"].gain_pct], [20.0, -15.0, -10.0], rtol=1e-6)
+    assert (out["G11"].delay_samples, out["G12"].delay_samples) == (1, 2)
+    assert out["G12"].tau_pct is None and out["G12"].tau_verdict is None
+    assert out["G13"].verdict == "inconclusive" and out["G13"].gain_pct is None
 
 
 def test_unknown_noise_model_and_bad_shapes_are_refused():

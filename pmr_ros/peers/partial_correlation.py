@@ -99,6 +99,15 @@ def _element_p_values(e: np.ndarray, u: np.ndarray, lags: int, control: int) -> 
     return p
 
 
+def _row_p_values(residual: np.ndarray, inputs: np.ndarray, *, lags: int, max_ar_order: int) -> np.ndarray:
+    """Per MV, the Bonferroni p of one CV's residual after both are pre-whitened by the residual's AR model."""
+    e = residual - residual.mean()
+    whitener = _ar_whitener(e, max_ar_order)
+    white_e = lfilter(whitener, [1.0], e)[whitener.size - 1 :]
+    white_u = lfilter(whitener, [1.0], inputs, axis=0)[whitener.size - 1 :]
+    return _element_p_values(white_e, white_u, lags, CONTROL_FACTOR * lags)
+
+
 def partial_correlation_test(
     u: np.ndarray,
     y: np.ndarray,
@@ -152,11 +161,7 @@ def partial_correlation_test(
     names = model.element_names()
     out = {}
     for i in range(model.n_outputs):
-        e = residual[:, i] - residual[:, i].mean()
-        whitener = _ar_whitener(e, max_ar_order)
-        white_e = lfilter(whitener, [1.0], e)[whitener.size - 1 :]
-        white_u = lfilter(whitener, [1.0], inputs, axis=0)[whitener.size - 1 :]
-        p = _element_p_values(white_e, white_u, lags, CONTROL_FACTOR * lags)
+        p = _row_p_values(residual[:, i], inputs, lags=lags, max_ar_order=max_ar_order)
         for k in range(model.n_inputs):
             name = names[i * model.n_inputs + k]
             flagged = bool(p[k] < alpha)
