@@ -22,6 +22,7 @@ LAYERS: dict[str, set[str]] = {
     "core": set(),
     "progress": set(),
     "config": {"core", "resources"},
+    "peers": {"core"},  # peer methods of the benchmark: numpy/scipy on the core's model, no ROS, no commands
     "report": {"core", "config", "data", "sweep"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
