@@ -21,7 +21,7 @@ from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .config import ConfigError
 from .ros.signals import RosInitError
 
-COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
+COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex", "model"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 

@@ -25,6 +25,7 @@ LAYERS: dict[str, set[str]] = {
     "report": {"core", "config", "data"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
+    "models": {"core", "config"},
     "sweep": {"core", "config", "report", "progress"},
     "bag": {"core", "config", "contract"},
     "ros": {"core", "config", "contract", "resources"},
@@ -43,6 +44,7 @@ LAYERS: dict[str, set[str]] = {
         "node_set",
         "resources",
         "progress",
+        "models",
     },
     "cli": {"commands", "config", "ros"},
     "entry": set(),  # imports its commands by name (importlib) once the signals are taken
