@@ -103,12 +103,25 @@ def _number(lines: _Lines, what: str, *, whole: bool = False) -> float:
 def _fields(lines: _Lines, what: str, *, lead: int, trail: int) -> tuple[list[str], str, str, list[str]]:
     """``lead`` numbers, a tag, a unit (may hold blanks or be empty), ``trail`` numbers of the next line."""
     line = lines.next(what)
+    tokens = line.split()
+    if len(tokens) > lead and _is_number(tokens[lead]):
+        raise lines.error(f"{what}: expected a tag, found the number {tokens[lead]!r}{lines.counts}")
     pattern = r"^\s*" + r"(\S+)\s+" * lead + r"(\S+)(.*?)" + r"\s+(\S+)" * trail + r"\s*$"
     match = re.match(pattern, line)
     if match is None:
-        raise lines.error(f"{what}: expected {lead} number(s), a tag, a unit and {trail} number(s), got {line!r}")
+        raise lines.error(
+            f"{what}: expected {lead} number(s), a tag, a unit and {trail} number(s), got {line!r}{lines.counts}"
+        )
     groups = list(match.groups())
     return groups[:lead], groups[lead], groups[lead + 1].strip(), groups[lead + 2 :]
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _floats(lines: _Lines, tokens: list[str], what: str) -> list[float]:
