@@ -272,7 +272,7 @@ def mdl_text(curves: CurveSet) -> str:
         lines += [f"{v:16.6f}" for v in block[1:]]
         for k, ind in enumerate(curves.input_names):
             lines.append(f"{ind:<12s} {in_units[k]:<12s}{_gain_text(float(curves.gains[i, k])):>44s}")
-            row = curves.curves[i, k]
+            row = curves.curves[i, k].tolist()  # Python floats format several times faster than numpy's
             lines += ["".join(f"{v:15.6e}" for v in row[j : j + 5]) for j in range(0, n, 5)]
     return "\n".join(lines) + "\n"
 

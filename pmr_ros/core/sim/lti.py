@@ -22,11 +22,10 @@ Frequencies are in rad/sample; times in the model's time unit.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import BadCoefficients, freqz, lfilter, tf2ss
+from scipy.signal import lfilter
 
 __all__ = ["DiscreteElement", "Element", "ElementError", "Empty", "Foptd", "Integrating"]
 
@@ -142,9 +141,11 @@ class Element:
         """
         omega = np.asarray(omega, dtype=float)
         disc = self.discrete()
+        z_inv = np.exp(-1j * omega)
+        # Horner in z^-1: sum_j b_j z^-j = polyval(b reversed, z^-1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            _, h = freqz(disc.numerator, disc.denominator, worN=omega.ravel())
-        return (h * np.exp(-1j * omega.ravel() * disc.delay_samples)).reshape(omega.shape)
+            h = np.polyval(disc.numerator[::-1], z_inv) / np.polyval(disc.denominator[::-1], z_inv)
+        return h * z_inv**disc.delay_samples
 
     def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """A discrete realization ``x+ = A x + B u``, ``y = C x + D u``: ``(A, B, C, D)``, D = 0.
@@ -157,11 +158,7 @@ class Element:
         b, a = np.trim_zeros(disc.numerator, "b"), np.trim_zeros(disc.denominator, "b")
         if b.size == 0:
             return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.zeros((1, 1))
-        size = max(b.size, a.size)  # polynomials in z^-1 to the same length: descending powers of z
-        with warnings.catch_warnings():  # the leading 0 of b (strictly proper) is what BadCoefficients flags
-            warnings.simplefilter("ignore", BadCoefficients)
-            A, B, C, D = tf2ss(np.pad(b, (0, size - b.size)), np.pad(a, (0, size - a.size)))
-        return _with_input_delay(A, B, C, D, disc.delay_samples)
+        return _with_input_delay(*_controllable_form(b, a), disc.delay_samples)
 
     def settle_samples(self, fraction: float = 1e-3) -> int:
         """Samples until the element's own dynamics fade to ``fraction`` (delay included).
@@ -174,6 +171,22 @@ class Element:
         radius = float(np.max(np.abs(poles))) if poles.size else 0.0
         fade = int(np.ceil(np.log(fraction) / np.log(radius))) if radius > 0 else 0
         return disc.delay_samples + disc.numerator.size + fade
+
+
+def _controllable_form(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C, D)`` of ``b(z^-1)/a(z^-1)``, ``b[0] = 0``, ``a[0] = 1``: the controllable canonical form.
+
+    The form :func:`scipy.signal.tf2ss` gives, written out (it is the same
+    for polynomials in z^-1 padded to one length), without its overhead.
+    """
+    n = max(b.size, a.size) - 1
+    a_full, b_full = np.pad(a, (0, n + 1 - a.size)), np.pad(b, (0, n + 1 - b.size))
+    A = np.zeros((n, n))
+    A[0] = -a_full[1:]
+    A[1:, :-1] = np.eye(n - 1)
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0
+    return A, B, b_full[1:][None, :].copy(), np.zeros((1, 1))
 
 
 def _with_input_delay(
