@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.signal import lfilter
 
-__all__ = ["DiscreteElement", "Element", "ElementError", "Empty", "Foptd", "Integrating"]
+__all__ = ["DiscreteElement", "Element", "ElementError", "Empty", "Foptd", "Integrating", "controllable_form"]
 
 
 class ElementError(ValueError):
@@ -158,7 +158,7 @@ class Element:
         b, a = np.trim_zeros(disc.numerator, "b"), np.trim_zeros(disc.denominator, "b")
         if b.size == 0:
             return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.zeros((1, 1))
-        return _with_input_delay(*_controllable_form(b, a), disc.delay_samples)
+        return _with_input_delay(*controllable_form(b, a), disc.delay_samples)
 
     def settle_samples(self, fraction: float = 1e-3) -> int:
         """Samples until the element's own dynamics fade to ``fraction`` (delay included).
@@ -173,7 +173,7 @@ class Element:
         return disc.delay_samples + disc.numerator.size + fade
 
 
-def _controllable_form(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def controllable_form(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, C, D)`` of ``b(z^-1)/a(z^-1)``, ``b[0] = 0``, ``a[0] = 1``: the controllable canonical form.
 
     The form :func:`scipy.signal.tf2ss` gives, written out (it is the same
