@@ -318,6 +318,17 @@ def test_step_response_curve_shorter_than_its_delay_in_a_model_file(example, tmp
     assert "G11: the step-response curve of 6 coefficients is shorter than its delay of 7 samples" in err
 
 
+def test_export_refuses_curves_not_longer_than_a_delay(tmp_path, capsys):
+    (tmp_path / "tf.yaml").write_text(TF_MODEL)
+    code, err = _cli(
+        capsys, "model", "export", str(tmp_path / "tf.yaml"), "-o", str(tmp_path / "x.mdl"), "--coefficients", "3"
+    )
+    assert (
+        code == 2
+        and err == "pmr-ros: error: G22: curves of 3 coefficients are not longer than its delay of 3 samples\n"
+    )
+
+
 def test_unknown_model_file_type_is_refused(tmp_path, capsys):
     code, err = _cli(capsys, "model", "import", str(tmp_path / "model.txt"), "-o", str(tmp_path / "m.yaml"))
     assert code == 2 and "unknown model file type '.txt'" in err

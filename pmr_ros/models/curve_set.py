@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CurveSet", "ModelFileError"]
+__all__ = ["CurveSet", "ModelFileError", "curve_gains"]
 
 
 class ModelFileError(ValueError):

@@ -243,11 +243,17 @@ def to_curve_set(model: LoadedModel, n_coefficients: int | None = None) -> Curve
     Raises
     ------
     ElementError
-        N not longer than an element's delay.
+        N not longer than an element's delay (one line naming it).
     """
     flat = [e for row in model.elements for e in row]
     source = model.curves
     n = n_coefficients or (source.n_coefficients if source is not None else max(e.settle_samples() for e in flat))
+    for j, e in enumerate(flat):
+        if not isinstance(e, Empty) and n <= e.delay_samples:
+            label = element_label(j, Shape(len(model.output_names), len(model.input_names)))
+            raise ElementError(
+                f"{label}: curves of {n} coefficients are not longer than its delay of {e.delay_samples} samples"
+            )
     curves = np.array([[e.step_response(n) for e in row] for row in model.elements])
     ramp = np.array([[e.integrating for e in row] for row in model.elements])
     if source is not None and source.ramp.shape == ramp.shape:  # an empty pair keeps the flag of its file
