@@ -6,7 +6,8 @@ A 10 x 20 model of second-order-plus-delay tf elements (one output in five a
 ramp), each converted to a step-response curve of 90 coefficients; then, per
 step: the curves written and read again as a DMCplus .mdl, the step_response
 elements built, and each element sampled: its step response, frequency
-response at 512 frequencies, state-space realization and a scaled copy.
+response at 511 frequencies, state-space realization and a scaled copy; the
+model realized as one system, and every element's output to 4096 samples.
 Prints the best wall time of ``--repeats`` runs per step.
 """
 
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from pmr_ros.core.sim.rational import transfer_function
+from pmr_ros.core.sim.realize import element_outputs, realize
 from pmr_ros.core.sim.step_curve import StepResponse, as_step_response
 from pmr_ros.models.curve_set import CurveSet
 from pmr_ros.models.mdl import read_mdl, write_mdl
@@ -88,12 +90,17 @@ def main() -> None:
     ]
     t_build, elements = best_of(args.repeats, build)
     t_sample, states = best_of(args.repeats, lambda: _sample(elements))
+    t_realize, (A, _, _) = best_of(args.repeats, lambda: realize(elements))
+    u = np.random.default_rng(1).standard_normal((4096, n_in))
+    t_outputs, _ = best_of(args.repeats, lambda: element_outputs(elements, u))
     print(f"{n_out} x {n_in} model, {n} coefficients per cell, best of {args.repeats}:")
     print(f"  tf -> step-response curves          {t_curves * 1e3:8.1f} ms")
     print(f"  write .mdl                          {t_write * 1e3:8.1f} ms")
     print(f"  read .mdl                           {t_read * 1e3:8.1f} ms")
     print(f"  build step_response elements        {t_build * 1e3:8.1f} ms")
-    print(f"  sample every element (step, 511 freqs, state space, scaled)  {t_sample * 1e3:8.1f} ms ({states} states)")
+    print(f"  each element: step, 511 freqs, state space, scaled  {t_sample * 1e3:8.1f} ms ({states} states in all)")
+    print(f"  realize the model (shared input registers)  {t_realize * 1e3:8.1f} ms ({A.shape[0]} states)")
+    print(f"  per-element outputs of 4096 samples         {t_outputs * 1e3:8.1f} ms")
 
 
 if __name__ == "__main__":

@@ -44,7 +44,6 @@ def test_foptd_matrix_realizes_as_the_transfer_matrix_does():
     A, B, C = realize(elements)
     ss = tm.state_space()
     u = np.random.default_rng(0).standard_normal((200, 2))
-    assert A.shape == ss.A.shape
     assert_allclose(_simulate(A, B, C, u), _simulate(ss.A, ss.B, ss.C, u), atol=1e-10)
     assert_allclose(element_outputs(elements, u), tm.element_outputs(u), atol=1e-10)
 
@@ -59,9 +58,25 @@ def test_mixed_matrix_is_the_sum_of_its_elements_responses():
             h = np.concatenate(([0.0], e.impulse_response(299)))
             want[:, i] += np.convolve(u[:, k], h)[:300]
     assert_allclose(_simulate(A, B, C, u), want, atol=1e-9)
-    # one register per input as long as its largest delay, then the elements' own orders
-    orders = [2, 2, 0, 1, 58, 3, 1, 0, 2]  # the ramp curve: 3 pulses; the integrating tf: order 2
-    assert A.shape[0] == (3 + 2 + 1) + sum(orders)
+    # a register per input: the largest delay (+ taps): integrating delay 3 + 1 tap; curve delay 2 + 58 taps;
+    # ramp curve delay 1 + 3 taps; then own states: the tfs (2, 2, integrating 2), the foptd 1, 2 accumulators
+    registers = [4, 60, 4]
+    assert A.shape[0] == sum(registers) + (2 + 2 + 2) + 1 + 2
+
+
+def test_step_response_model_shares_one_register_per_input():
+    def curve(i, k):
+        return (k + 1) * np.concatenate((np.zeros(1 + i), 1 - np.exp(-np.arange(1, 90 - i) / 10.0)))
+
+    curves = [[StepResponse(tuple(curve(i, k)), 1 + i, 1.0) for k in range(3)] for i in range(4)]
+    A, B, C = realize(curves)
+    assert A.shape[0] == 3 * 90  # the 90 coefficients' taps per input, no state of any element's own
+    u = np.random.default_rng(4).standard_normal((200, 3))
+    want = np.zeros((200, 4))
+    for i, row in enumerate(curves):
+        for k, e in enumerate(row):
+            want[:, i] += np.convolve(u[:, k], np.concatenate(([0.0], e.impulse_response(199))))[:200]
+    assert_allclose(_simulate(A, B, C, u), want, atol=1e-9)
 
 
 def test_element_outputs_start_at_steady_state_and_follow_each_element():

@@ -21,13 +21,35 @@ from .lti import Element, controllable_form
 __all__ = ["element_outputs", "realize"]
 
 
+def _taps(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, bool] | None:
+    """The register-tap weights ``c_1 .. c_L`` of an element that needs no state of its own, and its ramp flag.
+
+    A finite impulse response (``a = 1``: a step-response curve) is
+    ``sum_j c_j z^-j``; a ramp (``a = 1 - z^-1``: a ramp curve, an
+    integrating element) is that plus ``c_L`` on every later sample, which one
+    accumulator state sums.  None for other elements (own states).
+    """
+    if a.size == 1:
+        return b[1:] / a[0], False
+    if a.size == 2 and a[0] == 1.0 and a[1] == -1.0:
+        return np.cumsum(b)[1:], True
+    return None
+
+
 def _registers(elements: Sequence[Sequence[Element]], n_in: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per input: the register length (its largest delay among elements with states) and its first state."""
+    """Per input: the register length and its first state.
+
+    As long as the largest delay of the input's elements with own states,
+    and as the longest delay plus tap weights of the elements read at taps.
+    """
     lengths = np.zeros(n_in, dtype=int)
     for row in elements:
         for k, e in enumerate(row):
-            if np.any(e.discrete().numerator != 0):
-                lengths[k] = max(lengths[k], e.delay_samples)
+            disc = e.discrete()
+            b, a = np.trim_zeros(disc.numerator, "b"), np.trim_zeros(disc.denominator, "b")
+            if b.size:
+                taps = _taps(b, a)
+                lengths[k] = max(lengths[k], e.delay_samples + (taps[0].size if taps is not None else 0))
     return lengths, np.concatenate(([0], np.cumsum(lengths)[:-1]))
 
 
@@ -35,7 +57,12 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
     """``(A, B, C)`` of ``x+ = A x + B u``, ``y = C x`` for the matrix ``elements[i][k]`` (input k to output i).
 
     The input registers' states come first, then each element's own states
-    (row-major, controllable canonical form); an empty element has none.
+    (row-major, controllable canonical form), then one accumulator per ramp
+    element.  An empty element has no state; a step-response curve (a finite
+    impulse response) has none either: it reads the taps of its input's
+    register, so a DMC model of N coefficients has about N states per input,
+    not per element; a ramp curve or an integrating element adds one
+    accumulator.
 
     Parameters
     ----------
@@ -49,15 +76,9 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
     """
     n_out, n_in = len(elements), len(elements[0])
     lengths, start = _registers(elements, n_in)
-    parts = []
-    for i, row in enumerate(elements):
-        for k, e in enumerate(row):
-            disc = e.discrete()
-            b, a = np.trim_zeros(disc.numerator, "b"), np.trim_zeros(disc.denominator, "b")
-            if b.size:
-                parts.append((i, k, disc.delay_samples, controllable_form(b, a)))
+    own, tapped = _sort(elements, start)
     n_reg = int(lengths.sum())
-    nx = n_reg + sum(p[3][0].shape[0] for p in parts)
+    nx = n_reg + sum(p[3][0].shape[0] for p in own) + sum(f[3] for f in tapped)
     A, B, C = np.zeros((nx, nx)), np.zeros((nx, n_in)), np.zeros((n_out, nx))
     for k in range(n_in):
         if lengths[k]:
@@ -65,7 +86,7 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
             span = np.arange(start[k] + 1, start[k] + lengths[k])
             A[span, span - 1] = 1.0
     at = n_reg
-    for i, k, d, (Ae, Be, Ce, _) in parts:
+    for i, k, d, (Ae, Be, Ce, _) in own:
         n = Ae.shape[0]
         A[at : at + n, at : at + n] = Ae
         if d == 0:
@@ -74,7 +95,31 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
             A[at : at + n, start[k] + d - 1] = Be[:, 0]
         C[i, at : at + n] = Ce[0]
         at += n
+    for i, first, weights, ramp in tapped:
+        C[i, first : first + weights.size] += weights
+        if ramp:  # the accumulator of everything older than the last tap
+            A[at, at] = 1.0
+            A[at, first + weights.size - 1] = 1.0
+            C[i, at] = weights[-1]
+            at += 1
     return A, B, C
+
+
+def _sort(elements: Sequence[Sequence[Element]], start: np.ndarray) -> tuple[list, list]:
+    """Elements with own states ``(i, k, delay, (A, B, C, D))`` and those read at taps ``(i, first tap, c, ramp)``."""
+    own, tapped = [], []
+    for i, row in enumerate(elements):
+        for k, e in enumerate(row):
+            disc = e.discrete()
+            b, a = np.trim_zeros(disc.numerator, "b"), np.trim_zeros(disc.denominator, "b")
+            if not b.size:
+                continue
+            taps = _taps(b, a)
+            if taps is None:
+                own.append((i, k, disc.delay_samples, controllable_form(b, a)))
+            else:  # y_i += sum_j c_j u_k(t - d - j): register states d .. d + L - 1
+                tapped.append((i, start[k] + disc.delay_samples, *taps))
+    return own, tapped
 
 
 def element_outputs(elements: Sequence[Sequence[Element]], u: np.ndarray) -> np.ndarray:
@@ -101,9 +146,19 @@ def element_outputs(elements: Sequence[Sequence[Element]], u: np.ndarray) -> np.
             if not np.any(disc.numerator != 0):
                 continue
             b = np.concatenate((np.zeros(disc.delay_samples), disc.numerator))
-            a = disc.denominator
-            size = max(b.size, a.size)
-            b, a = np.pad(b, (0, size - b.size)), np.pad(a, (0, size - a.size))
-            zi = np.zeros(size - 1) if e.integrating else lfilter_zi(b, a) * u[0, k]
+            b, a = _filter(b, disc.denominator)
+            zi = np.zeros(max(b.size, a.size) - 1)
+            if not e.integrating and a.size == 1:  # a FIR at rest at u[0]: each delay line holds the rest of the sum
+                zi = u[0, k] * np.cumsum(b[::-1])[::-1][1:]
+            elif not e.integrating:
+                zi = lfilter_zi(b, a) * u[0, k]
             out[:, i, k] = lfilter(b, a, u[:, k], zi=zi)[0]
     return out
+
+
+def _filter(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(b, a)`` for :func:`scipy.signal.lfilter`: a FIR as it is, else both padded to one length."""
+    if a.size == 1:
+        return b / a[0], np.ones(1)
+    size = max(b.size, a.size)
+    return np.pad(b, (0, size - b.size)), np.pad(a, (0, size - a.size))
