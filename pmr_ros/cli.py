@@ -23,7 +23,7 @@ from .config import ConfigError
 from .ros.signals import RosInitError
 from .service.refusal import ServiceError
 
-COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
+COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex", "model"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 

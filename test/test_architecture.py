@@ -26,6 +26,7 @@ LAYERS: dict[str, set[str]] = {
     "report": {"core", "config", "data", "sweep"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
+    "models": {"core", "config"},
     "sweep": {"core", "config", "progress"},
     "bag": {"core", "config", "contract"},
     "service": {"core", "config", "contract", "data", "report", "bag"},
@@ -46,6 +47,7 @@ LAYERS: dict[str, set[str]] = {
         "resources",
         "progress",
         "service",
+        "models",
     },
     "cli": {"commands", "config", "ros", "service"},
     "entry": set(),  # imports its commands by name (importlib) once the signals are taken

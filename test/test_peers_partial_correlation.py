@@ -7,7 +7,7 @@ import pytest
 from binomial import max_failures
 
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.peers.partial_correlation import partial_correlation_test
 
 SEEDS = range(1, 11)

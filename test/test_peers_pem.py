@@ -7,8 +7,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from pmr_ros.config import load_config
-from pmr_ros.core.closed_loop import simulate
-from pmr_ros.core.model import Mismatch, TransferMatrix
+from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.core.sim.model import Mismatch, TransferMatrix
 from pmr_ros.peers import Tolerances, pem_diagnosis
 
 NAMES = ("G11", "G12", "G21", "G22")

@@ -149,6 +149,14 @@ def _matrix(v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[s
     """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type."""
     ts = v["system.sample_time"]
     kinds = v[f"{block}.element_type"]
+    later = np.flatnonzero(np.isin(kinds.ravel(), ("tf", "step_response")))
+    if later.size:  # read by pmr-ros model import/export; the simulation and diagnosis take them later (issue 23)
+        j = int(later[0])
+        raise v.error(
+            f"{block}.element_type[{j}] ({element_label(j, v.shape) if v.shape else ''})",
+            kinds.ravel()[j],
+            "is read by pmr-ros model import/export but not yet simulated or diagnosed",
+        )
     gain, tau, delay = v[f"{block}.gain"], v[f"{block}.time_constant"], v[f"{block}.delay"]
     _check_elements(v, block, kinds, gain, tau)
     whole = np.where(kinds == "none", 0.0, delay / ts)

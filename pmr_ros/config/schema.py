@@ -36,7 +36,7 @@ __all__ = [
 SCHEMA_FILE = "parameters.yaml"
 """The declaration file in the package's ``config/`` folder."""
 
-KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types", "columns", "values")
+KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types", "columns", "values", "strings")
 """Parameter types of the declaration (see its header comment)."""
 
 _REQUIRED = object()
@@ -238,6 +238,23 @@ class Parameter:
             if item not in self.choices:
                 field = f"{self.name}[{j}] ({element_label(j, shape)})"
                 raise self._error(source, item, f"must be one of {', '.join(self.choices)}", field)
+        return np.array(items, dtype=object).reshape(shape.n_outputs, shape.n_inputs)
+
+    def _check_strings(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
+        """One string per element (row-major), or one string for every element."""
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-element parameter needs the system's shape")
+        n = shape.n_outputs * shape.n_inputs
+        items = [value] * n if isinstance(value, str) else value
+        if not isinstance(items, list) or len(items) != n:
+            count = f", got {len(items)}" if isinstance(items, list) else ""
+            raise self._error(
+                source, value, f"needs {n} strings ({shape.n_outputs}x{shape.n_inputs}, row by row){count}"
+            )
+        for j, item in enumerate(items):
+            if not isinstance(item, str):
+                field = f"{self.name}[{j}] ({element_label(j, shape)})"
+                raise self._error(source, item, "must be a string (quote the coefficients: '16.7, 1')", field)
         return np.array(items, dtype=object).reshape(shape.n_outputs, shape.n_inputs)
 
     def _check_matrix(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:

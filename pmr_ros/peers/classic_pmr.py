@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.classic import PmrSettings, diagnose_classic
-from ..core.model import TransferMatrix
-from ..core.stretch import Stretch
+from ..core.pmr.classic import PmrSettings, diagnose_classic
+from ..core.sim.model import TransferMatrix
+from ..core.records import Record
 from .outcome import PeerOutcome, from_diagnosis
 
 __all__ = ["classic_pmr"]
@@ -43,5 +43,5 @@ def classic_pmr(
         ``100 (M(0) - 1)`` without an interval, dD; empty cells and unreadable
         rows inconclusive with the reason.
     """
-    stretch = Stretch(np.asarray(r, dtype=float), np.asarray(u, dtype=float), np.asarray(y, dtype=float))
+    stretch = Record(np.asarray(r, dtype=float), np.asarray(u, dtype=float), np.asarray(y, dtype=float))
     return from_diagnosis(diagnose_classic([stretch], model=model, settings=settings))

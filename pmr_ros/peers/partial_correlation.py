@@ -35,7 +35,7 @@ import numpy as np
 from scipy.signal import lfilter
 from scipy.stats import norm
 
-from ..core.model import TransferMatrix
+from ..core.sim.model import TransferMatrix
 from .outcome import PeerOutcome
 
 __all__ = ["partial_correlation_test"]

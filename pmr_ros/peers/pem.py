@@ -9,7 +9,7 @@ closed loop when the disturbance is coloured, Ljung 1999 sec. 13.4) or a
 low-order ARMA fitted jointly (``box_jenkins``: consistent in closed loop when
 the noise model can describe the disturbance).  Then dK %, dtau %, dD
 against the controller's model with the project's verdict rule
-(:func:`pmr_ros.core.parametric.verdicts.parameter_verdict`, reused: mismatch
+(:func:`pmr_ros.core.pmr.parametric.verdicts.parameter_verdict`, reused: mismatch
 when the whole interval lies beyond the tolerance, ok within
 ``ok_band_factor`` tolerances and no wider than ``max_interval_pct``), and
 the delay judged by its profile-likelihood confidence like the project's.
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import norm
 
-from ..core.model import TransferMatrix
-from ..core.parametric.verdicts import delay_confidence, parameter_verdict
+from ..core.sim.model import TransferMatrix
+from ..core.pmr.parametric.verdicts import delay_confidence, parameter_verdict
 from .outcome import PeerOutcome, Tolerances, overall_verdict
 from .pem_fit import RowData, RowFit, fit_row
 

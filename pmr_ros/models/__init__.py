@@ -1,0 +1,1 @@
+"""Model files: step-response curves in DMCplus .mdl and CSV layouts, and the model YAML that names them."""
