@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .columns import ColumnMap
+from .duplicates import check_unique_columns
 from .errors import DataError
 
 __all__ = ["FORMATS", "Progress", "RawTable", "read_table", "table_format"]
@@ -247,6 +248,7 @@ def _read_parquet(path: Path, columns: ColumnMap, cells: _BadCells, progress: Pr
             raise DataError(path, "", "not a Parquet file (it does not start with PAR1)")
     try:
         parquet = pq.ParquetFile(path)
+        check_unique_columns(parquet.schema_arrow.names, path)
         columns.check(parquet.schema_arrow.names, path)
         total = parquet.metadata.num_rows
         out = _Columns(path, columns, cells)
