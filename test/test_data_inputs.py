@@ -15,7 +15,9 @@ from plant_export import DATA_BLOCK, clean_frame
 
 from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
+from pmr_ros.core.diagnosis import diagnose_stretches
 from pmr_ros.data import DataError, load_plant_data
+from pmr_ros.data.outliers import gross_outliers
 
 ROWS = 400
 
@@ -67,3 +69,52 @@ def test_parquet_with_a_column_name_twice_is_refused_naming_it(tmp_path, config,
     path = tmp_path / "twice.parquet"
     pq.write_table(table, path)
     _refused(path, config, "column 'XI101.PV'", "appears 2 times in the file (columns 6, 9)", "rename")
+
+
+# -- item 5: one gross outlier in a CV column
+
+
+@pytest.fixture(scope="module")
+def full_run(config):
+    """The paper's mismatch, 8192 samples, and its diagnosis from the clean export."""
+    record = simulate(config, samples=8192, seed=1, scenario="full")
+    return clean_frame(record)
+
+
+def _diagnosis(config, path):
+    data = load_plant_data(path, config)
+    diagnosis = diagnose_stretches(data.stretches(), model=config.model, pmr=config.pmr, parametric=config.parametric)
+    return data, diagnosis
+
+
+@pytest.mark.parametrize("value", [-99999.0, 1e6, 1e308])
+def test_one_gross_outlier_in_a_cv_is_dropped_counted_and_leaves_the_verdicts(tmp_path, config, full_run, value):
+    frame = full_run.copy()
+    frame.loc[4000, "XI101.PV"] = value
+    path = tmp_path / "spike.csv"
+    frame.to_csv(path, index=False)
+    data, diagnosis = _diagnosis(config, path)
+    step = next(s for s in data.steps if s.name.startswith("gross outliers"))
+    assert (step.count, step.detail) == (1, "XI101.PV 1 (first at sample 4000)")
+    assert not np.isfinite(data.signals["y"][4000, 0])
+    assert diagnosis.status == "ok"
+    for name in ("G11", "G12"):
+        p = diagnosis.elements[name].parametric
+        assert p.verdict == "mismatch", (name, p.reasons)
+        assert not any("coherence" in r for r in p.reasons)
+
+
+def test_without_the_outlier_check_the_spike_is_what_breaks_the_row(tmp_path, full_run):
+    config = load_config(overrides={"data": {**DATA_BLOCK, "outlier_mad": 0.0}})
+    frame = full_run.copy()
+    frame.loc[4000, "XI101.PV"] = -99999.0
+    path = tmp_path / "spike.csv"
+    frame.to_csv(path, index=False)
+    data, diagnosis = _diagnosis(config, path)
+    assert next(s for s in data.steps if s.name.startswith("gross outliers")).count == 0
+    assert diagnosis.elements["G11"].parametric.verdict == "inconclusive"
+
+
+def test_legal_signals_have_no_gross_outliers(config, full_run):
+    values = full_run[[*DATA_BLOCK["setpoint_columns"], *DATA_BLOCK["input_columns"], *DATA_BLOCK["output_columns"]]]
+    assert not gross_outliers(values.to_numpy(dtype=float), config.data.outlier_mad).any()

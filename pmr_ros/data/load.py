@@ -9,6 +9,7 @@ import numpy as np
 from ..config import PmrConfig
 from .clean import CleaningStep, PlantData, at_limit, frozen, mode_on, runs
 from .columns import ColumnMap, column_map
+from .outliers import gross_outliers, outlier_step
 from .read import Progress, RawTable, read_table
 from .timebase import Grid, GridSpec, parse_time, place_on_grid
 
@@ -40,6 +41,8 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     grid = place_on_grid(parsed.seconds, table, spec)
     on_grid = np.full((grid.samples, table.shape[1]), np.nan)
     on_grid[grid.index] = table[grid.rows]
+    outliers = gross_outliers(on_grid, settings.outlier_mad)
+    on_grid[outliers] = np.nan
     signals = _split(on_grid, columns)
     limited = np.column_stack([at_limit(u) for u in signals["u"].T])
     stuck = _frozen(signals, limited, settings.frozen_samples)
@@ -50,6 +53,7 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     missing = ~np.all(np.isfinite(on_grid), axis=1)
     excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
+    steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
     data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
     return _with_usable_step(data)
 
@@ -109,6 +113,12 @@ def _steps(
             _per_column({c: int(n) for c, n in zip(columns.signals["u"], limited.sum(axis=0), strict=True)}),
         ),
     )
+
+
+def _with_outlier_step(steps: tuple[CleaningStep, ...], step: CleaningStep) -> tuple[CleaningStep, ...]:
+    """``step`` placed after the non-finite values' step."""
+    at = next((j + 1 for j, s in enumerate(steps) if s.name.startswith("non-finite")), len(steps))
+    return (*steps[:at], step, *steps[at:])
 
 
 def _with_usable_step(data: PlantData) -> PlantData:
