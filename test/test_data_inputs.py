@@ -17,6 +17,7 @@ from pmr_ros.config import load_config
 from pmr_ros.core.closed_loop import simulate
 from pmr_ros.core.diagnosis import diagnose_stretches
 from pmr_ros.data import DataError, load_plant_data
+from pmr_ros.data.far_stamps import far_stamps
 from pmr_ros.data.outliers import gross_outliers
 
 ROWS = 400
@@ -118,3 +119,37 @@ def test_without_the_outlier_check_the_spike_is_what_breaks_the_row(tmp_path, fu
 def test_legal_signals_have_no_gross_outliers(config, full_run):
     values = full_run[[*DATA_BLOCK["setpoint_columns"], *DATA_BLOCK["input_columns"], *DATA_BLOCK["output_columns"]]]
     assert not gross_outliers(values.to_numpy(dtype=float), config.data.outlier_mad).any()
+
+
+# -- item 7: a year typo in the time column is a bad row, not decades of grid
+
+
+@pytest.mark.parametrize(("row", "year"), [(150, "2260"), (ROWS - 1, "2124"), (0, "2124")])
+def test_a_year_typo_is_a_dropped_row_not_a_grid_of_decades(tmp_path, config, frame, row, year):
+    typo = frame.copy()
+    typo.loc[row, "Timestamp"] = year + typo.loc[row, "Timestamp"][4:]
+    path = tmp_path / "typo.csv"
+    typo.to_csv(path, index=False)
+    data = load_plant_data(path, config)
+    step = next(s for s in data.steps if s.name.startswith("time stamps far outside the rest"))
+    assert (step.count, step.detail) == (1, f"first: row {row + 1}, {typo.loc[row, 'Timestamp']}")
+    assert data.samples == (ROWS if row == 150 else ROWS - 1)  # a middle row leaves a gap of one sample
+    assert data.start == ("2024-03-01T00:01:00+00:00" if row == 0 else "2024-03-01T00:00:00+00:00")
+
+
+def test_a_shutdown_gap_is_kept_as_a_gap(tmp_path, config, frame):
+    gap = frame.copy()
+    later = pd.to_datetime(gap.loc[200:, "Timestamp"], format="ISO8601") + pd.Timedelta(days=30)
+    gap.loc[200:, "Timestamp"] = later.dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+    path = tmp_path / "gap.csv"
+    gap.to_csv(path, index=False)
+    data = load_plant_data(path, config)
+    assert next(s for s in data.steps if s.name.startswith("time stamps far")).count == 0
+    assert data.samples == ROWS + 30 * 1440
+
+
+def test_far_stamps_of_a_first_middle_and_last_row():
+    p = np.arange(50.0)
+    assert not far_stamps(p).any()
+    p[[0, 25, 49]] += [-1e6, 1e6, 1e6]
+    assert np.flatnonzero(far_stamps(p)).tolist() == [0, 25, 49]

@@ -32,6 +32,7 @@ from .adapt import (
     run_adapted,
 )
 from .model_output import add_model_arguments, check_model_output, close_the_loop
+from .preflight import check_model_memory, check_run_samples, model_memory
 from .record import add_storage_arguments, start_recording
 
 STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
@@ -119,7 +120,13 @@ def _check_before_running(args: argparse.Namespace, config) -> None:
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     source = "command line" if args.samples is not None else config.source
-    check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
+    check_model_memory(config)
+    check_memory(
+        {**model_memory(config), **run_memory(config, batch=args.batch)},
+        cause=f"run.samples = {config.run.samples} ({source})",
+    )
+    diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)
+    check_run_samples(config, samples=diagnosed, source=source)
     if args.json:
         writable_file(args.json, "--json")
 

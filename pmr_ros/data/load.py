@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..config import PmrConfig
+from ..core.memory import available_bytes, format_bytes
 from .clean import CleaningStep, PlantData, at_limit, frozen, mode_on, runs
 from .columns import ColumnMap, column_map
+from .errors import DataError
+from .far_stamps import far_stamps, grid_bytes
 from .outliers import gross_outliers, outlier_step
 from .read import Progress, RawTable, read_table
-from .timebase import Grid, GridSpec, parse_time, place_on_grid
+from .timebase import Grid, GridSpec, ParsedTime, parse_time, place_on_grid
 
 __all__ = ["load_plant_data"]
 
@@ -35,10 +39,11 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     settings = config.data
     columns = column_map(settings, config.model)
     raw = read_table(path, columns, settings.bad_values, progress=progress)
-    parsed = parse_time(raw.time, settings.time_format, path=path, column=columns.time)
     spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
+    raw, parsed, far = _without_far_rows(raw, spec, settings.time_format)
     table = np.column_stack([raw.values[c] for c in columns.value_columns])
     grid = place_on_grid(parsed.seconds, table, spec)
+    _check_grid_memory(grid, table.shape[1], spec)
     on_grid = np.full((grid.samples, table.shape[1]), np.nan)
     on_grid[grid.index] = table[grid.rows]
     outliers = gross_outliers(on_grid, settings.outlier_mad)
@@ -54,8 +59,42 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
     steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
+    steps = (steps[0], far, *steps[1:])
     data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
     return _with_usable_step(data)
+
+
+def _without_far_rows(raw: RawTable, spec: GridSpec, time_format: str) -> tuple[RawTable, ParsedTime, CleaningStep]:
+    """The table without rows whose stamp lies far outside the rest (:mod:`.far_stamps`), its times, the step."""
+    parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+    far = far_stamps(parsed.seconds / spec.sample_time_s)
+    detail = ""
+    if far.any():
+        j = int(np.flatnonzero(far)[0])
+        detail = f"first: row {j + 1}, {raw.time.iloc[j]!s}"
+        keep = ~far
+        raw = replace(
+            raw,
+            time=raw.time[keep].reset_index(drop=True),
+            values={c: v[keep] for c, v in raw.values.items()},
+            mode=None if raw.mode is None else raw.mode[keep],
+        )
+        parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+    step = CleaningStep("time stamps far outside the rest (a typo?) -> rows dropped", int(far.sum()), "rows", detail)
+    return raw, parsed, step
+
+
+def _check_grid_memory(grid: Grid, columns: int, spec: GridSpec) -> None:
+    """Refuse a sample grid that the machine cannot hold, with the figures, before it is allocated."""
+    needed, have = grid_bytes(grid.samples, columns), available_bytes()
+    if have is not None and needed > have:
+        days = grid.samples * spec.sample_time_s / 86400.0
+        raise DataError(
+            spec.path,
+            f"column {spec.column!r} (data.time_column)",
+            f"the stamps span {days:.4g} days, {grid.samples} samples of {spec.sample_time_s:g} s: the sample grid "
+            f"needs about {format_bytes(needed)} of memory, {format_bytes(have)} available; export a shorter period",
+        )
 
 
 def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:

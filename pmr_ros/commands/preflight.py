@@ -1,0 +1,85 @@
+"""Checks of a closed-loop run that need no simulation: the model's memory and the samples its diagnosis needs.
+
+Both are known from the configuration alone (:mod:`pmr_ros.core.footprint`),
+so a run that cannot succeed is refused in one line with the figure before a
+state matrix is allocated or a minute is simulated.
+"""
+
+from __future__ import annotations
+
+from . import EXIT_INSUFFICIENT, CommandError, check_memory
+
+__all__ = ["check_model_memory", "check_run_samples", "model_memory"]
+
+
+def model_memory(config) -> dict[str, int]:
+    """What the plant's realization and the controller need [bytes], for :func:`~pmr_ros.commands.check_memory`."""
+    from ..core.footprint import model_bytes, states
+
+    tuning = config.mpc
+    needed = model_bytes(
+        config.model,
+        config.plant(),
+        prediction_horizon=tuning.prediction_horizon,
+        control_horizon=tuning.control_horizon,
+    )
+    return {f"plant and controller ({max(states(config.model), states(config.plant()))} states)": needed}
+
+
+def check_model_memory(config) -> None:
+    """Refuse a model or plant too large to build (its dense realization), naming its states and the figure.
+
+    Raises
+    ------
+    CommandError
+        One line: the states, the memory they need and what is available.
+    """
+    from ..core.footprint import states
+
+    counts = (states(config.model), states(config.plant()))
+    n_out, n_in = config.model.n_outputs, config.model.n_inputs
+    check_memory(
+        model_memory(config),
+        cause=(
+            f"{config.source}: the {n_out}x{n_in} model has {counts[0]} states, the plant {counts[1]} (one per element "
+            "and one per sample of each input's longest delay)"
+        ),
+        advice="use fewer elements or shorter delays",
+    )
+
+
+def check_run_samples(config, *, samples: int, source: str) -> None:
+    """Refuse a run whose ``samples`` are fewer than its diagnosis needs (exit 3, like too little data after a run).
+
+    Parameters
+    ----------
+    config : PmrConfig
+    samples : int
+        Samples the diagnosis will see (``run.samples``, at most the diagnostician's window).
+    source : str
+        Where ``run.samples`` came from, for the message.
+
+    Raises
+    ------
+    CommandError
+        One line: the samples given, the samples needed and why.
+    """
+    from ..core.footprint import samples_needed
+
+    model = config.model
+    if config.pmr.method == "parametric":
+        welch = config.parametric.welch(model, samples, config.pmr)
+    else:
+        welch = config.pmr.welch
+    dithered = int((config.excitation.mv_dither_amplitude > 0).sum())
+    needed = samples_needed(model, welch, dithered_inputs=dithered)
+    if samples >= needed:
+        return
+    instruments = model.n_outputs + dithered
+    raise CommandError(
+        f"run.samples = {samples} ({source}): too little data for a {model.n_outputs}x{model.n_inputs} model, "
+        f"known before simulating: its diagnosis needs at least {needed} samples ({model.settling_samples()} of "
+        f"settling, then {max(4, 2 * instruments)} Welch segments of {welch.segment_length} for {instruments} "
+        f"instruments); give --samples {needed} or more",
+        code=EXIT_INSUFFICIENT,
+    )
