@@ -7,9 +7,9 @@ state matrix is allocated or a minute is simulated.
 
 from __future__ import annotations
 
-from . import EXIT_INSUFFICIENT, CommandError, check_memory
+from . import check_memory
 
-__all__ = ["check_model_memory", "check_run_samples", "model_memory"]
+__all__ = ["check_model_memory", "model_memory", "not_run", "run_samples_shortfall"]
 
 
 def model_memory(config) -> dict[str, int]:
@@ -48,21 +48,14 @@ def check_model_memory(config) -> None:
     )
 
 
-def check_run_samples(config, *, samples: int, source: str) -> None:
-    """Refuse a run whose ``samples`` are fewer than its diagnosis needs (exit 3, like too little data after a run).
+def run_samples_shortfall(config, *, samples: int) -> str | None:
+    """Why ``samples`` are fewer than the diagnosis of ``config``'s model needs, or None when they suffice.
 
     Parameters
     ----------
     config : PmrConfig
     samples : int
         Samples the diagnosis will see (``run.samples``, at most the diagnostician's window).
-    source : str
-        Where ``run.samples`` came from, for the message.
-
-    Raises
-    ------
-    CommandError
-        One line: the samples given, the samples needed and why.
     """
     from ..core.footprint import samples_needed
 
@@ -74,12 +67,24 @@ def check_run_samples(config, *, samples: int, source: str) -> None:
     dithered = int((config.excitation.mv_dither_amplitude > 0).sum())
     needed = samples_needed(model, welch, dithered_inputs=dithered)
     if samples >= needed:
-        return
+        return None
     instruments = model.n_outputs + dithered
-    raise CommandError(
-        f"run.samples = {samples} ({source}): too little data for a {model.n_outputs}x{model.n_inputs} model, "
-        f"known before simulating: its diagnosis needs at least {needed} samples ({model.settling_samples()} of "
-        f"settling, then {max(4, 2 * instruments)} Welch segments of {welch.segment_length} for {instruments} "
-        f"instruments); give --samples {needed} or more",
-        code=EXIT_INSUFFICIENT,
+    return (
+        f"window too short, known before simulating: {samples} samples for a {model.n_outputs}x{model.n_inputs} "
+        f"model; its diagnosis needs at least {needed} ({model.settling_samples()} of settling, then "
+        f"{max(4, 2 * instruments)} Welch segments of {welch.segment_length} for {instruments} instruments): "
+        f"give --samples {needed} or more"
     )
+
+
+def not_run(config, reason: str) -> tuple:
+    """The insufficient-data diagnosis and report of a run refused before simulating."""
+    from ..core.results import Diagnosis
+    from ..report import build_report
+
+    diagnosis = Diagnosis.insufficient(
+        method=config.pmr.method, models=config.model.element_models(), reason=reason, samples=config.run.samples
+    )
+    report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
+    report["path"] = "not run"
+    return diagnosis, report

@@ -32,7 +32,7 @@ from .adapt import (
     run_adapted,
 )
 from .model_output import add_model_arguments, check_model_output, close_the_loop
-from .preflight import check_model_memory, check_run_samples, model_memory
+from .preflight import check_model_memory, not_run, run_samples_shortfall
 from .record import add_storage_arguments, start_recording
 
 STALL_TIMEOUT_S = ADAPT_STALL_TIMEOUT_S
@@ -121,12 +121,7 @@ def _check_before_running(args: argparse.Namespace, config) -> None:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     source = "command line" if args.samples is not None else config.source
     check_model_memory(config)
-    check_memory(
-        {**model_memory(config), **run_memory(config, batch=args.batch)},
-        cause=f"run.samples = {config.run.samples} ({source})",
-    )
-    diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)
-    check_run_samples(config, samples=diagnosed, source=source)
+    check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
     if args.json:
         writable_file(args.json, "--json")
 
@@ -167,7 +162,12 @@ def handle(args: argparse.Namespace) -> int:
     config = load_checked_config(args.config, overrides)
     check_model_output(args)
     _check_before_running(args, config)
-    diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
+    diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)
+    short = run_samples_shortfall(config, samples=diagnosed)
+    if short is not None:  # known before simulating: no minute spent on a run that cannot be diagnosed
+        diagnosis, report = not_run(config, short)
+    else:
+        diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
     sys.stdout.write(format_table(report))
     for line in adaptation_lines(report):
         print(line)
