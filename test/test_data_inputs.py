@@ -153,3 +153,50 @@ def test_far_stamps_of_a_first_middle_and_last_row():
     assert not far_stamps(p).any()
     p[[0, 25, 49]] += [-1e6, 1e6, 1e6]
     assert np.flatnonzero(far_stamps(p)).tolist() == [0, 25, 49]
+
+
+# -- item 12: mode columns of booleans or lower case, UTF-16 files
+
+
+@pytest.mark.parametrize("on", [True, "auto", "Auto", " AUTO "])
+def test_a_boolean_or_lower_case_mode_column_is_read(tmp_path, config, frame, on):
+    moded = frame.copy()
+    moded["XC_MODE"] = [on] * 300 + [False if on is True else "man"] * (ROWS - 300)
+    path = tmp_path / "mode.csv"
+    moded.to_csv(path, index=False)
+    data = load_plant_data(path, config)
+    assert int(data.usable.sum()) == 300
+    assert data.excluded["controller off"].tolist() == [False] * 300 + [True] * (ROWS - 300)
+
+
+def test_a_mode_column_never_on_is_named_with_what_it_holds(tmp_path, config, frame):
+    moded = frame.copy()
+    moded["XC_MODE"] = "CASCADE"
+    path = tmp_path / "mode.csv"
+    moded.to_csv(path, index=False)
+    _refused(
+        path, config, "column 'XC_MODE' (data.mode_column)", "no row has one of data.mode_on_values (AUTO)", "'CASCADE'"
+    )
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be", "utf-16-le"])
+def test_utf16_exports_are_read_like_utf8(tmp_path, config, frame, encoding):
+    utf8 = tmp_path / "utf8.csv"
+    frame.to_csv(utf8, index=False)
+    text = utf8.read_text(encoding="utf-8")
+    path = tmp_path / "utf16.csv"
+    bom = {"utf-16": b"", "utf-16-be": b"\xfe\xff", "utf-16-le": b"\xff\xfe"}[encoding]
+    path.write_bytes(bom + text.encode(encoding))
+    expected, got = load_plant_data(utf8, config), load_plant_data(path, config)
+    for key in ("r", "u", "y"):
+        np.testing.assert_allclose(got.signals[key], expected.signals[key], rtol=0, atol=0)
+    assert got.start == expected.start
+
+
+def test_utf32_is_refused_naming_the_encoding_and_nul_bytes_are_binary(tmp_path, config, frame):
+    path = tmp_path / "utf32.csv"
+    path.write_bytes(frame.to_csv(index=False).encode("utf-32"))
+    _refused(path, config, "UTF-32 text", "save the export as UTF-8 or UTF-16")
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(b"PK\x03\x04\x00\x00binary")
+    _refused(binary, config, "binary data")

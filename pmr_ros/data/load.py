@@ -51,10 +51,7 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     signals = _split(on_grid, columns)
     limited = np.column_stack([at_limit(u) for u in signals["u"].T])
     stuck = _frozen(signals, limited, settings.frozen_samples)
-    on = np.ones(grid.samples, dtype=bool)
-    if raw.mode is not None:
-        on[:] = False
-        on[grid.index] = mode_on(raw.mode[grid.rows], settings.mode_on_values)
+    on = _controller_on(raw, grid, settings.mode_on_values, path=str(path), column=columns.mode)
     missing = ~np.all(np.isfinite(on_grid), axis=1)
     excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
@@ -95,6 +92,25 @@ def _check_grid_memory(grid: Grid, columns: int, spec: GridSpec) -> None:
             f"the stamps span {days:.4g} days, {grid.samples} samples of {spec.sample_time_s:g} s: the sample grid "
             f"needs about {format_bytes(needed)} of memory, {format_bytes(have)} available; export a shorter period",
         )
+
+
+def _controller_on(raw: RawTable, grid: Grid, on_values, *, path: str, column: str) -> np.ndarray:
+    """Samples with the controller on (all without a mode column); a mode column never on is refused, naming it."""
+    on = np.ones(grid.samples, dtype=bool)
+    if raw.mode is None:
+        return on
+    on[:] = False
+    on[grid.index] = mode_on(raw.mode[grid.rows], on_values)
+    if not on.any():
+        seen = sorted({str(v) for v in raw.mode[grid.rows][:10000]})
+        shown = ", ".join(repr(v) for v in seen[:5]) + (", ..." if len(seen) > 5 else "")
+        raise DataError(
+            path,
+            f"column {column!r} (data.mode_column)",
+            f"no row has one of data.mode_on_values ({', '.join(str(v) for v in on_values)}), so no sample is "
+            f"usable; the column holds {shown}: add its on-value to data.mode_on_values",
+        )
+    return on
 
 
 def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:

@@ -77,7 +77,7 @@ def gross_outliers(values: np.ndarray, threshold: float) -> np.ndarray:
         scale = step_scale(x)
         if scale == 0.0:
             continue
-        local = pd.Series(x).rolling(WINDOW, center=True, min_periods=1).median().to_numpy()
+        local = pd.Series(x).rolling(WINDOW, center=True, min_periods=1).median().to_numpy(copy=True)
         with np.errstate(invalid="ignore", over="ignore"):
             out[:, j] = np.abs(x - local) > threshold * scale
     return out
