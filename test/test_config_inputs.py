@@ -1,11 +1,17 @@
-"""Params files a harsh probe sent (issue 21, item 12): the plant block as documented, one-line names."""
+"""Params files and options a harsh probe sent (issue 21, item 12).
+
+The plant block as documented, one-line names, one number grammar.
+"""
 
 from __future__ import annotations
 
 import pytest
 
 from pmr_ros import cli
+from pmr_ros.commands import number, whole_number
 from pmr_ros.config import ConfigError, config_dir, load_config
+from pmr_ros.config.fast_yaml import load as load_yaml
+from pmr_ros.config.numbers import parse_number
 
 SYSTEM = """\
 /**:
@@ -79,3 +85,41 @@ def test_the_shipped_configurations_still_load():
     for path in sorted(config_dir().glob("*.yaml")):
         if path.name != "parameters.yaml":
             load_config(path)
+
+
+# -- one number grammar: YAML/ROS decimal and exponent forms, no hex, no digit separators
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [("1e9", 1e9), ("010", 10), ("-.5", -0.5), ("7.", 7.0), ("+2", 2), ("1.0e-3", 1e-3), ("1E+2", 100.0)],
+)
+def test_the_grammar_reads_decimal_and_exponent_forms(text, value):
+    assert parse_number(text) == value and type(parse_number(text)) is type(value)
+    assert load_yaml(f"x: {text}\n")["x"] == value
+
+
+@pytest.mark.parametrize("text", ["0x10", "1_9.4", "0o17", "1:30", "nan", "inf", "1e", "--1", ""])
+def test_the_grammar_refuses_hex_separators_and_the_rest(text):
+    assert parse_number(text) is None
+    if text:
+        assert isinstance(load_yaml(f"x: {text}\n")["x"], str)
+
+
+def test_the_command_line_and_the_params_file_read_numbers_alike(tmp_path, capsys):
+    for text, ok in (("1e4", True), ("0x10", False), ("1_000", False)):
+        path = _write(tmp_path, SYSTEM.format(name="wb") + f"    run:\n      samples: {text}\n")
+        if ok:
+            assert load_config(path).run.samples == 10000
+        else:
+            with pytest.raises(ConfigError) as err:
+                load_config(path)
+            assert "run.samples" in str(err.value) and "must be a number" in str(err.value)
+        if ok:  # read as 10000 samples: enough to run (it stops short of the diagnosis in a test: too few)
+            assert whole_number(text) == 10000 and number(text) == 1e4
+        else:
+            with pytest.raises(SystemExit):
+                cli.main(["run", "--batch", "--samples", text])
+            assert f"argument --samples: '{text}' is not a whole number" in capsys.readouterr().err
+    assert cli.main(["run", "--batch", "--samples", "1e2"]) == 3  # 100 samples: too few, said before simulating
+    assert "window too short, known before simulating: 100 samples" in capsys.readouterr().out
