@@ -34,8 +34,8 @@ from collections.abc import Callable
 import numpy as np
 
 from pmr_ros.config import load_config
-from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.peers import PeerOutcome, Tolerances, classic_pmr, from_diagnosis, partial_correlation_test, pem_diagnosis
 
 CASES = {"white": 0.0, "coloured": 0.3}

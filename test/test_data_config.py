@@ -38,6 +38,7 @@ def test_a_model_alone_is_a_configuration_for_data(tmp_path):
         output_columns=(),
         dither_columns=(),
         bad_values=(-9999.0, -10000.0, "Bad", "bad", ""),
+        outlier_mad=100.0,
         frozen_samples=20,
         mode_column="",
         mode_on_values=(1.0, "ON", "On", "on", "AUTO", "Auto", "auto"),

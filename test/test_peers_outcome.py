@@ -8,8 +8,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from pmr_ros.config import load_config
-from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.peers import PeerOutcome, Tolerances, classic_pmr, from_diagnosis
 from pmr_ros.peers.outcome import overall_verdict
 

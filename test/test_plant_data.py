@@ -231,9 +231,10 @@ def test_an_input_held_at_its_extreme_is_at_a_limit():
     assert not at_limit(np.full(3, np.nan)).any()
 
 
-def test_mode_on_compares_numbers_as_numbers_and_text_stripped():
-    mode = np.array([1, 1.0, "1", " AUTO ", "MAN", None, 0, "auto", True], dtype=object)
-    assert mode_on(mode, (1.0, "AUTO")).tolist() == [True, True, True, True, False, False, False, False, False]
+def test_mode_on_compares_numbers_as_numbers_and_text_stripped_regardless_of_case():
+    mode = np.array([1, 1.0, "1", " AUTO ", "MAN", None, 0, "auto", True, False, np.True_], dtype=object)
+    on = [True, True, True, True, False, False, False, True, True, False, True]
+    assert mode_on(mode, (1.0, "AUTO")).tolist() == on
 
 
 def test_column_map_default_naming_and_data_block(config):

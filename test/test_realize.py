@@ -18,7 +18,7 @@ from pmr_ros.core.sim.step_curve import StepResponse, as_step_response
 try:  # the transfer matrix moves to core/sim/model.py
     from pmr_ros.core.sim.model import TransferMatrix
 except ImportError:
-    from pmr_ros.core.model import TransferMatrix
+    from pmr_ros.core.sim.model import TransferMatrix
 
 
 def _mixed():

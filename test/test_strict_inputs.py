@@ -163,7 +163,8 @@ def test_a_parametric_segment_longer_than_the_record_is_one_line_of_insufficient
     cfg = _with(tmp_path, {"parametric": {"segment_length": 8192}})
     assert main(["run", "--batch", "--config", str(cfg), "--samples", "4096"]) == 3
     out = capsys.readouterr().out.splitlines()
-    assert out[1].startswith("INSUFFICIENT DATA: parametric.segment_length 8192 leaves 0 Welch segments")
+    assert out[1].startswith("INSUFFICIENT DATA: window too short, known before simulating: 4096 samples")
+    assert "Welch segments of 8192" in out[1]
     assert len(out) == 2
 
 

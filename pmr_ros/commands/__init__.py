@@ -21,10 +21,34 @@ EXIT_INSUFFICIENT = 3
 EXIT_INTERRUPTED = 130
 
 
+def grammar_number(text: str) -> float:
+    """``text`` as a float in pmr_ros's one number grammar (:mod:`pmr_ros.config.numbers`); ValueError if it is none."""
+    from ..config.numbers import parse_number
+
+    value = parse_number(text)
+    if value is None:
+        if text.strip().lstrip("+-.").lower() in ("nan", "inf", "infinity"):
+            return float(text.replace(".", ""))  # a non-finite number: the range check names it
+        raise ValueError(text)
+    return float(value)
+
+
+def whole_number(text: str) -> int:
+    """``text`` as an int in the grammar (``1e9`` is whole, ``0x10`` and ``1_000`` are no numbers); else ValueError."""
+    from ..config.numbers import parse_number
+
+    value = parse_number(text)
+    if isinstance(value, int):
+        return value
+    if value is None or not math.isfinite(value) or value != int(value):
+        raise ValueError(text)
+    return int(value)
+
+
 def positive_int(text: str) -> int:
     """Argparse type: a whole number > 0."""
     try:
-        value = int(text)
+        value = whole_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
     if value <= 0:
@@ -35,7 +59,7 @@ def positive_int(text: str) -> int:
 def number(text: str) -> float:
     """Argparse type: a number (its range is checked by the command, with a clearer message)."""
     try:
-        return float(text)
+        return grammar_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
@@ -90,7 +114,7 @@ def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer 
 def nonnegative_float(text: str) -> float:
     """Argparse type: a finite number >= 0."""
     try:
-        value = float(text)
+        value = grammar_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (math.isfinite(value) and value >= 0):
@@ -101,7 +125,7 @@ def nonnegative_float(text: str) -> float:
 def positive_float(text: str) -> float:
     """Argparse type: a finite number > 0."""
     try:
-        value = float(text)
+        value = grammar_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not 0 < value < float("inf"):
@@ -112,7 +136,7 @@ def positive_float(text: str) -> float:
 def nonnegative_int(text: str) -> int:
     """Argparse type: a whole number >= 0."""
     try:
-        value = int(text)
+        value = whole_number(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
     if value < 0:

@@ -29,6 +29,7 @@ from . import (
 from .adapt import adaptation_lines, check_adapt
 from .arguments import JSON, add_options
 from .model_output import add_model_arguments, check_model_output
+from .preflight import check_model_memory, not_run, run_samples_shortfall
 from .record import add_storage_arguments, start_recording
 
 if TYPE_CHECKING:
@@ -121,6 +122,7 @@ def _check_before_running(args: argparse.Namespace, config: PmrConfig) -> None:
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
     source = "command line" if args.samples is not None else config.source
+    check_model_memory(config)
     check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")
     if args.json:
         writable_file(args.json, "--json")
@@ -164,7 +166,12 @@ def handle(args: argparse.Namespace) -> int:
     config = load_checked_config(args.config, overrides)
     check_model_output(args)
     _check_before_running(args, config)
-    diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
+    diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)
+    short = run_samples_shortfall(config, samples=diagnosed)
+    if short is not None:  # known before simulating: no minute spent on a run that cannot be diagnosed
+        diagnosis, report = not_run(config, short)
+    else:
+        diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
     sys.stdout.write(format_table(diagnosis, report))
     for line in adaptation_lines(report):
         print(line)

@@ -25,6 +25,7 @@ from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
 from .data import data_settings
 from .errors import ConfigError
+from .plant_block import plant_block
 from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
@@ -181,7 +182,9 @@ def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any])
             raise v.error(
                 clash, None, "cannot be given with a plant block: the plant block is the true plant of the run"
             )
-    return _matrix(v, PLANT_BLOCK, outputs=model.output_names, inputs=model.input_names, name=model.name)
+    plant_block(v.tree[PLANT_BLOCK], model, error=v.error)
+    name = v[f"{PLANT_BLOCK}.name"] or model.name
+    return _matrix(v, PLANT_BLOCK, outputs=model.output_names, inputs=model.input_names, name=name)
 
 
 def _mismatch(v: _Values, model: TransferMatrix) -> Mismatch:

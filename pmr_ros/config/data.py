@@ -29,6 +29,8 @@ class DataSettings:
         Column per channel; empty: the default naming (no dither for ``dither_columns``).
     bad_values : tuple of float or str
         Cells equal to one of these are missing.
+    outlier_mad : float
+        A cell farther than this many robust steps from its tag's running median is missing; 0: no check.
     frozen_samples : int
         Longest run of one repeated value on a normally noisy tag [samples]; 0: no check.
     mode_column : str
@@ -46,6 +48,7 @@ class DataSettings:
     output_columns: tuple[str, ...]
     dither_columns: tuple[str, ...]
     bad_values: tuple[float | str, ...]
+    outlier_mad: float
     frozen_samples: int
     mode_column: str
     mode_on_values: tuple[float | str, ...]

@@ -3,8 +3,10 @@
 PyYAML's C loader parses in C but resolves and builds every scalar in Python;
 a params file of a large system (a 540 x 540 model is 7 MB of numbers) then
 spends seconds per megabyte on the numbers alone.  Two things are done here,
-each giving exactly what ``yaml.load(text, Loader=CSafeLoader)`` gives:
+each giving what ``yaml.load(text, Loader=CSafeLoader)`` gives but for the number grammar:
 
+* numbers follow pmr_ros's one grammar (:mod:`.numbers`), not YAML 1.1's:
+  ``1e9`` is a number, ``0x10``, ``1_000`` and ``1:30`` are text, ``010`` is ten;
 * plain scalars that are simple decimal numbers (``-12``, ``3.5``,
   ``1.0e-3``) are resolved by two compiled patterns before PyYAML's resolver
   list, and the items of a sequence built by ``int``/``float`` directly;
@@ -28,6 +30,8 @@ from typing import Any
 
 import yaml
 from yaml.nodes import ScalarNode, SequenceNode
+
+from .numbers import grammar_int, grammar_tag
 
 __all__ = ["LARGE_TEXT", "load"]
 
@@ -61,6 +65,7 @@ class _Loader(_BASE):  # type: ignore[misc, valid-type]  # PyYAML's loaders are 
                 return INT_TAG
             if self.mark and value.startswith(self.mark) and value[len(self.mark) + 1 :].isdigit():
                 return LIST_TAG
+            return grammar_tag(value, super().resolve(kind, value, implicit))
         return super().resolve(kind, value, implicit)
 
     def construct_sequence(self, node: Any, deep: bool = False) -> list[Any]:
@@ -86,6 +91,7 @@ class _Loader(_BASE):  # type: ignore[misc, valid-type]  # PyYAML's loaders are 
 
 
 _Loader.add_constructor(LIST_TAG, _Loader.construct_number_list)
+_Loader.add_constructor(INT_TAG, grammar_int)
 
 
 def _cut_out(text: str, mark: str) -> tuple[str, list[str]]:

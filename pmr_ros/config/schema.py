@@ -173,6 +173,8 @@ class Parameter:
     def _check_string(self, value: Any, source: str, shape: Shape | None) -> str:
         if not isinstance(value, str):
             raise self._error(source, value, "must be a string")
+        if not value.isprintable():  # a newline or CR would break the one-line files and headers it names
+            raise self._error(source, value, "must be one line of printable text (no newline, CR, tab or control code)")
         if self.choices and value not in self.choices:
             raise self._error(source, value, f"must be {self.range_text()}")
         return value
@@ -180,6 +182,8 @@ class Parameter:
     def _check_names(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
         if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
             raise self._error(source, value, "must be a non-empty list of names")
+        if not all(v.isprintable() for v in value):
+            raise self._error(source, value, "names must be one line of printable text (no newline, CR or tab)")
         if len(set(value)) != len(value):
             raise self._error(source, value, "names must be unique")
         return tuple(value)

@@ -122,15 +122,21 @@ def at_limit(u: np.ndarray) -> np.ndarray:
 
 
 def mode_on(mode: np.ndarray, on_values: Sequence[float | str]) -> np.ndarray:
-    """Whether each mode cell is one of ``on_values`` (numbers compared as numbers, text stripped)."""
+    """Whether each mode cell is one of ``on_values``.
+
+    Numbers compare as numbers, text stripped and regardless of case
+    (``auto`` is ``AUTO``); a boolean cell (a boolean mode column) is on when True.
+    """
     numbers = {float(v) for v in on_values if not isinstance(v, str)}
-    strings = {v for v in on_values if isinstance(v, str)}
+    strings = {v.strip().casefold() for v in on_values if isinstance(v, str)}
     out = np.zeros(len(mode), dtype=bool)
     for j, cell in enumerate(mode):
-        if isinstance(cell, str):
+        if isinstance(cell, bool | np.bool_):
+            out[j] = bool(cell)
+        elif isinstance(cell, str):
             text = cell.strip()
-            out[j] = text in strings or _as_number(text) in numbers
-        elif cell is not None and not isinstance(cell, bool):
+            out[j] = text.casefold() in strings or _as_number(text) in numbers
+        elif cell is not None:
             try:
                 out[j] = float(cell) in numbers
             except (TypeError, ValueError):

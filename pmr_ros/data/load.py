@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..config import PmrConfig
+from ..core.sim.memory import available_bytes, format_bytes
+from .bad_data import DataError
 from .clean import CleaningStep, PlantData, at_limit, frozen, mode_on, runs
 from .columns import ColumnMap, column_map
+from .far_stamps import far_stamps, grid_bytes
+from .outliers import gross_outliers, outlier_step
 from .read import Progress, RawTable, read_table
-from .timebase import Grid, GridSpec, parse_time, place_on_grid
+from .timebase import Grid, GridSpec, ParsedTime, parse_time, place_on_grid
 
 __all__ = ["load_plant_data"]
 
@@ -34,24 +39,78 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     settings = config.data
     columns = column_map(settings, config.model)
     raw = read_table(path, columns, settings.bad_values, progress=progress)
-    parsed = parse_time(raw.time, settings.time_format, path=path, column=columns.time)
     spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
+    raw, parsed, far = _without_far_rows(raw, spec, settings.time_format)
     table = np.column_stack([raw.values[c] for c in columns.value_columns])
     grid = place_on_grid(parsed.seconds, table, spec)
+    _check_grid_memory(grid, table.shape[1], spec)
     on_grid = np.full((grid.samples, table.shape[1]), np.nan)
     on_grid[grid.index] = table[grid.rows]
+    outliers = gross_outliers(on_grid, settings.outlier_mad)
+    on_grid[outliers] = np.nan
     signals = _split(on_grid, columns)
     limited = np.column_stack([at_limit(u) for u in signals["u"].T])
     stuck = _frozen(signals, limited, settings.frozen_samples)
-    on = np.ones(grid.samples, dtype=bool)
-    if raw.mode is not None:
-        on[:] = False
-        on[grid.index] = mode_on(raw.mode[grid.rows], settings.mode_on_values)
+    on = _controller_on(raw, grid, settings.mode_on_values, path=str(path), column=columns.mode)
     missing = ~np.all(np.isfinite(on_grid), axis=1)
     excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
+    steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
+    steps = (steps[0], far, *steps[1:])
     data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
     return _with_usable_step(data)
+
+
+def _without_far_rows(raw: RawTable, spec: GridSpec, time_format: str) -> tuple[RawTable, ParsedTime, CleaningStep]:
+    """The table without rows whose stamp lies far outside the rest (:mod:`.far_stamps`), its times, the step."""
+    parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+    far = far_stamps(parsed.seconds / spec.sample_time_s)
+    detail = ""
+    if far.any():
+        j = int(np.flatnonzero(far)[0])
+        detail = f"first: row {j + 1}, {raw.time.iloc[j]!s}"
+        keep = ~far
+        raw = replace(
+            raw,
+            time=raw.time[keep].reset_index(drop=True),
+            values={c: v[keep] for c, v in raw.values.items()},
+            mode=None if raw.mode is None else raw.mode[keep],
+        )
+        parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+    step = CleaningStep("time stamps far outside the rest (a typo?) -> rows dropped", int(far.sum()), "rows", detail)
+    return raw, parsed, step
+
+
+def _check_grid_memory(grid: Grid, columns: int, spec: GridSpec) -> None:
+    """Refuse a sample grid that the machine cannot hold, with the figures, before it is allocated."""
+    needed, have = grid_bytes(grid.samples, columns), available_bytes()
+    if have is not None and needed > have:
+        days = grid.samples * spec.sample_time_s / 86400.0
+        raise DataError(
+            spec.path,
+            f"column {spec.column!r} (data.time_column)",
+            f"the stamps span {days:.4g} days, {grid.samples} samples of {spec.sample_time_s:g} s: the sample grid "
+            f"needs about {format_bytes(needed)} of memory, {format_bytes(have)} available; export a shorter period",
+        )
+
+
+def _controller_on(raw: RawTable, grid: Grid, on_values, *, path: str, column: str) -> np.ndarray:
+    """Samples with the controller on (all without a mode column); a mode column never on is refused, naming it."""
+    on = np.ones(grid.samples, dtype=bool)
+    if raw.mode is None:
+        return on
+    on[:] = False
+    on[grid.index] = mode_on(raw.mode[grid.rows], on_values)
+    if not on.any():
+        seen = sorted({str(v) for v in raw.mode[grid.rows][:10000]})
+        shown = ", ".join(repr(v) for v in seen[:5]) + (", ..." if len(seen) > 5 else "")
+        raise DataError(
+            path,
+            f"column {column!r} (data.mode_column)",
+            f"no row has one of data.mode_on_values ({', '.join(str(v) for v in on_values)}), so no sample is "
+            f"usable; the column holds {shown}: add its on-value to data.mode_on_values",
+        )
+    return on
 
 
 def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:
@@ -109,6 +168,12 @@ def _steps(
             _per_column({c: int(n) for c, n in zip(columns.signals["u"], limited.sum(axis=0), strict=True)}),
         ),
     )
+
+
+def _with_outlier_step(steps: tuple[CleaningStep, ...], step: CleaningStep) -> tuple[CleaningStep, ...]:
+    """``step`` placed after the non-finite values' step."""
+    at = next((j + 1 for j, s in enumerate(steps) if s.name.startswith("non-finite")), len(steps))
+    return (*steps[:at], step, *steps[at:])
 
 
 def _with_usable_step(data: PlantData) -> PlantData:

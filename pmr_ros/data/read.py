@@ -19,6 +19,8 @@ import numpy as np
 
 from .bad_data import DataError
 from .columns import ColumnMap
+from .duplicates import check_unique_columns
+from .encoding import csv_encoding
 
 __all__ = ["FORMATS", "Progress", "RawTable", "read_table", "table_format"]
 
@@ -161,7 +163,8 @@ class _Columns:
     def _numbers(self, series: Any, column: str) -> np.ndarray:
         pd = _pandas(self.path)
         if pd.api.types.is_bool_dtype(series.dtype) or pd.api.types.is_numeric_dtype(series.dtype):
-            x = series.to_numpy(dtype=float, na_value=np.nan)
+            # a copy: under pandas 3's copy-on-write to_numpy may return a read-only view of the frame
+            x = series.to_numpy(dtype=float, na_value=np.nan, copy=True)
             bad = np.isnan(x) | np.isin(x, self.cells.numbers)
         elif pd.api.types.is_object_dtype(series.dtype) or pd.api.types.is_string_dtype(series.dtype):
             x, bad = self._text(series, column)
@@ -179,7 +182,7 @@ class _Columns:
         null = series.isna().to_numpy()
         text = series.astype(str).str.strip()
         bad = null | text.isin(self.cells.strings).to_numpy()
-        x = pd.to_numeric(text.where(~bad, "nan"), errors="coerce").to_numpy(dtype=float)
+        x = pd.to_numeric(text.where(~bad, "nan"), errors="coerce").to_numpy(dtype=float, copy=True)
         bad |= np.isin(x, self.cells.numbers)
         unparsed = np.isnan(x) & ~bad & ~text.str.lower().isin(NAN_TEXT).to_numpy()
         if unparsed.any():
@@ -200,21 +203,20 @@ class _Columns:
         return RawTable(str(self.path), self.rows, time, values, mode, self.bad, self.non_finite)
 
 
-def _separator(path: Path) -> str:
-    """The CSV field separator: the most frequent of , ; and tab in the header line."""
+def _separator(path: Path) -> tuple[str, str]:
+    """The CSV field separator (the most frequent of , ; and tab in the header line) and the encoding."""
     with path.open("rb") as handle:
         head = handle.read(65536)
-    if b"\0" in head:
-        raise DataError(path, "", "not a CSV file: it holds binary data")
-    first = head.split(b"\n", 1)[0]
-    counts = {sep: first.count(sep.encode()) for sep in (",", ";", "\t")}
-    return max(counts, key=lambda sep: counts[sep])
+    encoding = csv_encoding(head, path)
+    first = head.decode(encoding, errors="ignore").split("\n", 1)[0]
+    counts = {sep: first.count(sep) for sep in (",", ";", "\t")}
+    return max(counts, key=lambda sep: counts[sep]), encoding
 
 
 def _read_csv(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progress | None) -> RawTable:
     pd = _pandas(path)
-    sep = _separator(path)
-    options = {"sep": sep, "encoding": "utf-8-sig", "keep_default_na": False, "na_values": cells.strings}
+    sep, encoding = _separator(path)
+    options = {"sep": sep, "encoding": encoding, "keep_default_na": False, "na_values": cells.strings}
     try:
         header = list(pd.read_csv(path, nrows=0, **options).columns)
         columns.check(header, path)
@@ -227,7 +229,10 @@ def _read_csv(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progre
                     progress(min(handle.tell(), total), total)
     except UnicodeDecodeError as exc:
         raise DataError(
-            path, "", f"not UTF-8 text ({exc.reason} at byte {exc.start}); save the export as UTF-8"
+            path,
+            "",
+            f"not {encoding.upper().removesuffix('-SIG')} text ({exc.reason} at byte {exc.start}); "
+            "save the export as UTF-8",
         ) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
         if isinstance(exc, DataError):
@@ -247,6 +252,7 @@ def _read_parquet(path: Path, columns: ColumnMap, cells: _BadCells, progress: Pr
             raise DataError(path, "", "not a Parquet file (it does not start with PAR1)")
     try:
         parquet = pq.ParquetFile(path)
+        check_unique_columns(parquet.schema_arrow.names, path)
         columns.check(parquet.schema_arrow.names, path)
         total = parquet.metadata.num_rows
         out = _Columns(path, columns, cells)

@@ -64,7 +64,7 @@ def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> 
 
     numeric = pd.api.types.is_numeric_dtype(raw.dtype) and not pd.api.types.is_bool_dtype(raw.dtype)
     if time_format == "seconds" or (time_format == "detected" and numeric):
-        seconds = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
+        seconds = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, copy=True)
         bad = ~np.isfinite(seconds)
         if bad.any():
             j = int(np.flatnonzero(bad)[0])
@@ -75,8 +75,9 @@ def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> 
     if bad.any():
         j = int(np.flatnonzero(bad)[0])
         raise _bad_stamp(path, column, j, raw.iloc[j], "is not an ISO 8601 date-time (e.g. 2024-03-01T12:00:00Z)")
-    ns = stamps.astype("int64").to_numpy()
-    return ParsedTime((ns - ns[0]) / 1e9, stamps.iloc[0].isoformat(), iso=True)
+    # from the differences, not the integers: Arrow stamps arrive in s, ms, us or ns (the dtype's unit)
+    seconds = (stamps - stamps.iloc[0]).dt.total_seconds().to_numpy(dtype=float, copy=True)
+    return ParsedTime(seconds, stamps.iloc[0].isoformat(), iso=True)
 
 
 @dataclass(frozen=True)

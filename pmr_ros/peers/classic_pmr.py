@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.pmr.classic import PmrSettings, diagnose_classic
-from ..core.sim.model import TransferMatrix
 from ..core.records import Record
+from ..core.sim.model import TransferMatrix
 from .outcome import PeerOutcome, from_diagnosis
 
 __all__ = ["classic_pmr"]

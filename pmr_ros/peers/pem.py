@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import norm
 
-from ..core.sim.model import TransferMatrix
 from ..core.pmr.parametric.verdicts import delay_confidence, parameter_verdict
+from ..core.sim.model import TransferMatrix
 from .outcome import PeerOutcome, Tolerances, overall_verdict
 from .pem_fit import RowData, RowFit, fit_row
 

@@ -19,6 +19,7 @@ from ...sim.model import TransferMatrix
 from ..classic import PmrSettings
 from ..implicit import RowEstimate, RowLayout
 from ..spectra import WelchSettings
+from .rank import collinear_inputs_reason
 from .settings import ParametricSettings
 
 __all__ = ["NEGLIGIBLE_GAIN_RATIO", "RowQuality", "fitted_bins", "negligible_gains", "row_quality"]
@@ -133,6 +134,7 @@ def _reasons(
     settings: ParametricSettings,
     min_bins: int,
     coherence_min: float,
+    inputs: list[str],
 ) -> list[str]:
     reasons = list(layout.reasons)
     if reasons:
@@ -145,7 +147,7 @@ def _reasons(
     if coherence < settings.coherence_min:
         reasons.append(f"coherence with the setpoints too low ({coherence:.2f} < {settings.coherence_min:g})")
     if not np.isfinite(condition) or condition > settings.max_condition:
-        reasons.append(f"ill-conditioned row regression (condition {condition:.3g} > {settings.max_condition:g})")
+        reasons.append(collinear_inputs_reason(condition, max_condition=settings.max_condition, inputs=inputs))
     return reasons
 
 
@@ -204,6 +206,7 @@ def row_quality(
         settings=settings,
         min_bins=2 * layout.columns.size + 2,
         coherence_min=classic.coherence_min,
+        inputs=[model.input_names[k] for k in layout.columns],
     )
     warnings = _warnings(layout, ratio, bins=bins, omega=omega, settings=settings)
     # each modeled element's share of the row's instrument-driven output: can it be seen at all?

@@ -1,0 +1,95 @@
+"""What a closed-loop run needs before any of it is built: memory for the model, samples for the diagnosis.
+
+The realization (:meth:`~pmr_ros.core.sim.model.TransferMatrix.state_space`) has
+one state per element and one shift-register state per sample of each
+input's longest delay, and keeps its state matrix dense: a 200x200 model
+(40,000 elements) has 41,400 states, a 13.7 GB state matrix per copy; a plant
+delay of 10^6 samples a 8 TB one.  The controller adds its prediction
+matrices (``Np n_out`` rows over the states and over the ``Nc n_in`` moves)
+and its condensed QP.  :func:`model_bytes` bounds the peak from above
+(1.4-2x the ``tracemalloc`` peak of building a plant and its MPC, measured on
+8x8 to 24x24 models), so a command can refuse in one line instead of being
+killed after a minute.
+
+:func:`samples_needed` is the shortest record the diagnosis accepts
+(:func:`~pmr_ros.core.pmr.checks.check_stretches`: twice as many Welch segments
+as instruments): a 64x64 model needs 33,000 samples, known before a 74 s
+simulation of 16,384 finds it out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..pmr.checks import MIN_SEGMENTS
+from ..pmr.spectra import WelchSettings
+from .model import TransferMatrix
+
+__all__ = [
+    "PREDICTION_COPIES",
+    "REALIZATION_COPIES",
+    "controller_bytes",
+    "model_bytes",
+    "realization_bytes",
+    "samples_needed",
+    "states",
+]
+
+REALIZATION_COPIES = 3
+"""Dense ``nx x nx`` arrays alive at once per realization (A, its one-source form's stacked feed, temporaries)."""
+
+PREDICTION_COPIES = 2
+"""Copies of the prediction matrices alive at once while the controller is built."""
+
+
+def states(model: TransferMatrix) -> int:
+    """States of the realization: one per element plus each input's longest delay in samples.
+
+    Examples
+    --------
+    >>> from pmr_ros.config import load_config
+    >>> states(load_config().model)  # Wood-Berry: 4 elements, registers of 7 and 3 samples
+    14
+    """
+    present = model.present
+    lengths = np.where(present, model.delay_samples, 0).max(axis=0)
+    return int(present.sum()) + int(lengths.sum())
+
+
+def realization_bytes(model: TransferMatrix) -> int:
+    """Peak memory of building and stepping one dense realization of ``model`` [bytes]."""
+    nx = states(model)
+    return 8 * REALIZATION_COPIES * nx * (nx + model.n_inputs + model.n_outputs)
+
+
+def controller_bytes(model: TransferMatrix, *, prediction_horizon: int, control_horizon: int) -> int:
+    """Peak memory of building the MPC on ``model``: its realization, prediction matrices and QP [bytes]."""
+    nx, n_out, n_in = states(model), model.n_outputs, model.n_inputs
+    moves = control_horizon * n_in
+    rows = prediction_horizon * n_out
+    prediction = PREDICTION_COPIES * rows * (nx + n_in + moves)
+    qp = 4 * moves * moves + 2 * moves * (nx + 2 * n_in + 3 * n_out)
+    return realization_bytes(model) + 8 * (prediction + qp)
+
+
+def model_bytes(model: TransferMatrix, plant: TransferMatrix, *, prediction_horizon: int, control_horizon: int) -> int:
+    """A closed loop's fixed memory: the plant's realization and the controller on the model [bytes]."""
+    controller = controller_bytes(model, prediction_horizon=prediction_horizon, control_horizon=control_horizon)
+    return realization_bytes(plant) + controller
+
+
+def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0) -> int:
+    """The fewest unbroken samples the diagnosis of ``model`` accepts with ``welch``'s segments.
+
+    The model's settling, then ``max(4, 2 n_instruments)`` Welch segments
+    (:func:`~pmr_ros.core.pmr.checks.check_stretches`).
+
+    Parameters
+    ----------
+    model : TransferMatrix
+    welch : WelchSettings
+    dithered_inputs : int
+        Inputs whose MV dither joins the setpoints as instruments.
+    """
+    need = max(MIN_SEGMENTS, 2 * (model.n_outputs + int(dithered_inputs)))
+    return model.settling_samples() + welch.segment_length + (need - 1) * welch.step

@@ -1,0 +1,94 @@
+"""A run that cannot succeed is refused in one line, with the figure, before anything is allocated or simulated."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import yaml
+
+from pmr_ros import cli
+from pmr_ros.config import config_dir, load_config
+from pmr_ros.core.sim.footprint import model_bytes, realization_bytes, samples_needed, states
+from pmr_ros.core.sim.memory import available_bytes
+
+
+def _square(tmp_path, n: int, *, delay: float = 1.0) -> str:
+    """An n x n model: gain 1 on the diagonal, 0.2 elsewhere, tau 10, delay 1 (the first element ``delay``)."""
+    gain = np.full((n, n), 0.2)
+    np.fill_diagonal(gain, 1.0)
+    delays = np.full(n * n, 1.0)
+    delays[0] = delay
+    params = {
+        "system": {
+            "name": f"square{n}",
+            "sample_time": 1.0,
+            "output_names": [f"y{i + 1}" for i in range(n)],
+            "input_names": [f"u{i + 1}" for i in range(n)],
+            "gain": gain.ravel().tolist(),
+            "time_constant": [10.0] * (n * n),
+            "delay": delays.tolist(),
+        },
+        "prbs": {"register_length": 16},
+    }
+    path = tmp_path / f"square{n}.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": params}}))
+    return str(path)
+
+
+def _refused(capsys, argv: list[str], *words: str) -> str:
+    start = time.monotonic()
+    code = cli.main(argv)
+    elapsed = time.monotonic() - start
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and err.count("\n") == 0, err
+    assert "Traceback" not in err
+    for word in words:
+        assert word in err, err
+    assert elapsed < 20.0, elapsed  # refused before building or simulating
+    return err
+
+
+def test_states_count_elements_and_delay_registers(wood_berry):
+    assert states(wood_berry.model) == 4 + 7 + 3
+    assert realization_bytes(wood_berry.model) == 8 * 3 * 14 * (14 + 2 + 2)
+
+
+def test_a_200_by_200_model_is_refused_with_its_states_and_memory(tmp_path, capsys):
+    config = load_config(_square(tmp_path, 200))
+    needed = model_bytes(config.model, config.plant(), prediction_horizon=40, control_horizon=8)
+    have = available_bytes()
+    if have is None or needed <= have:
+        pytest.skip(f"this machine has {have} bytes: a 200x200 model fits")
+    _refused(capsys, ["run", "--batch", "--config", _square(tmp_path, 200)], "200x200 model has 40200 states", "GB")
+
+
+def test_a_plant_delay_of_a_million_samples_is_refused_naming_the_plants_states(capsys, tmp_path):
+    text = (
+        (config_dir() / "wood_berry.yaml")
+        .read_text()
+        .replace("delay_samples: [0, 1, 2, 0]", "delay_samples: [1000000, 1, 2, 0]")
+    )
+    path = tmp_path / "far_delay.yaml"
+    path.write_text(text)
+    _refused(
+        capsys,
+        ["run", "--batch", "--config", str(path), "--scenario", "delay"],
+        "the 2x2 model has 14 states, the plant 1000009",
+        "TB of memory",
+    )
+
+
+def test_a_64_by_64_model_with_too_few_samples_is_insufficient_before_simulating(tmp_path, capsys):
+    path = _square(tmp_path, 64)
+    config = load_config(path)
+    needed = samples_needed(config.model, config.parametric.welch(config.model, 16384, config.pmr))
+    assert needed == 82 + 512 + 127 * 256
+    start = time.monotonic()
+    assert cli.main(["run", "--batch", "--config", path]) == 3
+    assert time.monotonic() - start < 20.0  # the 74 s simulation is not run
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].startswith("INSUFFICIENT DATA: window too short, known before simulating: 16384 samples for a 64x64")
+    assert f"needs at least {needed} (82 of settling, then 128 Welch segments of 512" in out[1]
+    assert f"--samples {needed}" in out[1]
