@@ -32,7 +32,7 @@ def check_unique_columns(names: Sequence[str], path: str | Path) -> None:
     >>> check_unique_columns(["t", "y1", "y1"], "a.parquet")
     Traceback (most recent call last):
     ...
-    pmr_ros.data.bad_data.DataError: a.parquet: column 'y1': appears 2 times in the file (columns 2, 3): rename the copies
+    pmr_ros.data.bad_data.DataError: a.parquet: column 'y1': appears 2 times in the file (columns 2, 3): rename ...
     """
     twice = [name for name, count in Counter(names).items() if count > 1]
     if twice:
