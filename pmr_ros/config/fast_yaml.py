@@ -17,6 +17,9 @@ each giving exactly what ``yaml.load(text, Loader=CSafeLoader)`` gives:
   text that made it part of a longer scalar) or the cut text does not parse,
   the original text is parsed as it is, and PyYAML's answer (or error) stands.
 
+One difference from PyYAML, on purpose: a document with a duplicate key or an
+alias bomb is refused (:mod:`.yaml_guard`) before it is built.
+
 ``test/test_config_files.py`` compares both loaders on documents built to trip the shortcut.
 """
 
@@ -28,6 +31,8 @@ from typing import Any
 
 import yaml
 from yaml.nodes import ScalarNode, SequenceNode
+
+from .yaml_guard import DocumentError, check_document
 
 __all__ = ["LARGE_TEXT", "load"]
 
@@ -62,6 +67,14 @@ class _Loader(_BASE):  # type: ignore[misc, valid-type]  # PyYAML's loaders are 
             if self.mark and value.startswith(self.mark) and value[len(self.mark) + 1 :].isdigit():
                 return LIST_TAG
         return super().resolve(kind, value, implicit)
+
+    def get_single_data(self) -> Any:
+        """The document, built only once :func:`.yaml_guard.check_document` passed its composed nodes."""
+        node = self.get_single_node()
+        if node is None:
+            return None
+        check_document(node)
+        return self.construct_document(node)
 
     def construct_sequence(self, node: Any, deep: bool = False) -> list[Any]:
         if not isinstance(node, SequenceNode):
@@ -105,7 +118,8 @@ def load(text: str) -> Any:
     Raises
     ------
     yaml.YAMLError
-        As PyYAML does.
+        As PyYAML does; :class:`.yaml_guard.DocumentError` (one) for a
+        duplicate key or an alias bomb.
     """
     if len(text) < LARGE_TEXT:
         return yaml.load(text, Loader=_Loader)  # noqa: S506 - a safe loader
@@ -117,6 +131,8 @@ def load(text: str) -> Any:
     loader.mark, loader.lists = mark, items
     try:
         document = loader.get_single_data()
+    except DocumentError:
+        raise  # a duplicate key or an alias bomb in the text is one in the original too
     except yaml.YAMLError:
         document = None
     finally:
