@@ -19,6 +19,7 @@ from typing import NoReturn
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .config import ConfigError
+from .outputs import OutputError
 from .ros.signals import RosInitError
 
 COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex"]
@@ -62,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _interrupt_on_sigterm()
     try:
         return args.handler(args)
-    except (ConfigError, CommandError, RosInitError) as exc:
+    except (ConfigError, CommandError, OutputError, RosInitError) as exc:
         print(f"pmr-ros: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line, whatever the cause
         return getattr(exc, "code", EXIT_USAGE)
     except KeyboardInterrupt:

@@ -21,11 +21,12 @@ LAYERS: dict[str, set[str]] = {
     "_blas": set(),
     "core": set(),
     "progress": set(),
-    "config": {"core", "resources"},
-    "report": {"core", "config", "data"},
+    "outputs": set(),  # safe output writing: used by every writer
+    "config": {"core", "resources", "outputs"},
+    "report": {"core", "config", "data", "outputs"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
-    "sweep": {"core", "config", "report", "progress"},
+    "sweep": {"core", "config", "report", "progress", "outputs"},
     "bag": {"core", "config", "contract"},
     "ros": {"core", "config", "contract", "resources"},
     "nodes": {"core", "config", "contract", "ros", "bag"},
@@ -43,8 +44,9 @@ LAYERS: dict[str, set[str]] = {
         "node_set",
         "resources",
         "progress",
+        "outputs",
     },
-    "cli": {"commands", "config", "ros"},
+    "cli": {"commands", "config", "ros", "outputs"},
     "entry": set(),  # imports its commands by name (importlib) once the signals are taken
     "__init__": {"_version", "_blas"},
 }

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..outputs import check_outputs
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
 from .model_output import add_model_arguments, check_model_output, close_the_loop
 
@@ -162,6 +163,7 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from .plant_data import TABLE, diagnose_table, source_kind
 
+    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model"), folders=("report",))
     if args.json:
         writable_file(args.json, "--json")  # before any work, for a bag and an export alike
     if source_kind(args.bag) == TABLE:

@@ -18,6 +18,7 @@ from ..config import PmrConfig
 from ..config.write import write_params_file
 from ..contract.proposal import close_diagnosis, model_file_text
 from ..core.results import Diagnosis
+from ..outputs import add_output_arguments
 from . import CommandError
 
 __all__ = ["add_model_arguments", "check_model_output", "close_the_loop"]
@@ -31,6 +32,7 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         help="write the corrected model: the controller's model with every mismatched element replaced by its "
         "estimate, as a params file every pmr_ros command and node reads (parametric method)",
     )
+    add_output_arguments(parser)
 
 
 def check_model_output(args: argparse.Namespace) -> None:

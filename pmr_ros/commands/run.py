@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..outputs import check_outputs
 from . import (
     EXIT_INSUFFICIENT,
     CommandError,
@@ -158,6 +159,7 @@ def handle(args: argparse.Namespace) -> int:
     if args.wait_for_subscribers is not None:
         overrides["simulation"] = {"wait_for_subscribers": args.wait_for_subscribers}
     config = load_checked_config(args.config, overrides)
+    check_outputs(args, inputs=(args.config,), files=("json", "write_model"))
     check_model_output(args)
     _check_before_running(args, config)
     diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)

@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..outputs import add_output_arguments, check_outputs
 from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
 
 DEFAULT_OUT = "out/sweep"
@@ -39,6 +40,7 @@ def register(sub) -> None:
         default=DEFAULT_OUT,
         help=f"folder of results.csv, sweep.json and, by default, the report (default: {DEFAULT_OUT})",
     )
+    add_output_arguments(p)
     grid = p.add_argument_group("nu grid (--nu or a range)")
     grid.add_argument("--nu", metavar="LIST", help="comma-separated nu values, e.g. 1,2.25,5 (overrides the range)")
     grid.add_argument("--nu-start", type=number, default=1.0, metavar="X", help="first nu (default: 1)")
@@ -225,6 +227,7 @@ def handle(args: argparse.Namespace) -> int:
     from ..sweep import store
 
     config = load_checked_config(args.config)
+    check_outputs(args, inputs=(args.config,), files=("report",), folders=("out",))
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE

@@ -21,6 +21,7 @@ from ..config import PmrConfig
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..core.stretch import Stretch
 from ..data import PlantData
+from ..outputs import write_bytes, write_text
 from .curves import pmr_curves
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
@@ -158,7 +159,7 @@ def write_html_report(directory: str | Path, page: ReportInput) -> Path:
     (directory / "figures").mkdir(parents=True, exist_ok=True)
     matrix, timeline, elements = _figures(page)
     for figure in [matrix, timeline, *(f for _, f in elements if f is not None)]:
-        (directory / "figures" / figure.name).write_bytes(figure.png)
+        write_bytes(directory / "figures" / figure.name, figure.png)
     index = directory / "index.html"
-    index.write_text(render_page(page, matrix, timeline, elements), encoding="utf-8")
+    write_text(index, render_page(page, matrix, timeline, elements))  # atomic: never a partial page
     return index

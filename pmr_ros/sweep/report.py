@@ -16,6 +16,7 @@ import numpy as np
 
 from ..config import PmrConfig, load_config
 from ..core.model import SCENARIOS
+from ..outputs import replacing, write_text
 from .analysis import (
     DIAGNOSES,
     GAIN_TOLERANCE,
@@ -205,7 +206,8 @@ def plot_sweep(
     fig.suptitle(title, fontsize=9)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    with replacing(path) as tmp:
+        fig.savefig(tmp, dpi=90, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path
 
@@ -326,7 +328,7 @@ def write_summary_csv(summary: list[PointSummary], path: Path) -> None:
     """The per-point summary (medians, spreads, wrong seeds) as CSV."""
     names = [f.name for f in fields(PointSummary)]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
+    with replacing(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)
         for p in summary:
@@ -391,10 +393,11 @@ def write_report(rows: list[dict], report: Path, config: PmrConfig, manifest: di
     ]
     write_summary_csv(summary, figures_dir / "sweep_summary.csv")
     report.parent.mkdir(parents=True, exist_ok=True)
-    report.write_text(
+    write_text(
+        report,
         _markdown(
             summary=summary, config=config, manifest=manifest, rows=rows, figures=written, report=report, paper=paper
-        )
+        ),
     )
     return written
 

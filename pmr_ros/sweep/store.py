@@ -14,6 +14,8 @@ import math
 from collections.abc import Iterable
 from pathlib import Path
 
+from ..outputs import write_text
+
 COLUMNS = (
     "method",
     "sweep",
@@ -173,7 +175,7 @@ def config_fingerprint(parameters: dict) -> str:
 
 def write_manifest(folder: Path, manifest: dict) -> None:
     """Write the sweep's manifest (its plan and configuration hash) into ``folder``."""
-    (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+    write_text(folder / MANIFEST_FILE, json.dumps(manifest, indent=2, sort_keys=True) + "\n")
 
 
 def read_manifest(folder: Path) -> dict | None:
