@@ -10,7 +10,16 @@ import time
 from pathlib import Path
 
 from ..outputs import add_output_arguments, check_outputs
-from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
+from . import (
+    CommandError,
+    check_memory,
+    load_checked_config,
+    nonnegative_int,
+    number,
+    positive_float,
+    positive_int,
+    writable_file,
+)
 
 DEFAULT_OUT = "out/sweep"
 
@@ -86,6 +95,13 @@ def register(sub) -> None:
         metavar="ADDRESS",
         help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
         "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
+    )
+    p.add_argument(
+        "--connect-timeout",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="--scheduler: give up when the scheduler has not answered in S seconds (default: 5)",
     )
     p.add_argument("--force", action="store_true", help="start afresh in an --out folder that holds an earlier sweep")
     p.add_argument(
@@ -274,6 +290,8 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
         "wall_time_s": 0.0,
         "cpu_time_s": 0.0,
     }
+    if args.scheduler:
+        _check_scheduler(args)  # before --force clears the folder or a manifest is written: a failure leaves nothing
     _prepare_folder(args, out, manifest)
     tasks = plan_tasks(config, plan, _done_runs(results, config.model.n_outputs * config.model.n_inputs))
     manifest.update(
@@ -290,8 +308,23 @@ def _sweep(args: argparse.Namespace, config, out: Path, results: Path) -> dict:
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
         _announce(args, plan, tasks, todo)
-    _timed_execution(args, config, tasks, results, out=out, manifest=manifest)
+    try:
+        _timed_execution(args, config, tasks, results, out=out, manifest=manifest)
+    except CommandError:
+        if args.scheduler and not results.exists():  # the cluster went away before the first row: no sweep to resume
+            (out / store.MANIFEST_FILE).unlink(missing_ok=True)
+        raise
     return manifest
+
+
+def _check_scheduler(args: argparse.Namespace) -> None:
+    """Refuse, in one line, a ``--scheduler`` where no Dask scheduler answers in ``--connect-timeout``."""
+    from ..sweep.cluster import ClusterError, check_scheduler
+
+    try:
+        check_scheduler(args.scheduler, timeout_s=args.connect_timeout)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
 
 
 def _announce(args: argparse.Namespace, plan, tasks: list, todo: int) -> None:
