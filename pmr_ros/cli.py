@@ -20,6 +20,7 @@ from typing import NoReturn
 from . import __version__
 from .commands import EXIT_INTERRUPTED, EXIT_USAGE, CommandError
 from .config import ConfigError
+from .outputs import OutputError
 from .ros.signals import RosInitError
 from .service.refusal import ServiceError
 
@@ -64,7 +65,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _interrupt_on_sigterm()
     try:
         return args.handler(args)
-    except (ConfigError, CommandError, ServiceError, RosInitError) as exc:
+    except (ConfigError, CommandError, OutputError, ServiceError, RosInitError) as exc:
         print(f"pmr-ros: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line, whatever the cause
         return getattr(exc, "code", EXIT_USAGE)
     except KeyboardInterrupt:

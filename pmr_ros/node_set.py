@@ -264,6 +264,10 @@ def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watc
             raise KeyboardInterrupt
         if listener.conflict is not None:
             raise NodeSetError(f"the diagnostician reports a conflict: {listener.conflict}")
+        # an extra node that cannot go on (a recorder on a full disk) ends the run with its one-line reason
+        failure = next((f for node in nodes if (f := getattr(node, "failure", None))), None)
+        if failure:
+            raise NodeSetError(failure)
         watch.check()
 
 

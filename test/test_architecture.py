@@ -21,13 +21,14 @@ LAYERS: dict[str, set[str]] = {
     "_blas": set(),
     "core": set(),
     "progress": set(),
-    "config": {"core", "resources"},
+    "outputs": set(),  # safe output writing: used by every writer
+    "config": {"core", "resources", "outputs"},
     "peers": {"core"},  # peer methods of the benchmark: numpy/scipy on the core's model, no ROS, no commands
-    "report": {"core", "config", "data", "sweep"},
+    "report": {"core", "config", "data", "sweep", "outputs"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
     "models": {"core", "config"},
-    "sweep": {"core", "config", "progress"},
+    "sweep": {"core", "config", "progress", "outputs"},
     "bag": {"core", "config", "contract"},
     "service": {"core", "config", "contract", "data", "report", "bag"},
     "ros": {"core", "config", "contract", "resources"},
@@ -48,8 +49,9 @@ LAYERS: dict[str, set[str]] = {
         "progress",
         "service",
         "models",
+        "outputs",
     },
-    "cli": {"commands", "config", "ros", "service"},
+    "cli": {"commands", "config", "ros", "service", "outputs"},
     "entry": set(),  # imports its commands by name (importlib) once the signals are taken
     "__init__": {"_version", "_blas"},  # and, imported on first use by name (importlib), the front door
     "api": {"core", "config", "service", "bag"},

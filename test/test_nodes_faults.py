@@ -19,7 +19,7 @@ from pmr_ros.contract.topics import topic
 from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
-from pmr_ros.ros.convert import signal_message
+from pmr_ros.ros.convert import signal_message, text_message
 from pmr_ros.ros.messages import message_class, qos_profile
 from pmr_ros.ros.parameters import parameter_overrides
 
@@ -117,3 +117,35 @@ def test_a_publisher_discovered_late_loses_no_sample(loop):
         np.testing.assert_allclose(
             element.parametric.gain_mismatch_pct, expected.elements[name].parametric.gain_mismatch_pct, rtol=1e-6
         )
+
+
+def alias_bomb(levels: int = 9) -> str:
+    """A 1 KB "billion laughs": ``levels`` lines of nine aliases each, 9**levels strings when expanded."""
+    lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, levels)]
+    return "\n".join(lines) + f"\nsystem: *a{levels - 1}\nfirst_sample: 0\nrevision: 1\n"
+
+
+def test_an_alias_bomb_on_the_model_topic_is_rejected_and_the_diagnostician_goes_on(loop):
+    """The latched model topic carries a 1 KB alias bomb: one warning, the model kept, the verdicts as before."""
+    t = topic("active_model")
+    bomb = loop.feeder.create_publisher(message_class(t), t.name, qos_profile(t.qos))
+    model_before = loop.diag.config.model
+    bomb.publish(text_message("active_model", alias_bomb()))
+    assert spin_until(loop.executor, lambda: bool(loop.diag.warnings), 20.0), "the bomb was never taken"
+    assert "alias bomb" in loop.diag.warnings[0], loop.diag.warnings
+    assert loop.diag.config.model is model_before
+    for signal in ("r", "u", "y"):
+        loop.publisher(signal)
+    assert spin_until(loop.executor, lambda: all(p.get_subscription_count() for p in loop.pubs.values()), 10.0)
+    for k in range(SAMPLES):
+        for signal in ("r", "u", "y"):
+            loop.send(signal, k)
+        if k % 200 == 0:
+            spin_until(loop.executor, lambda k=k: loop.diag.messages_received >= 3 * (k + 1), 60.0)
+    assert spin_until(loop.executor, lambda: bool(loop.final()), 120.0), "no verdict after the bomb"
+    (diagnosis, info), *_ = loop.final()
+    assert diagnosis.status == "ok" and info["first_sample"] == 0 and info["window_samples"] == SAMPLES
+    rec, config = _record(), loop.diag.config
+    expected = diagnose(rec.r, rec.u, rec.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
+    assert {n: e.verdict for n, e in diagnosis.elements.items()} == {n: e.verdict for n, e in expected.elements.items()}

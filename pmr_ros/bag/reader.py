@@ -230,9 +230,11 @@ def _metadata_problem(path: Path) -> str | None:
     """What is wrong with a bag's metadata.yaml (one line), or None when it parses as a rosbag2 mapping."""
     import yaml
 
+    from ..config.fast_yaml import load as load_yaml_text
+
     metadata = path / "metadata.yaml"
     try:
-        document = yaml.safe_load(metadata.read_text(encoding="utf-8"))
+        document = load_yaml_text(metadata.read_text(encoding="utf-8"))  # no duplicate key, no alias bomb
     except (OSError, UnicodeDecodeError) as exc:
         return f"{metadata}: cannot be read ({_cause(exc)})"
     except yaml.YAMLError as exc:

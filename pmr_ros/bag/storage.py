@@ -21,6 +21,7 @@ from typing import Any
 import yaml
 
 from .. import __version__
+from ..config.fast_yaml import load as load_yaml_text
 from ..contract.topics import PROGRESS_KEY, Topic, TopicQos, load_contract
 
 __all__ = ["BagError", "RunConfig", "recorded_topics", "rosbags_qos", "typestore"]
@@ -140,7 +141,7 @@ class RunConfig:
     def from_text(cls, text: str) -> RunConfig:
         """Parse the ``run_config`` topic's document; raises :class:`BagError` if malformed."""
         try:
-            doc = yaml.safe_load(text)
+            doc = load_yaml_text(text)
             params = doc["/**"]["ros__parameters"]
             head = doc.get("pmr_ros_run_config", {}) or {}
         except (yaml.YAMLError, TypeError, KeyError) as exc:
@@ -157,7 +158,7 @@ class RunConfig:
         if not text:
             return None
         try:
-            params = yaml.safe_load(text)["/**"]["ros__parameters"]
+            params = load_yaml_text(text)["/**"]["ros__parameters"]
         except (yaml.YAMLError, TypeError, KeyError) as exc:
             cause = " ".join(f"{type(exc).__name__}: {exc}".split())
             raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({cause})") from None

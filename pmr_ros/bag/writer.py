@@ -8,13 +8,22 @@ runs every ``flush_period_s`` from :meth:`BagWriter.write` and from the
 recorder's timer, so a recorder killed with SIGKILL loses at most the last
 period.  A clean :meth:`BagWriter.close` writes the MCAP summary and
 ``metadata.yaml`` (with the run's configuration in ``custom_data``).
+
+A write or flush that fails (a full disk: ``OSError`` ENOSPC) does not raise
+into the recorder's callbacks: the writer stops, keeps its reason in
+:attr:`BagWriter.failure` (one line) and leaves the files as the last flush
+left them, which the reader recovers (an MCAP without summary, an sqlite3
+database at its last commit).  It writes nothing more, not even a summary,
+which would only be cut short again.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import sqlite3
 import time
+from contextlib import suppress
 from pathlib import Path
 from typing import TYPE_CHECKING, Final, cast
 
@@ -29,6 +38,9 @@ if TYPE_CHECKING:
 
 ROSBAG2_VERSION: Final = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
+
+DISK_ERRORS = (OSError, sqlite3.Error)
+"""What a full disk raises: ``OSError`` ENOSPC (MCAP), ``sqlite3.OperationalError`` "database or disk is full"."""
 
 DEFAULT_FLUSH_PERIOD_S = 0.5
 """Longest time between flushes to the disk while recording [s of wall time]."""
@@ -125,6 +137,8 @@ class BagWriter:
         self._types = {t.name: t.type for t in self.topics.values()}
         self._last_flush = time.monotonic()
         self._closed = False
+        self.failure: str | None = None
+        self.flushed_counts = dict(self.counts)
 
     # -- writing -------------------------------------------------------------
     def write_raw(self, topic_name: str, timestamp_ns: int, data: bytes | memoryview) -> None:
@@ -132,7 +146,13 @@ class BagWriter:
         connection = self._connections.get(topic_name)
         if connection is None:
             raise BagError(f"{topic_name}: not a recorded topic ({', '.join(self._connections)})")
-        self._writer.write(connection, int(timestamp_ns), data)
+        if self.failure is not None:
+            return  # stopped: the bag keeps what the last flush made durable
+        try:
+            self._writer.write(connection, int(timestamp_ns), data)
+        except DISK_ERRORS as exc:
+            self._fail(exc)
+            return
         self.counts[topic_name] += 1
         if time.monotonic() - self._last_flush >= self.flush_period_s:
             self.flush()
@@ -164,8 +184,18 @@ class BagWriter:
         in memory) and the file flushed and fsync'ed; sqlite3: a commit.
         """
         storage = self._writer.storage
-        if storage is None:
+        if storage is None or self.failure is not None:
             return
+        try:
+            self._flush(storage)
+        except DISK_ERRORS as exc:
+            self._fail(exc)
+            return
+        self.flushes += 1
+        self._last_flush = time.monotonic()
+        self.flushed_counts = dict(self.counts)
+
+    def _flush(self, storage: object) -> None:
         # rosbags types its storage as a protocol; the plugin is the one chosen in __init__ by self.storage
         if self.storage == "mcap":
             mcap = cast("McapWriter", storage)
@@ -175,8 +205,32 @@ class BagWriter:
             os.fsync(mcap.bio.fileno())
         else:
             cast("Sqlite3Writer", storage).conn.commit()
-        self.flushes += 1
-        self._last_flush = time.monotonic()
+
+    def _fail(self, exc: Exception) -> None:
+        """Stop writing after ``exc``: note why (one line) and let go of the files without writing more."""
+        why = " ".join(str(getattr(exc, "strerror", None) or exc).split())
+        self.failure = (
+            f"{self.path}: cannot write the bag ({why}); recording stopped, the bag keeps what was "
+            f"flushed before: {self.whole_samples()} whole samples"
+        )
+        self._abandon()
+
+    def whole_samples(self) -> int:
+        """Samples of which r, u and y all reached the disk at the last flush."""
+        signals = [
+            t.name for key, t in self.topics.items() if key in ("setpoint", "manipulated_input", "measured_output")
+        ]
+        return min((self.flushed_counts.get(name, 0) for name in signals), default=0)
+
+    def _abandon(self) -> None:
+        """Close the storage's files as they are (no chunk, summary or metadata.yaml is written)."""
+        storage = self._writer.storage
+        self._closed = True
+        with suppress(Exception):  # a file the full disk left half-written still closes; nothing to add
+            if self.storage == "mcap":
+                cast("McapWriter", storage).bio.close()
+            else:
+                cast("Sqlite3Writer", storage).conn.close()
 
     # -- end -----------------------------------------------------------------
     @property
@@ -189,7 +243,11 @@ class BagWriter:
         if self._closed:
             return
         self._closed = True
-        self._writer.close()
+        try:
+            self._writer.close()
+        except DISK_ERRORS as exc:  # the summary or metadata.yaml did not fit: the bag is read without them
+            why = " ".join(str(getattr(exc, "strerror", None) or exc).split())
+            self.failure = self.failure or f"{self.path}: cannot close the bag ({why}); read it as is"
 
     def __enter__(self) -> BagWriter:
         return self

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +110,32 @@ def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer 
     raise CommandError(
         f"{cause}: needs about {format_bytes(needed)} of memory ({detail}); {format_bytes(have)} available: {advice}"
     )
+
+
+def declared_int(name: str) -> Callable[[str], int]:
+    """Argparse type: a whole number in the declared range of parameter ``name`` (one source of truth).
+
+    Examples
+    --------
+    >>> declared_int("simulation.max_samples_ahead")("256")
+    256
+    """
+    from ..config import ConfigError
+    from ..config.schema import parameter
+
+    spec = parameter(name)
+
+    def convert(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        try:
+            return int(spec.check(value, source="command line"))
+        except ConfigError:
+            raise argparse.ArgumentTypeError(f"{value} must be {spec.range_text()} (the range of {name})") from None
+
+    return convert
 
 
 def nonnegative_float(text: str) -> float:

@@ -17,6 +17,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from ..outputs import check_outputs
 from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
 from .arguments import JSON, add_options, config_option
@@ -172,6 +173,7 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from .plant_data import TABLE, diagnose_table, source_kind
 
+    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model"), folders=("report",))
     if args.json:
         writable_file(args.json, "--json")  # before any work, for a bag and an export alike
     if source_kind(args.bag) == TABLE:

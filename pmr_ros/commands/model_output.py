@@ -14,6 +14,7 @@ import argparse
 import os
 from pathlib import Path
 
+from ..outputs import add_output_arguments
 from . import CommandError
 
 __all__ = ["add_model_arguments", "check_model_output"]
@@ -27,6 +28,7 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         help="write the corrected model: the controller's model with every mismatched element replaced by its "
         "estimate, as a params file every pmr_ros command and node reads (parametric method)",
     )
+    add_output_arguments(parser)
 
 
 def check_model_output(args: argparse.Namespace) -> None:

@@ -109,6 +109,8 @@ def handle(args: argparse.Namespace) -> int:
                 node.destroy_node()
             else:
                 writer.close()
+    if writer.failure is not None:
+        raise CommandError(writer.failure, code=1)
     counts = ", ".join(f"{name} {n}" for name, n in writer.counts.items())
     print(f"pmr-ros record: {writer.message_count} messages in {writer.path} ({counts})", file=sys.stderr)
     return 0
@@ -129,7 +131,7 @@ def _record(node: Any, args: argparse.Namespace, stop: list[int]) -> None:
             flush=True,
         )
         deadline = time.monotonic() + args.duration if args.duration else None
-        while not stop and (deadline is None or time.monotonic() < deadline):
+        while not stop and (deadline is None or time.monotonic() < deadline) and node.failure is None:
             executor.spin_once(timeout_sec=0.1)
         drain(node, lambda timeout: executor.spin_once(timeout_sec=timeout))
     finally:

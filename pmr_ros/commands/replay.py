@@ -18,7 +18,10 @@ import sys
 import time
 from typing import Any
 
-from . import CommandError, add_namespace_argument, nonnegative_float, nonnegative_int, positive_float, positive_int
+from . import CommandError, add_namespace_argument, declared_int, nonnegative_float, nonnegative_int, positive_float
+
+EXIT_MISSED = 5
+"""Exit code with ``--strict`` when a subscriber may have missed samples."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -50,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--max-samples-ahead",
-        type=positive_int,
+        type=declared_int("simulation.max_samples_ahead"),
         default=None,
         metavar="N",
         help="lockstep: publish a sample only once every consumer has taken the one N samples back "
@@ -77,6 +80,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=1.0,
         metavar="S",
         help="keep publishers alive S seconds after the last message (default: 1)",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help=f"exit with {EXIT_MISSED} when a subscriber may have missed samples (one that does not report progress, "
+        "or a consumer that did not take the last sample); default: a warning, exit 0",
     )
     p.set_defaults(handler=handle)
 
@@ -108,11 +117,17 @@ def handle(args: argparse.Namespace) -> int:
                 raise CommandError(str(exc)) from None
             executor = SingleThreadedExecutor()
             executor.add_node(node)
-            _replay(node, executor, args, stop)
+            missed = _replay(node, executor, args, stop)
         finally:
             if node is not None:
                 node.destroy_node()
-    return 130 if stop else 0
+    if stop:
+        return 130
+    return EXIT_MISSED if missed and args.strict else 0
+
+
+FINAL_REPORT_WAIT_S = 3.0
+"""After the last sample, how long the consumers' final progress reports are waited for [s]."""
 
 
 def _wait_for_peers(node: Any, executor: Any, wait_s: float) -> None:
@@ -129,8 +144,9 @@ def _wait_for_peers(node: Any, executor: Any, wait_s: float) -> None:
     if not node.wait_for_subscribers(signals, wait_s, spin):
         missing = ", ".join(node.resolve_topic_name(node.topics[n].name) for n in signals if node.subscribers(n) == 0)
         print(f"pmr-ros replay: no subscriber on {missing} after {wait_s:g} s; replaying anyway", file=sys.stderr)
-        return
-    silent = node.wait_for_consumers(wait_s, spin)
+        silent = node.silent_subscribers()  # a subscriber of one signal alone is named too
+    else:
+        silent = node.wait_for_consumers(wait_s, spin)
     if silent:
         print(
             f"pmr-ros replay: {', '.join(silent)} subscribe(s) to the signals without reporting progress on "
@@ -139,7 +155,8 @@ def _wait_for_peers(node: Any, executor: Any, wait_s: float) -> None:
         )
 
 
-def _replay(node: Any, executor: Any, args: argparse.Namespace, stop: list[int]) -> None:
+def _replay(node: Any, executor: Any, args: argparse.Namespace, stop: list[int]) -> bool:
+    """Replay the bag; whether a subscriber may have missed samples (each one named on stderr)."""
     if args.wait:
         _wait_for_peers(node, executor, float(args.wait))
     started = time.monotonic()
@@ -160,3 +177,11 @@ def _replay(node: Any, executor: Any, args: argparse.Namespace, stop: list[int])
         f"({count / wall if wall > 0 else 0:.0f} samples/s{waits})",
         file=sys.stderr,
     )
+    # the consumers' last reports may still be on their way: give them a moment before naming one behind
+    settle = time.monotonic() + FINAL_REPORT_WAIT_S
+    while not node.followers.caught_up() and time.monotonic() < settle and not stop:
+        executor.spin_once(timeout_sec=0.05)
+    lines = node.followers.lines()
+    for line in lines:
+        print(f"pmr-ros replay: warning: {line}", file=sys.stderr)
+    return bool(lines)

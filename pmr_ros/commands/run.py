@@ -12,6 +12,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
+from ..outputs import check_outputs
 from ..service.adapted_run import ADAPT_STALL_TIMEOUT_S, adapt_config, adapted_report, run_adapted
 from ..service.closing import close_and_write
 from . import (
@@ -164,6 +165,7 @@ def handle(args: argparse.Namespace) -> int:
     if args.wait_for_subscribers is not None:
         overrides["simulation"] = {"wait_for_subscribers": args.wait_for_subscribers}
     config = load_checked_config(args.config, overrides)
+    check_outputs(args, inputs=(args.config,), files=("json", "write_model"))
     check_model_output(args)
     _check_before_running(args, config)
     diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)

@@ -10,7 +10,17 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from . import CommandError, check_memory, load_checked_config, nonnegative_int, number, positive_int, writable_file
+from ..outputs import add_output_arguments, check_outputs
+from . import (
+    CommandError,
+    check_memory,
+    load_checked_config,
+    nonnegative_int,
+    number,
+    positive_float,
+    positive_int,
+    writable_file,
+)
 from .arguments import FORCE, QUIET, add_options, config_option, option
 
 if TYPE_CHECKING:
@@ -80,6 +90,13 @@ OPTIONS = (
         help="run the points on the Dask distributed cluster of this scheduler (e.g. tcp://10.0.0.5:8786) "
         "instead of --jobs local processes; the workers need pmr_ros installed; the CSV is the same",
     ),
+    option(
+        "--connect-timeout",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="--scheduler: give up when the scheduler has not answered in S seconds (default: 5)",
+    ),
     FORCE.but(help="start afresh in an --out folder that holds an earlier sweep"),
     option(
         "--resume",
@@ -112,6 +129,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         ),
     )
     add_options(p, OPTIONS)
+    add_output_arguments(p)
     p.set_defaults(handler=handle)
 
 
@@ -236,6 +254,7 @@ def handle(args: argparse.Namespace) -> int:
     from ..sweep import store
 
     config = load_checked_config(args.config)
+    check_outputs(args, inputs=(args.config,), files=("report",), folders=("out",))
     out = Path(args.out)
     report_path = Path(args.report) if args.report else out / "reproduction.md"
     results = out / store.RESULTS_FILE
@@ -282,6 +301,8 @@ def _sweep(args: argparse.Namespace, config: PmrConfig, out: Path, results: Path
         "wall_time_s": 0.0,
         "cpu_time_s": 0.0,
     }
+    if args.scheduler:
+        _check_scheduler(args)  # before --force clears the folder or a manifest is written: a failure leaves nothing
     _prepare_folder(args, out, manifest)
     tasks = plan_tasks(config, plan, _done_runs(results, config.model.n_outputs * config.model.n_inputs))
     manifest.update(
@@ -298,8 +319,23 @@ def _sweep(args: argparse.Namespace, config: PmrConfig, out: Path, results: Path
     todo = sum(len(t.runs) for t in tasks)
     if not args.quiet:
         _announce(args, plan, tasks, todo)
-    _timed_execution(args, config, tasks, results, out=out, manifest=manifest)
+    try:
+        _timed_execution(args, config, tasks, results, out=out, manifest=manifest)
+    except CommandError:
+        if args.scheduler and not results.exists():  # the cluster went away before the first row: no sweep to resume
+            (out / store.MANIFEST_FILE).unlink(missing_ok=True)
+        raise
     return manifest
+
+
+def _check_scheduler(args: argparse.Namespace) -> None:
+    """Refuse, in one line, a ``--scheduler`` where no Dask scheduler answers in ``--connect-timeout``."""
+    from ..sweep.cluster import ClusterError, check_scheduler
+
+    try:
+        check_scheduler(args.scheduler, timeout_s=args.connect_timeout)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
 
 
 def _announce(args: argparse.Namespace, plan: SweepPlan, tasks: list, todo: int) -> None:

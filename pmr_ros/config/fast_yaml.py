@@ -19,6 +19,9 @@ each giving what ``yaml.load(text, Loader=CSafeLoader)`` gives but for the numbe
   text that made it part of a longer scalar) or the cut text does not parse,
   the original text is parsed as it is, and PyYAML's answer (or error) stands.
 
+One difference from PyYAML, on purpose: a document with a duplicate key or an
+alias bomb is refused (:mod:`.yaml_guard`) before it is built.
+
 ``test/test_config_files.py`` compares both loaders on documents built to trip the shortcut.
 """
 
@@ -32,6 +35,7 @@ import yaml
 from yaml.nodes import ScalarNode, SequenceNode
 
 from .numbers import grammar_int, grammar_tag
+from .yaml_guard import DocumentError, check_document
 
 __all__ = ["LARGE_TEXT", "load"]
 
@@ -67,6 +71,14 @@ class _Loader(_BASE):  # type: ignore[misc, valid-type]  # PyYAML's loaders are 
                 return LIST_TAG
             return grammar_tag(value, super().resolve(kind, value, implicit))
         return super().resolve(kind, value, implicit)
+
+    def get_single_data(self) -> Any:
+        """The document, built only once :func:`.yaml_guard.check_document` passed its composed nodes."""
+        node = self.get_single_node()
+        if node is None:
+            return None
+        check_document(node)
+        return self.construct_document(node)
 
     def construct_sequence(self, node: Any, deep: bool = False) -> list[Any]:
         if not isinstance(node, SequenceNode):
@@ -111,7 +123,8 @@ def load(text: str) -> Any:
     Raises
     ------
     yaml.YAMLError
-        As PyYAML does.
+        As PyYAML does; :class:`.yaml_guard.DocumentError` (one) for a
+        duplicate key or an alias bomb.
     """
     if len(text) < LARGE_TEXT:
         return yaml.load(text, Loader=_Loader)  # noqa: S506 - a safe loader
@@ -123,6 +136,8 @@ def load(text: str) -> Any:
     loader.mark, loader.lists = mark, items
     try:
         document = loader.get_single_data()
+    except DocumentError:
+        raise  # a duplicate key or an alias bomb in the text is one in the original too
     except yaml.YAMLError:
         document = None
     finally:

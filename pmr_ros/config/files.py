@@ -15,8 +15,17 @@ import yaml
 
 from .errors import ConfigError
 from .fast_yaml import load as load_yaml_text
+from .yaml_guard import DocumentError
 
-__all__ = ["flatten_parameters", "load_yaml", "nested", "params_tree", "read_parameter_file", "yaml_text"]
+__all__ = [
+    "check_parameter_files",
+    "flatten_parameters",
+    "load_yaml",
+    "nested",
+    "params_tree",
+    "read_parameter_file",
+    "yaml_text",
+]
 
 
 def yaml_text(path: Path) -> str:
@@ -59,6 +68,9 @@ def load_yaml(path: Path) -> Any:
     text = yaml_text(path)
     try:
         return load_yaml_text(text)
+    except DocumentError as exc:
+        field = exc.field.removeprefix("/**.").removeprefix("ros__parameters.")
+        raise ConfigError(path, field, None, exc.located(str(path))) from None
     except yaml.YAMLError as exc:
         raise ConfigError(path, "<file>", None, _yaml_problem(exc)) from None
 
@@ -100,6 +112,23 @@ def read_parameter_file(path: str | Path) -> dict[str, Any]:
     """
     path = Path(path)
     return params_tree(load_yaml(path), path)
+
+
+def check_parameter_files(args: list[str]) -> None:
+    """Read every ``--params-file FILE`` of a ROS command line as pmr_ros reads a config.
+
+    rcl's own parser keeps the last of two equal keys and expands aliases
+    without a bound; a node checks its files first so that a duplicate key or
+    an alias bomb is one line, as on ``pmr-ros``.
+
+    Raises
+    ------
+    ConfigError
+        The first file that cannot be read or is refused.
+    """
+    for i, arg in enumerate(args):
+        if arg == "--params-file" and i + 1 < len(args):
+            load_yaml(Path(args[i + 1]))
 
 
 def flatten_parameters(tree: dict, prefix: str = "") -> dict[str, Any]:

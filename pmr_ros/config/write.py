@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from ..core.sim.model import TransferMatrix
+from ..outputs import write_text
 from .errors import ConfigError
 
 __all__ = ["SIMULATION_TRUTH", "model_params_text", "system_tree", "write_params_file"]
@@ -105,6 +106,6 @@ def write_params_file(path: str | Path, text: str) -> None:
         The file cannot be written (one line naming it).
     """
     try:
-        Path(path).write_text(text, encoding="utf-8")
+        write_text(path, text)  # atomic: a full disk leaves the previous file whole
     except OSError as exc:
         raise ConfigError(path, "<file>", None, f"cannot write: {exc.strerror or exc}") from None

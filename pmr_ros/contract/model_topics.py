@@ -17,7 +17,9 @@ from typing import Any
 import yaml
 
 from ..config import ConfigError, PmrConfig, flatten_parameters, parse_config
+from ..config.fast_yaml import load as load_yaml_text
 from ..config.write import system_tree
+from ..config.yaml_guard import DocumentError
 from ..core.sim.model import TransferMatrix
 
 __all__ = ["ActiveModel", "active_model_text", "read_active_model", "system_parameters", "with_system"]
@@ -51,6 +53,16 @@ def active_model_text(model: TransferMatrix, *, first_sample: int, revision: int
     )
 
 
+def _document(text: str, source: str) -> Any:
+    """The YAML document of a message, refused (duplicate key, alias bomb, bad YAML) in one line."""
+    try:
+        return load_yaml_text(text)
+    except DocumentError as exc:
+        raise ConfigError(source, exc.field.replace("<file>", "<message>"), None, exc.reason) from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(source, "<message>", None, f"not valid YAML: {' '.join(str(exc).split())}") from None
+
+
 def read_active_model(text: str, source: str) -> ActiveModel:
     """Inverse of :func:`active_model_text`.
 
@@ -59,10 +71,7 @@ def read_active_model(text: str, source: str) -> ActiveModel:
     ConfigError
         The text is not such a payload (one line naming ``source`` and the field).
     """
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(source, "<message>", None, f"not valid YAML: {exc}") from None
+    doc = _document(text, source)
     if not isinstance(doc, dict) or not isinstance(doc.get("system"), dict):
         raise ConfigError(source, "system", None, "missing: the active model's system block")
     for key in ("first_sample", "revision"):
@@ -79,10 +88,7 @@ def system_parameters(text: str, source: str) -> dict[str, Any]:
     ConfigError
         No params file or no ``system`` block.
     """
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(source, "<message>", None, f"not valid YAML: {exc}") from None
+    doc = _document(text, source)
     params = doc.get("/**", {}).get("ros__parameters", {}) if isinstance(doc, dict) else {}
     system = params.get("system") if isinstance(params, dict) else None
     if not isinstance(system, dict):

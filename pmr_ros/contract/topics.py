@@ -14,6 +14,7 @@ from pathlib import Path
 
 import yaml
 
+from ..config.fast_yaml import load as load_yaml_text
 from ..resources import share_dir
 
 __all__ = [
@@ -225,7 +226,7 @@ def load_contract(path: str | None = None) -> dict[str, Topic]:
     """The topics of ``msg_defs/topics.yaml`` (or ``path``), by key."""
     file = Path(path) if path else msg_defs_dir() / CONTRACT_FILE
     try:
-        doc = yaml.safe_load(file.read_text())
+        doc = load_yaml_text(file.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ContractError(f"{file}: cannot read the topic contract: {exc}") from None
     return parse_contract(doc, str(file))

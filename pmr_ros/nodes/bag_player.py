@@ -34,12 +34,18 @@ from ..bag.storage import RUN_CONFIG_KEY, BagError, typestore
 from ..config.schema import parameters
 from ..contract.topics import PROGRESS_KEY, SIGNAL_TOPICS, Topic, load_contract
 from ..ros.flow import ProgressGate, cdr_stamp_ns
+from ..ros.followers import FollowerWatch
 from ..ros.messages import message_class, qos_profile
 
 NODE_NAME = "pmr_bag_player"
 DIAGNOSTICIAN_OUTPUTS = ("diagnostics", "estimates", "proposed_model")
 """Contract keys not replayed by default (a live diagnostician makes its own).  The controller's
 ``active_model`` is replayed like its u: a live diagnostician follows the recorded model switches."""
+
+
+UNWATCHED = ("clock", "active_model", RUN_CONFIG_KEY)
+"""Topics whose subscribers are not checked for missed samples: the clock (every sim-time node hears it;
+a skipped tick loses no data) and the latched model and configuration (only the newest message matters)."""
 
 
 def default_max_ahead() -> int:
@@ -135,6 +141,8 @@ class BagPlayerNode(Node):
         self.clock_topic = contract["clock"].resolved(source)
         self._signals = [contract[key].name for key in SIGNAL_TOPICS.values()]
         self.gate = ProgressGate(self, max_ahead=max_ahead or default_max_ahead(), on_change=lambda: None)
+        watched = {contract[t.key].name: t.qos.depth for t in self.topics.values() if t.key not in UNWATCHED}
+        self.followers = FollowerWatch(self, watched, self.gate.consumers)
         if publish_config:
             self._publish_config()
 
@@ -233,10 +241,12 @@ class BagPlayerNode(Node):
             if stamp is None:
                 continue  # what came before the first sample (the controller's latched model): no sample
             self.gate.published(stamp)
+            self.followers.published(stamp)
             count += 1
             if after_sample is not None:
                 after_sample(count)
         self.wait_for_acks(2.0)
+        self.followers.look()
         return count
 
     def _sample_stamp(self, group: list[BagMessage]) -> int | None:

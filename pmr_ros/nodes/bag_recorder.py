@@ -155,6 +155,11 @@ class BagRecorderNode(Node):
             self._final_has_verdict = diagnosis.status == "ok"
 
     @property
+    def failure(self) -> str | None:
+        """Why the bag cannot be written any more (a full disk), one line; None while it can."""
+        return self.writer.failure
+
+    @property
     def done(self) -> bool:
         """A run of ``expected_samples`` is wholly recorded (always True without one)."""
         if self.expected_samples is None:

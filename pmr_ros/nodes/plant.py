@@ -47,9 +47,14 @@ RESUME_SETTLE_S = 0.5
 sample 0 (a restarted plant resumes after it) [s of wall time]; generous, as a busy machine delivers
 the controller's history late."""
 
-CONSUMER_DISCOVERY_S = 2.0
+CONSUMER_DISCOVERY_S = 15.0
 """How long the plant waits, once its peers are there, for each other subscriber of y to be known as a
-consumer of the flow control before it starts anyway [s of wall time]."""
+consumer of the flow control before it starts anyway [s of wall time].  The wait ends as soon as every
+subscriber is known, so only a subscriber that never reports (a plotter) costs it.  DDS discovers a
+node's endpoints one by one, later on a loaded machine; a consumer whose progress writer is found after
+the plant started is not held for, so the plant may run more than the topics' history (1000 samples)
+ahead of it and its window loses the start (the suspected cause of a run under two busy loops whose
+verdicts missed the full window; 2 s left little margin)."""
 
 RESUME_QUIET_S = 0.5
 """Inputs for later samples are gathered until none came for this long, then the plant resumes
@@ -144,6 +149,8 @@ class PlantNode(ConfiguredNode):
         unknown = self._unknown_subscribers() if self._peers_at is not None else []
         if self._peers_at is not None and (not unknown or now - self._peers_at >= CONSUMER_DISCOVERY_S):
             self._ready_at = now
+            consumers = ", ".join(self.gate.consumers()) or "none"
+            self.get_logger().info(f"starting after {waited:.1f} s; consumers of the flow control: {consumers}")
             if unknown:
                 self.get_logger().warning(
                     f"subscribers of y that report no progress, not waited for (they may miss samples): "

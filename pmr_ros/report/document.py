@@ -11,6 +11,7 @@ from .. import __version__
 from ..config import PmrConfig
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
+from ..outputs import write_text
 
 __all__ = ["build_report", "injected_mismatch", "write_json"]
 
@@ -59,4 +60,4 @@ def build_report(
 
 def write_json(report: dict[str, Any], path: str | Path) -> None:
     """Write ``report`` to ``path`` (UTF-8, indented)."""
-    Path(path).write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(report, indent=2, ensure_ascii=False) + "\n")  # atomic: never a truncated report

@@ -22,6 +22,7 @@ from ..core.pmr.curves import pmr_curves
 from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
+from ..outputs import write_bytes, write_text
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
 
@@ -161,7 +162,7 @@ def write_html_report(directory: str | Path, page: ReportInput) -> Path:
     (directory / "figures").mkdir(parents=True, exist_ok=True)
     matrix, timeline, elements = _figures(page)
     for figure in [matrix, timeline, *(f for _, f in elements if f is not None)]:
-        (directory / "figures" / figure.name).write_bytes(figure.png)
+        write_bytes(directory / "figures" / figure.name, figure.png)
     index = directory / "index.html"
-    index.write_text(render_page(page, matrix, timeline, elements), encoding="utf-8")
+    write_text(index, render_page(page, matrix, timeline, elements))  # atomic: never a partial page
     return index

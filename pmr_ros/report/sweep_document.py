@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..config import PmrConfig
 from ..core.sim.model import SCENARIOS
+from ..outputs import replacing, write_text
 from ..sweep.analysis import (
     DIAGNOSES,
     PointSummary,
@@ -75,10 +76,11 @@ def write_report(rows: list[dict], report: Path, config: PmrConfig, manifest: di
     ]
     write_summary_csv(summary, figures_dir / "sweep_summary.csv")
     report.parent.mkdir(parents=True, exist_ok=True)
-    report.write_text(
+    write_text(
+        report,
         _markdown(
             summary=summary, config=config, manifest=manifest, rows=rows, figures=written, report=report, paper=paper
-        )
+        ),
     )
     return written
 
@@ -87,7 +89,7 @@ def write_summary_csv(summary: list[PointSummary], path: Path) -> None:
     """The per-point summary (medians, spreads, wrong seeds) as CSV."""
     names = [f.name for f in fields(PointSummary)]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
+    with replacing(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)
         for p in summary:

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..config import PmrConfig
 from ..core.sim.model import SCENARIOS
+from ..outputs import replacing
 from ..sweep.analysis import (
     PointSummary,
 )
@@ -111,7 +112,8 @@ def _save(fig: Figure, axes: Any, title: str, path: Path) -> Path:
     fig.suptitle(title, fontsize=9)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    with replacing(path) as tmp:
+        fig.savefig(tmp, dpi=90, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path
 

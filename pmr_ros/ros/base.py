@@ -13,6 +13,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..config import ConfigError, PmrConfig, nested, parse_config
+from ..config.files import check_parameter_files
 from ..config.schema import closest_name, parameters
 from ..contract.topics import ContractError, topic
 from .messages import message_class, qos_profile
@@ -152,9 +153,22 @@ class ConfiguredNode(Node):
         return self.create_publisher(message_class(t), t.name, qos_profile(t.qos))
 
     def contract_subscription(self, key: str, callback: Callable[..., None], *, raw: bool = False) -> Any:
-        """A subscription to contract topic ``key`` with the contract's type and QoS."""
+        """A subscription to contract topic ``key`` with the contract's type and QoS.
+
+        A message the callback fails on is rejected with one logged line and the
+        node goes on as it was: no message on a topic may end a node.
+        """
         t = topic(key)
-        return self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos), raw=raw)
+        name = t.name
+
+        def guarded(msg: Any) -> None:
+            try:
+                callback(msg)
+            except Exception as exc:  # a message's content must never crash the node; say why it was dropped
+                cause = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+                self.get_logger().error(f"a message on {self.resolve_topic_name(name)} was rejected: {cause}")
+
+        return self.create_subscription(message_class(t), name, guarded, qos_profile(t.qos), raw=raw)
 
 
 def run_node(factory: Callable[[], Node], program: str, args: list[str] | None = None) -> int:
@@ -165,6 +179,7 @@ def run_node(factory: Callable[[], Node], program: str, args: list[str] | None =
     """
     node = executor = None
     try:
+        check_parameter_files(list(sys.argv if args is None else args))
         with rclpy_session(args) as stop:
             try:
                 node = factory()

@@ -15,6 +15,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from ..core.results.codec import CSV_FIELDS, CSV_TYPES
+from ..outputs import write_text
 
 COLUMNS = (
     "method",
@@ -156,7 +157,7 @@ def config_fingerprint(parameters: dict) -> str:
 
 def write_manifest(folder: Path, manifest: dict) -> None:
     """Write the sweep's manifest (its plan and configuration hash) into ``folder``."""
-    (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+    write_text(folder / MANIFEST_FILE, json.dumps(manifest, indent=2, sort_keys=True) + "\n")
 
 
 def read_manifest(folder: Path) -> dict | None:
