@@ -7,10 +7,10 @@ import os
 import sqlite3
 
 import pytest
-from pmr_ros.bag.storage import RunConfig, typestore
 from test_bag_faults import _messages, _run_params, _signal, _time
 
 from pmr_ros.bag.reader import open_bag
+from pmr_ros.bag.storage import RunConfig, typestore
 from pmr_ros.bag.writer import BagWriter
 from pmr_ros.cli import main
 from pmr_ros.config import load_config

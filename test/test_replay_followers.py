@@ -5,13 +5,13 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import pytest
-from pmr_ros.ros.messages import message_class, qos_profile
 from ros_fixtures import console_script
 from test_bag_ros import EXPECTED, REFERENCE
 
 from pmr_ros.cli import main
 from pmr_ros.contract.topics import topic
 from pmr_ros.ros.followers import FollowerWatch
+from pmr_ros.ros.messages import message_class, qos_profile
 
 SAMPLE_NS = 1_000_000_000
 

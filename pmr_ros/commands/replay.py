@@ -19,9 +19,69 @@ import time
 from typing import Any
 
 from . import CommandError, add_namespace_argument, declared_int, nonnegative_float, nonnegative_int, positive_float
+from .arguments import add_options, option
 
 EXIT_MISSED = 5
 """Exit code with ``--strict`` when a subscriber may have missed samples."""
+
+
+OPTIONS = (
+    option("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)"),
+    option(
+        "--rate",
+        type=positive_float,
+        default=None,
+        metavar="R",
+        help="replay at R times the recorded pace (default: lockstep, paced by --max-samples-per-second)",
+    ),
+    option(
+        "--max-samples-per-second",
+        type=nonnegative_float,
+        default=None,
+        metavar="N",
+        help="lockstep: also at most N samples per second (default: unbounded; the consumers' progress paces it)",
+    ),
+    option(
+        "--max-samples-ahead",
+        type=declared_int("simulation.max_samples_ahead"),
+        default=None,
+        metavar="N",
+        help="lockstep: publish a sample only once every consumer has taken the one N samples back "
+        "(default: simulation.max_samples_ahead)",
+    ),
+)
+"""The options of ``pmr-ros replay`` before ``--namespace``."""
+
+MORE_OPTIONS = (
+    option(
+        "--all-topics",
+        action="store_true",
+        help="also replay the diagnostician's outputs, diagnostics, pmr/estimates and pmr/proposed_model (left out by "
+        "default)",
+    ),
+    option(
+        "--wait",
+        type=nonnegative_int,
+        default=10,
+        metavar="S",
+        help="wait up to S seconds for subscribers of r, u and y before starting, and at least "
+        "simulation.discovery_settle_s (3 s) for DDS to discover every one of them (default: 10; 0: start at once)",
+    ),
+    option(
+        "--linger",
+        type=nonnegative_float,
+        default=1.0,
+        metavar="S",
+        help="keep publishers alive S seconds after the last message (default: 1)",
+    ),
+    option(
+        "--strict",
+        action="store_true",
+        help=f"exit with {EXIT_MISSED} when a subscriber may have missed samples (one that does not report progress, "
+        "or a consumer that did not take the last sample); default: a warning, exit 0",
+    ),
+)
+"""The options of ``pmr-ros replay`` after ``--namespace``."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,57 +96,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "recorded pace times --rate."
         ),
     )
-    p.add_argument("bag", metavar="BAG", help="rosbag2 bag directory (or a .mcap file)")
-    p.add_argument(
-        "--rate",
-        type=positive_float,
-        default=None,
-        metavar="R",
-        help="replay at R times the recorded pace (default: lockstep, paced by --max-samples-per-second)",
-    )
-    p.add_argument(
-        "--max-samples-per-second",
-        type=nonnegative_float,
-        default=None,
-        metavar="N",
-        help="lockstep: also at most N samples per second (default: unbounded; the consumers' progress paces it)",
-    )
-    p.add_argument(
-        "--max-samples-ahead",
-        type=declared_int("simulation.max_samples_ahead"),
-        default=None,
-        metavar="N",
-        help="lockstep: publish a sample only once every consumer has taken the one N samples back "
-        "(default: simulation.max_samples_ahead)",
-    )
+    add_options(p, OPTIONS)
     add_namespace_argument(p, "publish into this node set's namespace (default: the root namespace)")
-    p.add_argument(
-        "--all-topics",
-        action="store_true",
-        help="also replay the diagnostician's outputs, diagnostics, pmr/estimates and pmr/proposed_model (left out by "
-        "default)",
-    )
-    p.add_argument(
-        "--wait",
-        type=nonnegative_int,
-        default=10,
-        metavar="S",
-        help="wait up to S seconds for subscribers of r, u and y before starting, and at least "
-        "simulation.discovery_settle_s (3 s) for DDS to discover every one of them (default: 10; 0: start at once)",
-    )
-    p.add_argument(
-        "--linger",
-        type=nonnegative_float,
-        default=1.0,
-        metavar="S",
-        help="keep publishers alive S seconds after the last message (default: 1)",
-    )
-    p.add_argument(
-        "--strict",
-        action="store_true",
-        help=f"exit with {EXIT_MISSED} when a subscriber may have missed samples (one that does not report progress, "
-        "or a consumer that did not take the last sample); default: a warning, exit 0",
-    )
+    add_options(p, MORE_OPTIONS)
     p.set_defaults(handler=handle)
 
 

@@ -165,7 +165,6 @@ def partial_correlation_test(
         for k in range(model.n_inputs):
             name = names[i * model.n_inputs + k]
             flagged = bool(p[k] < alpha)
-            out[name] = PeerOutcome(
-                name, i, k, "partial_correlation", flagged, float(p[k]), "p_value", "mismatch" if flagged else "ok"
-            )
+            verdict = "mismatch" if flagged else "ok"
+            out[name] = PeerOutcome(name, i, k, "partial_correlation", flagged, float(p[k]), "p_value", verdict)
     return out

@@ -7,9 +7,8 @@ squares with the overlap covariance of :mod:`.changepoint`: no change (a
 constant), a step at ``t0``, and a ramp from ``t0`` that may level off (a
 plateau from ``t0 + d``).  A change is declared when the largest likelihood
 ratio over all candidate onsets and rise times beats its simulated no-change
-quantile (the false alarm rate is ``significance``); step or drift is then
-decided by BIC.  The onset interval is the set of ``t0`` whose profile
-likelihood ratio to the best stays below the chi-square(1) quantile.
+quantile (the false alarm rate is ``significance``); step or drift is then decided by BIC.
+The onset interval: the ``t0`` whose profile likelihood ratio to the best stays below chi-square(1).
 """
 
 from __future__ import annotations
@@ -279,6 +278,30 @@ def _error_scale(fit: Fit, n: int) -> float:
     return float(np.sqrt(max(fit.rss_none - float(np.max(fit.drop)), 0.0) / max(n - 4, 1)))
 
 
+def _fit_and_null(record: Any, settings: OnsetSettings) -> tuple[Any, Any, float, np.ndarray]:
+    """The candidates on the whole window grid (shared), their fit and threshold on the usable windows."""
+    shapes = shapes_for(record.grid, record.window, record.resolution, record.follow).subset(rows=record.keep)
+    fit = fit_shapes(
+        estimates=record.estimates,
+        errors=record.errors,
+        ends=record.ends,
+        window=record.window,
+        shapes=shapes,
+        nugget=record.nugget,
+    )
+    threshold, maxima = null_quantile(
+        grid=np.asarray(record.grid),
+        window=record.window,
+        resolution=record.resolution,
+        significance=settings.significance,
+        keep=record.keep,
+        draws=NULL_DRAWS,
+        follow=record.follow,
+        nugget=record.nugget,
+    )
+    return shapes, fit, threshold, maxima
+
+
 def detect_onset(
     *,
     estimates: Sequence[float] | np.ndarray,
@@ -316,44 +339,23 @@ def detect_onset(
 
     Notes
     -----
-    The no-change threshold is simulated with equal errors once per window
-    grid and set of usable windows, and shared by every element and parameter
-    with the same ones: exact when the errors are equal.  Each new set of
-    left-out windows costs one simulation (about a second for a year of
-    daily windows).
+    The no-change threshold is simulated with equal errors once per window grid and set of
+    usable windows, shared by every element and parameter with the same ones: exact when the
+    errors are equal.  Each new set of left-out windows costs one simulation (about 1 s a year).
     """
     settings = settings or OnsetSettings()
     record = _checked(estimates, errors, end_times, window, settings)
     n = record.ends.size
     if n < max(settings.min_windows, 3):
         return Onset("insufficient", None, None, None, None, None, 0.0, np.inf, None, n)
-    # candidates on the whole window grid (shared by every element), the fit and threshold on the usable windows
-    shapes = shapes_for(record.grid, record.window, record.resolution, record.follow).subset(rows=record.keep)
-    fit = fit_shapes(
-        estimates=record.estimates,
-        errors=record.errors,
-        ends=record.ends,
-        window=record.window,
-        shapes=shapes,
-        nugget=record.nugget,
-    )
+    shapes, fit, threshold, maxima = _fit_and_null(record, settings)
     scale = _error_scale(fit, n)
     # intervals narrower than the scatter: every likelihood ratio shrinks by the squared scale (never grows)
     factor = scale**2 if settings.scale_errors and scale > 1.0 else 1.0
-    threshold, maxima = null_quantile(
-        grid=np.asarray(record.grid),
-        window=record.window,
-        resolution=record.resolution,
-        significance=settings.significance,
-        keep=record.keep,
-        draws=NULL_DRAWS,
-        follow=record.follow,
-        nugget=record.nugget,
-    )
     statistic = float(np.max(fit.drop)) / factor
     p_value = float((np.sum(maxima >= statistic) + 1) / (maxima.size + 1))
     common: dict[str, Any] = {"statistic": statistic, "threshold": threshold, "p_value": p_value, "windows": n}
-    common["error_scale"] = scale
+    common |= {"error_scale": scale}
     if statistic < threshold:
         return Onset(kind="none", time=None, interval=None, end=None, size=None, level=fit.mean, **common)
     fit, shapes = _refined(fit, shapes, record)

@@ -173,6 +173,33 @@ def _errors(rows: Any, key: str, default: float | None) -> np.ndarray:
     return errors
 
 
+def _first_lasting_window(ordered: Any) -> int | None:
+    """The window number from which the element's verdict stays mismatch, or None."""
+    lasting = first_lasting_mismatch(list(ordered["verdict"]))
+    return None if lasting is None else int(ordered["window"].iloc[lasting])
+
+
+def _onset_row(element: Any, parameter: str, found: Any, first: int | None) -> dict[str, Any]:
+    """One row of :func:`trend_onsets`: an element's parameter and its onset."""
+    low, high = found.interval or (None, None)
+    return {
+        "element": element,
+        "parameter": parameter,
+        "kind": found.kind,
+        "onset": found.time,
+        "level": found.level,
+    } | {
+        "onset_low": low,
+        "onset_high": high,
+        "end": found.end,
+        "size": found.size,
+        "rate": found.rate,
+        "p_value": found.p_value,
+        "windows": found.windows,
+        "lasting_mismatch_window": first,
+    }
+
+
 def trend_onsets(
     table: Any,
     *,
@@ -215,8 +242,7 @@ def trend_onsets(
     for element, rows_of in table.groupby("element", sort=False):
         ordered = rows_of.sort_values("window")
         ends = _seconds(ordered[time])
-        lasting = first_lasting_mismatch(list(ordered["verdict"]))
-        first = None if lasting is None else int(ordered["window"].iloc[lasting])
+        first = _first_lasting_window(ordered)
         for parameter, key in PARAMETERS.items():
             errors = _errors(ordered, key, (default_errors or {}).get(parameter))
             found = detect_onset(
@@ -226,13 +252,7 @@ def trend_onsets(
                 window=window,
                 settings=replace(settings or OnsetSettings(), follow=FOLLOW[parameter]),
             )
-            low, high = found.interval or (None, None)
-            rows.append(
-                {"element": element, "parameter": parameter, "kind": found.kind, "onset": found.time}
-                | {"onset_low": low, "onset_high": high, "end": found.end, "size": found.size, "rate": found.rate}
-                | {"level": found.level}
-                | {"p_value": found.p_value, "windows": found.windows, "lasting_mismatch_window": first}
-            )
+            rows.append(_onset_row(element, parameter, found, first))
     # a window number or none: pandas' nullable integers, not floats with NaN
     return pandas.DataFrame(rows, columns=list(_ONSET_COLUMNS)).astype({"lasting_mismatch_window": "Int64"})
 

@@ -32,7 +32,7 @@ from ...sim.model import TransferMatrix
 from ..implicit import RowLayout
 from ..spectra import RecordSpectra, RowSpectra
 from .lsq import RowParameters, RowProblem
-from .rank import nominal_start
+from .rank import first_pass
 from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
@@ -361,11 +361,7 @@ def fit_row(
     first = data.system(theta_start)
     problem = RowProblem(first, columns)
     grids = column_grids(columns, first.z_inv)
-    swept = sweep_columns(first, grids)
-    fit = Trials(problem, grids).full(swept)
-    nominal = nominal_start(columns, swept)
-    if nominal is not None:  # the model itself: a nearly singular row's search can end in a wrong basin (.rank)
-        fit = min(fit, Trials(problem, grids).full(nominal), key=lambda trial: trial[1])
+    fit = first_pass(problem, grids, columns, sweep_columns(first, grids))
     # pass 2: weights from the first fit's residual; delays profiled, coupled pairs searched jointly
     z_inv = np.exp(-1j * data.omega)
     second = data.system(problem.coefficients(fit[0], z_inv).theta)

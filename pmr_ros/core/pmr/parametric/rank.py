@@ -22,13 +22,15 @@ chi-square 1588, the model itself 421, verdicts +33 % "mismatch").  Hence:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from .lsq import RowParameters
+from .lsq import RowParameters, RowProblem
 from .ratio import ColumnModel
+from .trials import Trials
 
-__all__ = ["collinear_inputs_reason", "nominal_start"]
+__all__ = ["collinear_inputs_reason", "first_pass", "nominal_start"]
 
 
 def collinear_inputs_reason(condition: float, *, max_condition: float, inputs: Sequence[str]) -> str:
@@ -86,3 +88,15 @@ def nominal_start(columns: Sequence[ColumnModel], swept: RowParameters) -> RowPa
         np.where(elements, 0.0, swept.s),
         np.where(elements, 0, swept.delays).astype(int),
     )
+
+
+def first_pass(problem: RowProblem, grids: Any, columns: Any, swept: Any) -> Any:
+    """The first pass's fit from the column search, or from the model itself when that fits better.
+
+    A nearly singular row's search can end in a wrong basin (:mod:`.rank`).
+    """
+    fit = Trials(problem, grids).full(swept)
+    nominal = nominal_start(columns, swept)
+    if nominal is not None:
+        fit = min(fit, Trials(problem, grids).full(nominal), key=lambda trial: trial[1])
+    return fit
