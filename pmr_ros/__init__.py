@@ -17,10 +17,8 @@ stays light (no numpy, no rclpy) for the nodes and the console scripts.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
 from ._blas import limit_blas_threads
+from ._lazy import lazy_exports
 from ._version import package_version
 
 limit_blas_threads()  # before anything of pmr_ros imports numpy (see pmr_ros._blas)
@@ -50,11 +48,4 @@ _WHERE = {
 __all__ = ["__version__", *_WHERE]
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, __all__)
