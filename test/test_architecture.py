@@ -8,6 +8,7 @@ docs/architecture.md.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -206,3 +207,35 @@ def test_the_size_check_finds_a_long_function(tmp_path):
     path = tmp_path / "long.py"
     path.write_text(f"def long():\n{body}\n")
     assert _long_functions(path) == [f"long ({MAX_FUNCTION_LINES + 1} lines)"]
+
+
+ARCHITECTURE_PAGE = PACKAGE.parent / "docs" / "architecture.md"
+
+
+def _drawn_layers() -> dict[str, set[str]]:
+    """docs/architecture.md's table: each row of one layer and its "may import" cell of layer names."""
+    drawn = {}
+    for line in ARCHITECTURE_PAGE.read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        names = re.findall(r"`pmr_ros/([\w.]+?)(?:/|\.py)`", cells[0]) if line.startswith("| `pmr_ros/") else []
+        if len(names) != 1 or len(cells) < 3:
+            continue
+        may = cells[-1]
+        if may.startswith("nothing"):
+            drawn[names[0]] = set()
+        elif re.fullmatch(r"[\w, ]+", may) and all(m.strip() in LAYERS for m in may.split(",")):
+            drawn[names[0]] = {m.strip() for m in may.split(",")}
+    return drawn
+
+
+def test_the_architecture_page_draws_the_layers_this_test_holds():
+    drawn = _drawn_layers()
+    assert len(drawn) >= 15, f"too few layer rows read from {ARCHITECTURE_PAGE.name}: {sorted(drawn)}"
+    wrong = {layer: (may, LAYERS[layer]) for layer, may in drawn.items() if LAYERS.get(layer) != may}
+    assert not wrong, f"docs/architecture.md (drawn, held here) differs: {wrong}"
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_every_module_opens_with_its_job(module):
+    doc = ast.get_docstring(ast.parse(MODULES[module].read_text(encoding="utf-8")))
+    assert doc and len(doc.splitlines()[0]) > 10, f"{module}: no opening docstring saying its one job"
