@@ -115,6 +115,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._conflict: tuple[str, float] | None = None
         self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
         self._created = time.monotonic()
+        self._busy_at = 0.0  # when the worker was last seen diagnosing [s of monotonic time]
         self._stale_reported: float | None = None
         self.model_since = 0
         self.last_proposal: str | None = None
@@ -277,8 +278,14 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _check_silence(self) -> None:
         now = time.monotonic()
+        if self.busy:
+            # a diagnosis is running: lockstep producers wait for it, or the run is over (the last window is
+            # diagnosed after the last sample); silence counts from when it is done, as on a machine under load
+            # the final diagnosis alone took longer than stale_timeout_s
+            self._busy_at = now
+            return
         limit = self.config.diagnostician.stale_timeout_s
-        silent = [s for s in SIGNALS if (now - (self._last_arrival[s] or self._created)) > limit]
+        silent = [s for s in SIGNALS if (now - max(self._last_arrival[s] or self._created, self._busy_at)) > limit]
         if not silent:
             self._stale_reported = None
             return
