@@ -18,6 +18,8 @@ FRONT_FILES = (
     "pmr_ros.core.mpc",
     "pmr_ros.core.pmr",
     "pmr_ros.core.loop",
+    "pmr_ros.models",
+    "pmr_ros.peers",
 )
 
 
