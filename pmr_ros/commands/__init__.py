@@ -1,4 +1,11 @@
-"""Sub-commands of ``pmr-ros``: each module has ``register(subparsers)``."""
+"""Sub-commands of ``pmr-ros``: each module has ``register(subparsers)``; here the checks they share.
+
+One module per sub-command (``run``, ``sweep``, ``record``, ``replay``,
+``diagnose``, ``reindex``, ``model_files`` for ``pmr-ros model``), the option
+tables in ``arguments`` and ``sweep_options``; this file holds the argument
+types and checks every command uses.  Commands parse and print; the work is
+done by :mod:`pmr_ros.service` and the core.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +14,29 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+__all__ = [
+    "CommandError",
+    "EXIT_INSUFFICIENT",
+    "EXIT_INTERRUPTED",
+    "EXIT_USAGE",
+    "add_method_argument",
+    "add_namespace_argument",
+    "add_system_arguments",
+    "check_memory",
+    "declared_int",
+    "grammar_number",
+    "load_checked_config",
+    "namespace",
+    "nonnegative_float",
+    "nonnegative_int",
+    "number",
+    "positive_float",
+    "positive_int",
+    "run_overrides",
+    "whole_number",
+    "writable_file",
+]
 
 
 class CommandError(Exception):
