@@ -196,7 +196,7 @@ def test_console_script_errors_are_one_line_without_traceback(tmp_path):
     (tmp_path / "bad_bag" / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
     cases = [
         (["run", "--batch", "--config", str(tmp_path / "latin1.yaml")], "not UTF-8 text: byte 0xb0 on line"),
-        (["diagnose", str(tmp_path / "bad_bag")], "metadata.yaml: not valid YAML: did not find expected node content at line 2"),
+        (["diagnose", str(tmp_path / "bad_bag")], "metadata.yaml: not valid YAML: did not find expected node"),
         (["replay", str(REFERENCE), "--max-samples-per-second", "-5"], "-5 must be a finite number >= 0"),
     ]
     for argv, words in cases:
