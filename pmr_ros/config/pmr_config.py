@@ -104,6 +104,9 @@ class PmrConfig:
         When ``pmr-ros run --adapt`` rolls a model update back.
     explicit_plant : TransferMatrix or None
         The ``plant`` block: the true plant of a simulation, when given.
+    disturbance_model : TransferMatrix or None
+        The controller's feedforward model of the measured disturbances (DVs),
+        n_outputs x n_disturbances, its input names the DV names; None without DVs.
     warnings : tuple of str
         Values accepted but worth a word (a time constant an integrating element ignores).
     given : frozenset of str
@@ -129,6 +132,7 @@ class PmrConfig:
     source: str
     parameters: dict[str, Any]
     explicit_plant: TransferMatrix | None = None
+    disturbance_model: TransferMatrix | None = None
     warnings: tuple[str, ...] = ()
     given: frozenset[str] = frozenset()
 

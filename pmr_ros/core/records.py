@@ -42,8 +42,11 @@ class Record:
         The MV dither added to the controller's outputs (``u`` includes it);
         None when the loop had none [input unit].
     dv : ndarray, shape (N, n_disturbances), optional
-        Measured disturbances, when the data carry them [their unit]; no
-        diagnosis reads them yet.
+        Measured disturbances (DVs), when the data carry them [their unit].
+    manual : ndarray of bool, shape (N, n_inputs), optional
+        True where an MV's controller was off (the operator set ``u``): the loop
+        is open for that MV, and its moves are an external signal; None when
+        every controller was on throughout.
 
     Examples
     --------
@@ -57,6 +60,7 @@ class Record:
     y: np.ndarray
     dither: np.ndarray | None = None
     dv: np.ndarray | None = None
+    manual: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
