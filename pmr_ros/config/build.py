@@ -23,7 +23,7 @@ from ..core.pmr.parametric import ParametricSettings
 from ..core.sim.excitation import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
-from .data import data_settings
+from .data import DataSettings, check_data_settings, data_settings
 from .errors import ConfigError
 from .plant_block import plant_block
 from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
@@ -294,6 +294,12 @@ def _diagnostician(v: _Values) -> DiagnosticianSettings:
     return settings
 
 
+def _data(v: _Values, model: TransferMatrix) -> DataSettings:
+    data = data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")])
+    v.warnings.extend(check_data_settings(data, v.tree, output_names=model.output_names, source_of=v.source_of))
+    return data
+
+
 def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = None) -> PmrConfig:
     """Validate a nested parameter tree into a :class:`PmrConfig`.
 
@@ -340,7 +346,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
         adapt=AdaptSettings(ise_rise_tolerance_pct=v["adapt.ise_rise_tolerance_pct"]),
-        data=data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")]),
+        data=_data(v, model),
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),

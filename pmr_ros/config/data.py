@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["DataSettings", "data_settings"]
+from .errors import ConfigError
+
+__all__ = ["DataSettings", "check_data_settings", "data_settings", "disturbance_names", "output_modes"]
 
 DATA_BLOCK = "data"
+ZONE = "zone"
+"""The ``mpc.output_mode`` of a CV held inside limits instead of at a setpoint."""
 
 
 @dataclass(frozen=True)
@@ -27,16 +31,21 @@ class DataSettings:
         Largest distance of a stamp from the sample grid that is moved onto it [samples].
     setpoint_columns, input_columns, output_columns, dither_columns : tuple of str
         Column per channel; empty: the default naming (no dither for ``dither_columns``).
+        A ``""`` setpoint column: that CV has none (a zone CV; its r is constant).
+    disturbance_columns : tuple of str
+        Column per measured disturbance (DV), in the order of ``system.disturbance_names``; empty: none.
     bad_values : tuple of float or str
         Cells equal to one of these are missing.
     outlier_mad : float
         A cell farther than this many robust steps from its tag's running median is missing; 0: no check.
     frozen_samples : int
         Longest run of one repeated value on a normally noisy tag [samples]; 0: no check.
+    mode_columns : tuple of str
+        The controllers' on/off columns: one per MV, or one for all; empty: ``mode_column``.
     mode_column : str
-        The controller's on/off column; empty: on throughout.
+        One on/off column for every MV (the older spelling); empty with ``mode_columns``: on throughout.
     mode_on_values : tuple of float or str
-        Values of ``mode_column`` meaning on.
+        Values of the mode columns meaning on.
     """
 
     time_column: str
@@ -52,6 +61,18 @@ class DataSettings:
     frozen_samples: int
     mode_column: str
     mode_on_values: tuple[float | str, ...]
+    disturbance_columns: tuple[str, ...] = ()
+    mode_columns: tuple[str, ...] = ()
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """The mode columns, whichever spelling named them: one per MV, one for all, or none."""
+        return self.mode_columns or ((self.mode_column,) if self.mode_column else ())
+
+    @property
+    def modes_parameter(self) -> str:
+        """The parameter that named the mode columns (for messages)."""
+        return "data.mode_columns" if self.mode_columns else "data.mode_column"
 
 
 def data_settings(value: Callable[[str], Any], keys: list[str]) -> DataSettings:
@@ -66,3 +87,79 @@ def data_settings(value: Callable[[str], Any], keys: list[str]) -> DataSettings:
         The declared keys of the block.
     """
     return DataSettings(**{key: value(f"{DATA_BLOCK}.{key}") for key in keys})
+
+
+def disturbance_names(tree: Mapping[str, Any]) -> tuple[str, ...]:
+    """The DV names of ``system.disturbance_names`` in an effective parameter tree; () when it declares none."""
+    names = tree.get("system", {}).get("disturbance_names", [])
+    if isinstance(names, str):
+        names = [names]
+    return tuple(str(n) for n in names) if isinstance(names, list | tuple) else ()
+
+
+def output_modes(tree: Mapping[str, Any], n_outputs: int) -> tuple[str, ...]:
+    """Each CV's ``mpc.output_mode`` (``setpoint`` or ``zone``): one for all or one per CV; all setpoint if unset.
+
+    Examples
+    --------
+    >>> output_modes({"mpc": {"output_mode": ["setpoint", "zone"]}}, 2)
+    ('setpoint', 'zone')
+    """
+    modes = tree.get("mpc", {}).get("output_mode", "setpoint")
+    if isinstance(modes, str):
+        return (modes,) * n_outputs
+    if isinstance(modes, list | tuple) and len(modes) == n_outputs:
+        return tuple(str(m) for m in modes)
+    return ("setpoint",) * n_outputs
+
+
+def check_data_settings(
+    settings: DataSettings, tree: Mapping[str, Any], *, output_names: tuple[str, ...], source_of: Callable[[str], str]
+) -> tuple[str, ...]:
+    """Check the ``data`` block against the system and the MPC; its warnings.
+
+    Parameters
+    ----------
+    settings : DataSettings
+    tree : mapping
+        The effective parameter tree (``system.disturbance_names``, ``mpc.output_mode``).
+    output_names : tuple of str
+        The CVs.
+    source_of : callable
+        The source (file) of a dotted parameter name, for the messages.
+
+    Returns
+    -------
+    tuple of str
+        One line per zone CV given a setpoint column (read, but a zone CV has no setpoint).
+
+    Raises
+    ------
+    ConfigError
+        Both mode spellings given; DV columns that do not match ``system.disturbance_names``.
+    """
+    if settings.mode_columns and settings.mode_column:
+        raise ConfigError(
+            source_of("data.mode_columns"),
+            "data.mode_columns",
+            list(settings.mode_columns),
+            f"give data.mode_columns or data.mode_column (its older spelling), not both "
+            f"(data.mode_column = {settings.mode_column!r})",
+        )
+    dvs = disturbance_names(tree)
+    if settings.disturbance_columns and len(settings.disturbance_columns) != len(dvs):
+        declared = f"{len(dvs)} DV(s) ({', '.join(dvs)})" if dvs else "no DV"
+        raise ConfigError(
+            source_of("data.disturbance_columns"),
+            "data.disturbance_columns",
+            list(settings.disturbance_columns),
+            f"needs one column per DV of system.disturbance_names, which declares {declared}; "
+            f"got {len(settings.disturbance_columns)}",
+        )
+    modes = output_modes(tree, len(output_names))
+    return tuple(
+        f"{source_of('data.setpoint_columns')}: data.setpoint_columns[{i}] = {column!r}: {output_names[i]} is a "
+        f'zone CV (mpc.output_mode), which has no setpoint; the column is read as its r (write "" for none)'
+        for i, column in enumerate(settings.setpoint_columns)
+        if column and modes[i] == ZONE
+    )

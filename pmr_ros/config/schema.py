@@ -73,9 +73,12 @@ class Parameter:
     choices : tuple of str
         Allowed strings (empty: any).
     per : str
-        ``outputs`` or ``inputs`` for ``channels``.
+        ``outputs`` or ``inputs`` for ``channels`` and ``columns``; ``disturbances``
+        for ``columns`` whose length the config reader checks against the DVs.
     scalar : bool
-        A ``matrix`` may be one number for every element.
+        A ``matrix`` may be one number for every element; ``columns`` may be one name for every channel.
+    blank : bool
+        ``columns`` may leave a channel without a column (an entry ``""`` or ``~``).
     integer : bool
         The numbers of a ``matrix`` must be whole.
     unit, doc : str
@@ -96,6 +99,7 @@ class Parameter:
     choices: tuple[str, ...] = ()
     per: str = ""
     scalar: bool = False
+    blank: bool = False
     integer: bool = False
     unit: str = ""
     doc: str = ""
@@ -189,19 +193,37 @@ class Parameter:
         return tuple(value)
 
     def _check_columns(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
-        """One column name per channel of ``per``, or an empty list (the default naming)."""
+        """One column name per channel of ``per`` (or one for all, with ``scalar``), or [] (the default naming).
+
+        With ``blank`` an entry ``""`` or ``~`` (None) leaves its channel without a
+        column (given as ``""``); ``per: disturbances`` is not counted here.
+        """
         if shape is None:
             raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
         if value == []:
             return ()
-        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
-        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-            raise self._error(source, value, f"must be a list of {length} column names (one per {self.per[:-1]})")
-        if len(value) != length:
-            raise self._error(source, value, f"needs {length} column names (one per {self.per[:-1]}), got {len(value)}")
-        if len(set(value)) != len(value):
+        lengths = self._column_counts(shape)
+        wanted = " or ".join(str(n) for n in lengths) if lengths else "the"
+        one = f"one per {self.per[:-1]}" + (" or one for all" if self.scalar else "")
+        if self.scalar and isinstance(value, str):
+            value = [value]
+        if self.blank and isinstance(value, list):
+            value = ["" if v is None else v for v in value]
+        if not isinstance(value, list) or not all(isinstance(v, str) and (v or self.blank) for v in value):
+            raise self._error(source, value, f"must be a list of {wanted} column names ({one})")
+        if lengths and len(value) not in lengths:
+            raise self._error(source, value, f"needs {wanted} column names ({one}), got {len(value)}")
+        named = [v for v in value if v]
+        if len(set(named)) != len(named):
             raise self._error(source, value, "column names must be unique")
         return tuple(value)
+
+    def _column_counts(self, shape: Shape) -> tuple[int, ...]:
+        """The allowed numbers of columns (empty: not checked here)."""
+        if self.per not in ("outputs", "inputs"):
+            return ()
+        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        return (1, length) if self.scalar and length != 1 else (length,)
 
     def _check_values(self, value: Any, source: str, shape: Shape | None) -> tuple[float | str, ...]:
         """A list of numbers and strings (may be empty); numbers as floats."""
@@ -342,6 +364,7 @@ def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...], live: 
         choices=tuple(entry.get("choices", ())),
         per=str(entry.get("per", "")),
         scalar=bool(entry.get("scalar", False)),
+        blank=bool(entry.get("blank", False)),
         integer=bool(entry.get("integer", False)),
         unit=str(entry.get("unit", "")),
         doc=str(entry.get("doc", "")),

@@ -1,9 +1,11 @@
-"""Cleaning plant data on the sample grid: frozen tags, controller off, MVs at a limit, clean stretches.
+"""Cleaning plant data on the sample grid: frozen tags, controller modes, MVs at a limit, clean stretches.
 
 Every step is counted (:class:`CleaningStep`), so the report says what was
-removed and why.  A sample is usable when r, u, y (and a logged dither) are
-all valid there and the controller was on; the usable samples form unbroken
-stretches, each diagnosed as its own record and averaged into one estimate
+removed and why.  A sample is usable when r, u, y (and a logged dither and
+DVs) are all valid there, its mode is known and at least one MV's controller
+was on; an MV whose controller was off is kept as manual (open loop for it,
+:attr:`Record.manual`).  The usable samples form unbroken stretches, each
+diagnosed as its own record and averaged into one estimate
 (:func:`pmr_ros.core.pmr.diagnosis.diagnose_stretches`).
 """
 
@@ -22,6 +24,7 @@ __all__ = [
     "PlantData",
     "at_limit",
     "frozen",
+    "mode_known",
     "mode_on",
     "repeat_runs",
     "runs",
@@ -125,10 +128,11 @@ def mode_on(mode: np.ndarray, on_values: Sequence[float | str]) -> np.ndarray:
     """Whether each mode cell is one of ``on_values``.
 
     Numbers compare as numbers, text stripped and regardless of case
-    (``auto`` is ``AUTO``); a boolean cell (a boolean mode column) is on when True.
+    (``auto`` is ``AUTO``); a boolean cell (a boolean mode column) is on when
+    True, and so is the text ``true`` (a boolean column exported as text).
     """
     numbers = {float(v) for v in on_values if not isinstance(v, str)}
-    strings = {v.strip().casefold() for v in on_values if isinstance(v, str)}
+    strings = {v.strip().casefold() for v in on_values if isinstance(v, str)} | {"true"}
     out = np.zeros(len(mode), dtype=bool)
     for j, cell in enumerate(mode):
         if isinstance(cell, bool | np.bool_):
@@ -142,6 +146,40 @@ def mode_on(mode: np.ndarray, on_values: Sequence[float | str]) -> np.ndarray:
             except (TypeError, ValueError):
                 out[j] = False
     return out
+
+
+def mode_known(mode: np.ndarray, bad_values: Sequence[float | str]) -> np.ndarray:
+    """Whether each mode cell holds a mode: not missing (None, NaN, empty) nor one of ``data.bad_values``.
+
+    A cell that is not known is neither on nor off: its sample is excluded.
+
+    Examples
+    --------
+    >>> cells = np.array(["AUTO", None, float("nan"), "Bad", -9999, 0, "nan", True], dtype=object)
+    >>> mode_known(cells, (-9999, "Bad", "")).tolist()
+    [True, False, False, False, False, True, False, True]
+    """
+    numbers = {float(v) for v in bad_values if not isinstance(v, str)}
+    strings = {v.strip().casefold() for v in bad_values if isinstance(v, str)} | {""}
+    out = np.ones(len(mode), dtype=bool)
+    for j, cell in enumerate(mode):
+        if isinstance(cell, bool | np.bool_):
+            continue
+        if isinstance(cell, str) and cell.strip().casefold() in strings:
+            out[j] = False
+            continue
+        number = _as_number(cell) if isinstance(cell, str) else _as_float(cell)
+        if isinstance(cell, str) and number is None:
+            continue  # a text mode (AUTO, MAN)
+        out[j] = number is not None and bool(np.isfinite(number)) and number not in numbers
+    return out
+
+
+def _as_float(cell: object) -> float | None:
+    try:
+        return float(cell)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
 
 
 def _as_number(text: str) -> float | None:
@@ -172,6 +210,8 @@ class PlantData:
     limited : ndarray of bool, shape (samples, n_inputs)
         Inputs at a limit (flagged, kept).
     steps : tuple of CleaningStep
+    manual : ndarray of bool, shape (samples, n_inputs), optional
+        Where an MV's controller was off (kept: open loop for it); None when all were on.
     """
 
     source: str
@@ -182,6 +222,7 @@ class PlantData:
     excluded: dict[str, np.ndarray]
     limited: np.ndarray
     steps: tuple[CleaningStep, ...]
+    manual: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
@@ -213,7 +254,9 @@ class PlantData:
                 key: values[a:b] - (values[a:b].mean(axis=0) if deviations else 0.0)
                 for key, values in self.signals.items()
             }
-            out.append(Record(part["r"], part["u"], part["y"], part.get("dither")))
+            manual = None if self.manual is None else self.manual[a:b]
+            manual = manual if manual is not None and manual.any() else None
+            out.append(Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual))
         return out
 
     @classmethod

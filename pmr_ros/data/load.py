@@ -8,11 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from ..config import PmrConfig
+from ..config.data import disturbance_names, output_modes
 from ..core.sim.memory import available_bytes, format_bytes
 from .bad_data import DataError
-from .clean import CleaningStep, PlantData, at_limit, frozen, mode_on, runs
+from .clean import CleaningStep, PlantData, at_limit, frozen
 from .columns import ColumnMap, column_map
 from .far_stamps import far_stamps, grid_bytes
+from .modes import controller_modes, mode_steps
 from .outliers import gross_outliers, outlier_step
 from .read import Progress, RawTable, read_table
 from .timebase import Grid, GridSpec, ParsedTime, parse_time, place_on_grid
@@ -21,13 +23,14 @@ __all__ = ["load_plant_data"]
 
 
 def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress | None = None) -> PlantData:
-    """Read and clean a CSV or Parquet export of r, u, y for the model of ``config``.
+    """Read and clean a CSV or Parquet export of r, u, y (and DVs, modes) for the model of ``config``.
 
     Parameters
     ----------
     path : str or Path
     config : PmrConfig
-        The model (channel names, sample time) and the ``data`` block.
+        The model (channel names, sample time), ``system.disturbance_names``,
+        ``mpc.output_mode`` and the ``data`` block.
     progress : callable, optional
         Called while reading (see :data:`pmr_ros.data.read.Progress`).
 
@@ -37,7 +40,10 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
         One line naming the file, the column (and row) and the value.
     """
     settings = config.data
-    columns = column_map(settings, config.model)
+    columns = column_map(
+        settings, config.model, output_modes=output_modes(config.parameters, len(config.model.output_names))
+    )
+    _check_disturbances(columns, disturbance_names(config.parameters), str(path))
     raw = read_table(path, columns, settings.bad_values, progress=progress)
     spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
     raw, parsed, far = _without_far_rows(raw, spec, settings.time_format)
@@ -50,15 +56,33 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     on_grid[outliers] = np.nan
     signals = _split(on_grid, columns)
     limited = np.column_stack([at_limit(u) for u in signals["u"].T])
-    stuck = _frozen(signals, limited, settings.frozen_samples)
-    on = _controller_on(raw, grid, settings.mode_on_values, path=str(path), column=columns.mode)
+    modes = controller_modes(raw, grid, settings, columns=columns, n_inputs=signals["u"].shape[1])
+    stuck = _frozen(signals, limited | modes.manual, settings.frozen_samples)
     missing = ~np.all(np.isfinite(on_grid), axis=1)
-    excluded = {"missing": missing, "frozen": stuck.any(axis=1), "controller off": ~on}
-    steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
+    excluded = {
+        "missing": missing,
+        "frozen": stuck.any(axis=1),
+        "controller off": modes.all_off,
+        "mode unknown": modes.unknown & ~missing,
+    }
+    steps = _steps(raw, grid, columns, stuck=stuck, limited=limited)
     steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
-    steps = (steps[0], far, *steps[1:])
-    data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
+    steps = (steps[0], far, *steps[1:-1], *mode_steps(modes, columns.signals["u"]), steps[-1])
+    data = PlantData(
+        str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps, modes.manual
+    )
     return _with_usable_step(data)
+
+
+def _check_disturbances(columns: ColumnMap, names: tuple[str, ...], path: str) -> None:
+    """Refuse data without the DVs the system declares (their effect would be unexplained), naming them."""
+    if names and "dv" not in columns.signals:
+        raise DataError(
+            path,
+            "data.disturbance_columns",
+            f"is empty, but system.disturbance_names declares {len(names)} measured disturbance(s) "
+            f"({', '.join(names)}): name their columns in that order",
+        )
 
 
 def _without_far_rows(raw: RawTable, spec: GridSpec, time_format: str) -> tuple[RawTable, ParsedTime, CleaningStep]:
@@ -94,38 +118,27 @@ def _check_grid_memory(grid: Grid, columns: int, spec: GridSpec) -> None:
         )
 
 
-def _controller_on(raw: RawTable, grid: Grid, on_values, *, path: str, column: str) -> np.ndarray:
-    """Samples with the controller on (all without a mode column); a mode column never on is refused, naming it."""
-    on = np.ones(grid.samples, dtype=bool)
-    if raw.mode is None:
-        return on
-    on[:] = False
-    on[grid.index] = mode_on(raw.mode[grid.rows], on_values)
-    if not on.any():
-        seen = sorted({str(v) for v in raw.mode[grid.rows][:10000]})
-        shown = ", ".join(repr(v) for v in seen[:5]) + (", ..." if len(seen) > 5 else "")
-        raise DataError(
-            path,
-            f"column {column!r} (data.mode_column)",
-            f"no row has one of data.mode_on_values ({', '.join(str(v) for v in on_values)}), so no sample is "
-            f"usable; the column holds {shown}: add its on-value to data.mode_on_values",
-        )
-    return on
-
-
 def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:
+    """The grid's columns per signal; a CV without a setpoint column gets r = 0 throughout (constant)."""
     out, first = {}, 0
     for signal, names in columns.signals.items():
-        out[signal] = on_grid[:, first : first + len(names)]
-        first += len(names)
+        parts = []
+        for name in names:
+            parts.append(on_grid[:, first] if name else np.zeros(on_grid.shape[0]))
+            first += bool(name)
+        out[signal] = np.column_stack(parts) if parts else np.empty((on_grid.shape[0], 0))
     return out
 
 
-def _frozen(signals: dict[str, np.ndarray], limited: np.ndarray, limit: int) -> np.ndarray:
-    """Frozen cells of the outputs and inputs, shape (samples, n_out + n_in); an input at a limit is not frozen."""
+def _frozen(signals: dict[str, np.ndarray], kept: np.ndarray, limit: int) -> np.ndarray:
+    """Frozen cells of the outputs, inputs and DVs, shape (samples, n_out + n_in + n_dv).
+
+    An input at a limit or held by the operator (``kept``) is not frozen.
+    """
     y = [frozen(column, limit) for column in signals["y"].T]
-    u = [frozen(column, limit, keep=limited[:, k]) for k, column in enumerate(signals["u"].T)]
-    return np.column_stack([*y, *u])
+    u = [frozen(column, limit, keep=kept[:, k]) for k, column in enumerate(signals["u"].T)]
+    dv = [frozen(column, limit) for column in signals.get("dv", np.empty((len(kept), 0))).T]
+    return np.column_stack([*y, *u, *dv])
 
 
 def _per_column(counts: dict[str, int]) -> str:
@@ -133,10 +146,9 @@ def _per_column(counts: dict[str, int]) -> str:
 
 
 def _steps(
-    raw: RawTable, grid: Grid, columns: ColumnMap, *, stuck: np.ndarray, limited: np.ndarray, off: np.ndarray
+    raw: RawTable, grid: Grid, columns: ColumnMap, *, stuck: np.ndarray, limited: np.ndarray
 ) -> tuple[CleaningStep, ...]:
-    watched = [*columns.signals["y"], *columns.signals["u"]]
-    off_runs = runs(off)
+    watched = [*columns.signals["y"], *columns.signals["u"], *columns.signals.get("dv", ())]
     grid_detail = f"largest offset {grid.largest_offset:.3f} samples" if grid.moved else ""
     return (
         CleaningStep("rows read", raw.rows, "rows", f"{len(columns.all)} columns"),
@@ -159,9 +171,6 @@ def _steps(
             _per_column({c: int(n) for c, n in zip(watched, stuck.sum(axis=0), strict=True)}),
         ),
         CleaningStep(
-            "controller off -> excluded", int(off.sum()), "samples", f"{len(off_runs)} period(s)" if off_runs else ""
-        ),
-        CleaningStep(
             "MV at a limit (flagged, kept)",
             int(limited.sum()),
             "samples",
@@ -182,13 +191,4 @@ def _with_usable_step(data: PlantData) -> PlantData:
     step = CleaningStep(
         "usable samples", int(data.usable.sum()), "samples", f"{len(bounds)} unbroken stretch(es), longest {longest}"
     )
-    return PlantData(
-        data.source,
-        data.start,
-        data.sample_time_s,
-        data.signals,
-        data.columns,
-        data.excluded,
-        data.limited,
-        (*data.steps, step),
-    )
+    return replace(data, steps=(*data.steps, step))

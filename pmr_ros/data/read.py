@@ -50,8 +50,8 @@ class RawTable:
         The time column as read (numbers, text or date-times).
     values : dict
         Signal column to its float values, shape (rows,).
-    mode : ndarray of object or None
-        The controller-mode column as read.
+    mode : ndarray of object, shape (rows, n_modes), or None
+        The controller-mode columns as read.
     bad : dict
         Column to cells that were a bad value (sentinel, bad string, empty cell, null).
     non_finite : dict
@@ -156,8 +156,8 @@ class _Columns:
         for column in self.columns.value_columns:
             self.parts[column].append(self._numbers(frame[column], column))
         self.times.append(frame[self.columns.time])
-        if self.columns.mode:
-            self.modes.append(frame[self.columns.mode].to_numpy(dtype=object))
+        if self.columns.modes:
+            self.modes.append(frame[list(self.columns.modes)].to_numpy(dtype=object))
         self.rows += len(frame)
 
     def _numbers(self, series: Any, column: str) -> np.ndarray:
