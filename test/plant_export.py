@@ -1,4 +1,9 @@
-"""Test helpers: a decentralized PI loop, and a simulated run exported as a dirty historian file.
+"""Test helpers: a decentralized PI loop, and a simulated run exported as a (dirty) historian file.
+
+:func:`export_frame` writes any :class:`Record` as a historian export: DV
+columns, no setpoint column for a zone CV, and per-MV mode tags from
+``Record.manual``; :meth:`ExportTags.data_block` is the ``data`` block that
+reads it back.
 
 The PI loop is the "other controller" of the plant-data tests (the product has
 only the MPC): two velocity-form PI loops on the Wood-Berry column, x_D by
@@ -9,6 +14,7 @@ Kc = -0.075, 1/tau_I = 1/23.6; Luyben 1986, Ind. Eng. Chem. Process Des. Dev. 25
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -118,3 +124,68 @@ def as_parquet_frame(frame: pd.DataFrame) -> pd.DataFrame:
         out[tag] = pd.to_numeric(frame[tag].replace({"Bad": None, "": None}), errors="raise").astype(float)
     out["XC_MODE"] = frame["XC_MODE"].astype(str)
     return out
+
+
+@dataclass(frozen=True)
+class ExportTags:
+    """The tags of an export, one per channel; a setpoint tag ``""`` writes no column (a zone CV).
+
+    ``modes`` are the per-MV mode tags written from ``Record.manual`` (none: no mode column).
+    """
+
+    r: tuple[str, ...]
+    u: tuple[str, ...]
+    y: tuple[str, ...]
+    dv: tuple[str, ...] = ()
+    modes: tuple[str, ...] = ()
+    time: str = "Timestamp"
+
+    def data_block(self, *, on: str = "AUTO") -> dict[str, Any]:
+        """The ``data`` block that maps these tags onto the model's channels (minutes)."""
+        block: dict[str, Any] = {
+            "time_column": self.time,
+            "time_unit_s": 60.0,
+            "setpoint_columns": list(self.r),
+            "input_columns": list(self.u),
+            "output_columns": list(self.y),
+            "disturbance_columns": list(self.dv),
+            "mode_columns": list(self.modes),
+        }
+        return block | ({"mode_on_values": [on]} if self.modes else {})
+
+
+def export_frame(
+    record: Record,
+    tags: ExportTags,
+    *,
+    nominal: dict[str, np.ndarray] | None = None,
+    on: str = "AUTO",
+    off: str = "MAN",
+) -> pd.DataFrame:
+    """A record as a historian exports it: ISO stamps every minute, a column per tag, per-MV modes.
+
+    Parameters
+    ----------
+    record : Record
+        Its ``dv`` is written to ``tags.dv``, its ``manual`` as ``off``/``on`` to ``tags.modes``.
+    tags : ExportTags
+    nominal : dict, optional
+        Signal (``r``, ``u``, ``y``, ``dv``) to the operating point added to it.
+    on, off : str
+        The mode tags' values.
+    """
+    n = record.samples
+    stamps = pd.Timestamp(START) + pd.to_timedelta(60.0 * np.arange(n), "s")
+    frame = pd.DataFrame({tags.time: stamps.strftime("%Y-%m-%dT%H:%M:%S.%fZ")})
+    for signal in ("r", "u", "y", "dv"):
+        names = getattr(tags, signal)
+        if not names:
+            continue
+        values = np.asarray(getattr(record, signal), dtype=float) + (nominal or {}).get(signal, 0.0)
+        for j, tag in enumerate(names):
+            if tag:
+                frame[tag] = values[:, j]
+    manual = np.zeros(np.shape(record.u), dtype=bool) if record.manual is None else record.manual
+    for k, tag in enumerate(tags.modes):
+        frame[tag] = np.where(manual[:, k], off, on)
+    return frame

@@ -233,3 +233,11 @@ def test_diagnose_an_export_checks_json_first_and_refuses_a_bag_option(capsys, t
     assert "--json" in err and "cannot write: No such file or directory" in err
     err = _error(capsys, ["diagnose", str(export), "--min-samples", "100"])
     assert f"--min-samples: an option for a bag; {export} is judged on all its clean data" in err
+
+
+def test_diagnose_an_export_refuses_a_mode_column_list_of_the_wrong_length(capsys, tmp_path):
+    export = tmp_path / "plant.csv"
+    export.write_text("time,r_x_D\n0,1\n")
+    config = _with(tmp_path, {"data": {"mode_columns": ["M1", "M2", "M3"]}})
+    err = _error(capsys, ["diagnose", str(export), "--config", str(config)])
+    assert "data.mode_columns" in err and "needs 1 or 2 column names (one per input or one for all), got 3" in err
