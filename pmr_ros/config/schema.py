@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.sim.model import element_name
 from ..resources import share_dir
+from .column_lists import column_list
 from .errors import ConfigError
 from .files import load_yaml
 
@@ -193,37 +194,9 @@ class Parameter:
         return tuple(value)
 
     def _check_columns(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
-        """One column name per channel of ``per`` (or one for all, with ``scalar``), or [] (the default naming).
-
-        With ``blank`` an entry ``""`` or ``~`` (None) leaves its channel without a
-        column (given as ``""``); ``per: disturbances`` is not counted here.
-        """
         if shape is None:
             raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
-        if value == []:
-            return ()
-        lengths = self._column_counts(shape)
-        wanted = " or ".join(str(n) for n in lengths) if lengths else "the"
-        one = f"one per {self.per[:-1]}" + (" or one for all" if self.scalar else "")
-        if self.scalar and isinstance(value, str):
-            value = [value]
-        if self.blank and isinstance(value, list):
-            value = ["" if v is None else v for v in value]
-        if not isinstance(value, list) or not all(isinstance(v, str) and (v or self.blank) for v in value):
-            raise self._error(source, value, f"must be a list of {wanted} column names ({one})")
-        if lengths and len(value) not in lengths:
-            raise self._error(source, value, f"needs {wanted} column names ({one}), got {len(value)}")
-        named = [v for v in value if v]
-        if len(set(named)) != len(named):
-            raise self._error(source, value, "column names must be unique")
-        return tuple(value)
-
-    def _column_counts(self, shape: Shape) -> tuple[int, ...]:
-        """The allowed numbers of columns (empty: not checked here)."""
-        if self.per not in ("outputs", "inputs"):
-            return ()
-        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
-        return (1, length) if self.scalar and length != 1 else (length,)
+        return column_list(self, value, source, shape)
 
     def _check_values(self, value: Any, source: str, shape: Shape | None) -> tuple[float | str, ...]:
         """A list of numbers and strings (may be empty); numbers as floats."""
