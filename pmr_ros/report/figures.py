@@ -22,7 +22,9 @@ __all__ = ["COLOURS", "decimate", "element_figure", "matrix_figure", "time_figur
 COLOURS = {"ok": "#2e7d32", "mismatch": "#c62828", "inconclusive": "#f9a825", "none": "#bdbdbd"}
 """Verdict colours: green, red, amber; grey for an element the model does not have."""
 
-EXCLUDED_COLOURS = {"missing": "#9e9e9e", "frozen": "#42a5f5", "controller off": "#ff8a65"}
+EXCLUDED_COLOURS = {"missing": "#9e9e9e", "frozen": "#42a5f5", "controller off": "#ff8a65", "mode unknown": "#757575"}
+MANUAL_COLOUR = "#ffd54f"
+"""An MV in manual (kept: open loop for it)."""
 """Shading of excluded samples in the time plot, by reason."""
 
 MAX_POINTS = 4000
@@ -172,7 +174,8 @@ def time_figure(data: PlantData, output_names: tuple[str, ...], input_names: tup
     hours = data.time_s / 3600.0
     for j, name in enumerate(output_names):
         ax = axes[j, 0]
-        ax.plot(*decimate(hours, data.signals["r"][:, j]), color="black", lw=0.8, label="r")
+        if data.columns["r"][j]:  # a zone CV without a setpoint column: no r drawn
+            ax.plot(*decimate(hours, data.signals["r"][:, j]), color="black", lw=0.8, label="r")
         ax.plot(*decimate(hours, data.signals["y"][:, j]), color="#1565c0", lw=0.6, label="y")
         ax.set_ylabel(name, rotation=0, ha="right")
     for k, name in enumerate(input_names):
@@ -180,6 +183,8 @@ def time_figure(data: PlantData, output_names: tuple[str, ...], input_names: tup
         ax.plot(*decimate(hours, data.signals["u"][:, k]), color="#6a1b9a", lw=0.6, label="u")
         for a, b in runs(data.limited[:, k]):
             ax.axvspan(hours[a], hours[b - 1], color="#ab47bc", alpha=0.35, lw=0)
+        for a, b in runs(data.manual[:, k]) if data.manual is not None else ():
+            ax.axvspan(hours[a], hours[b - 1], color=MANUAL_COLOUR, alpha=0.35, lw=0)
         ax.set_ylabel(name, rotation=0, ha="right")
     for ax in axes[:, 0]:
         _shade_excluded(ax, data, hours)
@@ -188,9 +193,12 @@ def time_figure(data: PlantData, output_names: tuple[str, ...], input_names: tup
     labels = [f"excluded: {reason}" for reason in EXCLUDED_COLOURS]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="#ab47bc", alpha=0.35))
     labels.append("MV at a limit (kept)")
+    handles.append(plt.Rectangle((0, 0), 1, 1, color=MANUAL_COLOUR, alpha=0.35))
+    labels.append("MV in manual (kept)")
+    lines = axes[0, 0].get_lines()
     axes[0, 0].legend(
-        [*axes[0, 0].get_lines(), *handles],
-        ["r", "y", *labels],
+        [*lines, *handles],
+        [*(line.get_label() for line in lines), *labels],
         fontsize=7,
         ncol=6,
         loc="lower left",
