@@ -74,12 +74,9 @@ class Parameter:
     choices : tuple of str
         Allowed strings (empty: any).
     per : str
-        ``outputs`` or ``inputs`` for ``channels`` and ``columns``; ``disturbances``
-        for ``columns`` whose length the config reader checks against the DVs.
+        ``outputs`` or ``inputs`` for ``channels``.
     scalar : bool
-        A ``matrix`` may be one number for every element; ``columns`` may be one name for every channel.
-    blank : bool
-        ``columns`` may leave a channel without a column (an entry ``""`` or ``~``).
+        A ``matrix`` may be one number for every element.
     integer : bool
         The numbers of a ``matrix`` must be whole.
     unit, doc : str
@@ -88,6 +85,10 @@ class Parameter:
     live : tuple of str
         The executables that accept a change of it at runtime (the block's
         ``live``); for the others it is read-only once the node started.
+    blank : bool
+        A ``columns`` list may leave a channel without a column (``""`` or ``~``);
+        with ``scalar`` it may be one name for every channel, and ``per:
+        disturbances`` counts the DVs (see :mod:`pmr_ros.config.column_lists`).
     """
 
     name: str
@@ -100,12 +101,12 @@ class Parameter:
     choices: tuple[str, ...] = ()
     per: str = ""
     scalar: bool = False
-    blank: bool = False
     integer: bool = False
     unit: str = ""
     doc: str = ""
     nodes: tuple[str, ...] = ()
     live: tuple[str, ...] = ()
+    blank: bool = False
 
     @property
     def required(self) -> bool:
@@ -337,12 +338,12 @@ def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...], live: 
         choices=tuple(entry.get("choices", ())),
         per=str(entry.get("per", "")),
         scalar=bool(entry.get("scalar", False)),
-        blank=bool(entry.get("blank", False)),
         integer=bool(entry.get("integer", False)),
         unit=str(entry.get("unit", "")),
         doc=str(entry.get("doc", "")),
         nodes=tuple(entry.get("nodes", nodes)),
         live=live,
+        blank=bool(entry.get("blank", False)),
     )
 
 
