@@ -1,6 +1,8 @@
 """Offline diagnosis of a bag: the live diagnostician's alignment and windows, without ROS.
 
-The recorded r, u and y messages go, in recording order, through the same
+The recorded r, u and y messages (and the measured disturbances of
+``pmr/disturbance``, when the configuration declares DVs and the bag holds
+them: :attr:`Record.dv`) go, in recording order, through the same
 :class:`~pmr_ros.contract.alignment.SampleAligner` and the same update schedule and
 window evaluation (:mod:`pmr_ros.contract.windowing`) as in the live
 ``pmr_diagnostician``, with the model, PMR settings and diagnostician window
@@ -25,6 +27,7 @@ from ..contract.samples import AddResult
 from ..contract.topics import SIGNAL_TOPICS, namespaces_of, topic
 from ..contract.windowing import WindowOutcome, evaluate_window, offer_signal
 from ..core.results import Diagnosis
+from .disturbances import DISTURBANCE_KEY, config_disturbances, disturbance_topic
 from .reader import Bag
 from .storage import BagError
 
@@ -255,7 +258,8 @@ def bag_namespace(bag: Bag) -> str:
 
 
 def _signal_labels(namespace: str = "/") -> dict[str, str]:
-    return {s: f"{s} on {topic(SIGNAL_TOPICS[s]).resolved(namespace)}" for s in SIGNALS}
+    keys = {**SIGNAL_TOPICS, "dv": DISTURBANCE_KEY}
+    return {s: f"{s} on {topic(key).resolved(namespace)}" for s, key in keys.items()}
 
 
 def check_system(bag: Bag, config: PmrConfig, origin: str, namespace: str = "/") -> None:
@@ -299,9 +303,11 @@ def check_system(bag: Bag, config: PmrConfig, origin: str, namespace: str = "/")
 class _Replay:
     """The bag's r, u, y through the live diagnostician's aligner and schedule."""
 
-    def __init__(self, config: PmrConfig, namespace: str = "/") -> None:
+    def __init__(self, config: PmrConfig, namespace: str = "/", *, disturbances: bool = False) -> None:
         model, window = config.model, config.diagnostician
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        if disturbances:
+            names["dv"] = config_disturbances(config)
         self.labels = _signal_labels(namespace)
         self.config = config
         self.aligner = SampleAligner(
@@ -309,7 +315,7 @@ class _Replay:
         )
         self.outcomes: list[WindowOutcome] = []
         self.warnings: list[str] = []
-        self.counts = dict.fromkeys(SIGNALS, 0)
+        self.counts = dict.fromkeys(self.aligner.signals, 0)
         self.drops = DropCounts()
         self.model_since = 0
         """The first sample of the model the controller ran on last (after a recorded model switch)."""
@@ -359,9 +365,10 @@ class _Replay:
 
 
 def replay_bag(bag: Bag, config: PmrConfig, namespace: str = "/") -> _Replay:
-    """Feed the r, u, y of the node set in ``namespace`` through the live diagnostician's aligner and schedule."""
-    replay = _Replay(config, namespace)
-    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS}
+    """Feed the r, u, y (and DVs) of the node set in ``namespace`` through the live diagnostician's aligner."""
+    dv = disturbance_topic(bag, config, namespace)
+    replay = _Replay(config, namespace, disturbances=dv is not None)
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in SIGNALS} | ({dv: "dv"} if dv else {})
     models = topic("active_model").resolved(namespace)
     for message in bag.messages({*by_topic, models}):
         if message.topic == models:

@@ -50,6 +50,15 @@ __all__ = ["AlignedStretch", "SampleAligner"]
 SIGNALS = ("r", "u", "y")
 """Signals the diagnostician aligns: setpoints, inputs, outputs."""
 
+OPTIONAL_SIGNALS = ("dv",)
+"""Signals aligned when the aligner is given their channel names: the measured disturbances."""
+
+
+def _record(rows: Mapping[str, list], a: int, b: int) -> Record:
+    """Rows ``a:b`` of every aligned signal as a :class:`Record` (``dv`` when aligned)."""
+    arrays = {s: np.array(rows[s][a:b]) for s in rows}
+    return Record(arrays["r"], arrays["u"], arrays["y"], dv=arrays.get("dv"))
+
 
 @dataclass(frozen=True)
 class AlignedStretch:
@@ -60,7 +69,7 @@ class AlignedStretch:
     first : int
         Index of its first sample.
     record : Record
-        Its r, u, y, one row per sample (no dither: the aligner holds none).
+        Its r, u, y (and dv when aligned), one row per sample (no dither: the aligner holds none).
     """
 
     first: int
@@ -97,14 +106,15 @@ PENDING_MARGIN = 16
 
 
 class SampleAligner:
-    """Assembles complete samples of r, u and y and keeps the newest ``capacity`` of them, in stretches.
+    """Assembles complete samples of r, u and y (and DVs) and keeps the newest ``capacity`` of them, in stretches.
 
     Parameters
     ----------
     sample_time_s : float
         Ts [s].
     channel_names : dict
-        Signal (``r``, ``u``, ``y``) to its channel names.
+        Signal (``r``, ``u``, ``y``; ``dv`` when the measured disturbances are
+        aligned too: a sample then needs them to be complete) to its channel names.
     labels : dict
         Signal to how warnings name it, e.g. ``"y on /pmr/measured_output"``.
     capacity : int
@@ -133,18 +143,19 @@ class SampleAligner:
         max_lag_samples: int,
     ) -> None:
         self.sample_time_s = float(sample_time_s)
-        self.channel_names = {s: tuple(channel_names[s]) for s in SIGNALS}
+        self.signals = (*SIGNALS, *(s for s in OPTIONAL_SIGNALS if s in channel_names))
+        self.channel_names = {s: tuple(channel_names[s]) for s in self.signals}
         self.labels = dict(labels)
         self.capacity = int(capacity)
         self.max_lag_samples = int(max_lag_samples)
-        self.newest: dict[str, int | None] = {s: None for s in SIGNALS}
-        self.rejected: dict[str, int] = {s: 0 for s in SIGNALS}
+        self.newest: dict[str, int | None] = {s: None for s in self.signals}
+        self.rejected: dict[str, int] = {s: 0 for s in self.signals}
         self.gaps = 0
         self.given_up = 0
         self._pending: dict[int, dict[str, np.ndarray]] = {}
         self._broken: dict[int, frozenset[str]] = {}
         self._index: deque[int] = deque(maxlen=self.capacity)
-        self._rows: dict[str, deque] = {s: deque(maxlen=self.capacity) for s in SIGNALS}
+        self._rows: dict[str, deque] = {s: deque(maxlen=self.capacity) for s in self.signals}
         self.stretch_first: int | None = None
         self.stretch_last: int | None = None
 
@@ -182,7 +193,7 @@ class SampleAligner:
         if self.stretch_last is None:
             raise ValueError("no complete sample yet: the stretch is empty")
         take = min(samples, len(self._index), self.stretch_length)
-        out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in SIGNALS]
+        out = [np.array(list(self._rows[s])[len(self._rows[s]) - take :]) for s in self.signals]
         return out[0], out[1], out[2], self.stretch_last - take + 1
 
     def stretches(self, samples: int) -> list[AlignedStretch]:
@@ -191,12 +202,9 @@ class SampleAligner:
         if take <= 0:
             return []
         index = np.fromiter(list(self._index)[len(self._index) - take :], dtype=np.int64, count=take)
-        rows = {s: list(self._rows[s])[len(self._rows[s]) - take :] for s in SIGNALS}
+        rows = {s: list(self._rows[s])[len(self._rows[s]) - take :] for s in self.signals}
         cuts = [0, *(np.flatnonzero(np.diff(index) != 1) + 1).tolist(), take]
-        return [
-            AlignedStretch(int(index[a]), Record(*(np.array(rows[s][a:b]) for s in SIGNALS)))
-            for a, b in zip(cuts[:-1], cuts[1:], strict=True)
-        ]
+        return [AlignedStretch(int(index[a]), _record(rows, a, b)) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
 
     def snapshot(self) -> SampleAligner:
         """A copy of the aligned samples that later messages do not change.
@@ -212,7 +220,7 @@ class SampleAligner:
         twin._pending = {}
         twin._broken = {}
         twin._index = deque(self._index, maxlen=self.capacity)
-        twin._rows = {s: deque(self._rows[s], maxlen=self.capacity) for s in SIGNALS}
+        twin._rows = {s: deque(self._rows[s], maxlen=self.capacity) for s in self.signals}
         return twin
 
     def value(self, signal: str, k: int) -> np.ndarray | None:
@@ -242,7 +250,7 @@ class SampleAligner:
         if self.stretch_last is not None:
             self.gaps += 1
         self._index.clear()
-        for s in SIGNALS:
+        for s in self.signals:
             self._rows[s].clear()
         self.stretch_first = self.stretch_last = None
 
@@ -250,7 +258,7 @@ class SampleAligner:
         """Keep up to ``capacity`` samples from now on (newest first kept)."""
         self.capacity = int(capacity)
         self._index = deque(self._index, maxlen=self.capacity)
-        for s in SIGNALS:
+        for s in self.signals:
             self._rows[s] = deque(self._rows[s], maxlen=self.capacity)
 
     def lagging(self) -> str | None:
@@ -259,7 +267,7 @@ class SampleAligner:
         if not seen:
             return None
         head = max(seen)
-        for s in SIGNALS:
+        for s in self.signals:
             k = self.newest[s]
             if k is None and head + 1 > self.max_lag_samples:
                 return f"no {self.labels[s]} received while the other signals reached sample {head}"
@@ -311,7 +319,7 @@ class SampleAligner:
             return result
         entry = self._pending.setdefault(k, {})
         entry[signal] = np.array(values, dtype=float)  # a copy: a view would keep the message's buffer alive
-        if len(entry) == len(SIGNALS):
+        if len(entry) == len(self.signals):
             self._complete(k, result)
         elif len(self._pending) > self.pending_limit:
             self._give_up_oldest(result)
@@ -326,7 +334,7 @@ class SampleAligner:
         for j in candidates:
             entry = self._pending[j]
             if signal not in entry:
-                self._broken[j] = frozenset(SIGNALS) - entry.keys()
+                self._broken[j] = frozenset(self.signals) - entry.keys()
                 del self._pending[j]
 
     def _give_up_oldest(self, result: AddResult) -> None:
@@ -334,7 +342,7 @@ class SampleAligner:
         keep = (3 * self.pending_limit) // 4
         doomed = sorted(self._pending)[: len(self._pending) - keep]
         for j in doomed:
-            self._broken[j] = frozenset(SIGNALS) - self._pending.pop(j).keys()
+            self._broken[j] = frozenset(self.signals) - self._pending.pop(j).keys()
         for j in sorted(self._broken)[: max(0, len(self._broken) - self.pending_limit)]:
             del self._broken[j]
         self.given_up += len(doomed)
@@ -354,13 +362,13 @@ class SampleAligner:
             )
             self.stretch_first = None
         for old in [j for j in self._pending if j < k]:
-            self._broken[old] = frozenset(SIGNALS) - self._pending.pop(old).keys()
+            self._broken[old] = frozenset(self.signals) - self._pending.pop(old).keys()
         self._broken = {j: m for j, m in self._broken.items() if j > k}
         if self.stretch_first is None:
             self.stretch_first = k
         self.stretch_last = k
         self._index.append(k)
-        for s in SIGNALS:
+        for s in self.signals:
             self._rows[s].append(entry[s])
         result.completed.append(k)
 
@@ -369,5 +377,5 @@ class SampleAligner:
         known = [m for j, m in self._broken.items() if first <= j < last_exclusive]
         missing: set[str] = set().union(*known)
         if len(known) < last_exclusive - first:  # samples no signal held at all
-            missing |= {s for s in SIGNALS if self.newest[s] is not None}
-        return "missing " + ", ".join(s for s in SIGNALS if s in missing) if missing else "rejected"
+            missing |= {s for s in self.signals if self.newest[s] is not None}
+        return "missing " + ", ".join(s for s in self.signals if s in missing) if missing else "rejected"

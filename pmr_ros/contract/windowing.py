@@ -11,7 +11,7 @@ has no wall time.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -220,6 +220,12 @@ class UsefulData:
         return reason
 
 
+def _from(record: Record, cut: int) -> Record:
+    """The record from row ``cut`` on (its DVs too)."""
+    dv = None if record.dv is None else record.dv[cut:]
+    return Record(record.r[cut:], record.u[cut:], record.y[cut:], dv=dv)
+
+
 def window_stretches(aligner: SampleAligner, window_samples: int, *, since: int = 0) -> list[AlignedStretch]:
     """The window's stretches (the newest ``window_samples`` complete samples), cut to samples ``since`` on.
 
@@ -231,7 +237,7 @@ def window_stretches(aligner: SampleAligner, window_samples: int, *, since: int 
         if piece.last < since:
             continue
         cut = max(since - piece.first, 0)
-        out.append(piece if cut == 0 else AlignedStretch(since, Record(piece.r[cut:], piece.u[cut:], piece.y[cut:])))
+        out.append(piece if cut == 0 else AlignedStretch(since, _from(piece.record, cut)))
     return out
 
 
@@ -243,7 +249,7 @@ def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) ->
     ``since`` on count (see :func:`window_stretches`).
     """
     pieces = window_stretches(aligner, config.diagnostician.window_samples, since=since)
-    data = [Record(p.r, p.u, p.y, window_dither(config, p.first, p.samples)) for p in pieces]
+    data = [replace(p.record, dither=window_dither(config, p.first, p.samples)) for p in pieces]
     shortest = shortest_useful_stretch(data, model=config.model, pmr=config.pmr, parametric=config.parametric)
     keep = [j for j, d in enumerate(data) if d.samples >= shortest]
     held = sum(p.samples for p in pieces)

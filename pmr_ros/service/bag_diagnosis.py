@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..bag.disturbances import config_disturbances, disturbance_topic
 from ..bag.offline import (
     OfflineResult,
     RecordedVerdict,
@@ -196,7 +197,7 @@ def compare(
 
 
 def window_signals(bag: Bag, result: OfflineResult) -> tuple[dict[str, np.ndarray], int] | None:
-    """r, u, y of the last diagnosed window of a bag, in the model's channel order, and its first sample.
+    """r, u, y (and ``dv``, as replayed) of the last diagnosed window of a bag, in channel order, and its first sample.
 
     Each message goes to the sample its stamp names
     (:func:`~pmr_ros.contract.samples.sample_index`, as the aligner places
@@ -208,8 +209,11 @@ def window_signals(bag: Bag, result: OfflineResult) -> tuple[dict[str, np.ndarra
     model = result.config.model
     first, samples = int(window["first_sample"]), int(window["window_samples"])
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-    signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
     by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
+    dv = disturbance_topic(bag, result.config, result.namespace)
+    if dv is not None:
+        names["dv"], by_topic[dv] = config_disturbances(result.config), "dv"
+    signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
         stamp, channels, values = read_signal(bag.decode(message))
@@ -233,4 +237,4 @@ def window_data(bag: Bag, result: OfflineResult) -> tuple[PlantData, list[Record
         window, source=str(bag.path), sample_time_s=config.model.sample_time, start=f"sample {first}"
     )
     dither = window_dither(config, first, data.samples)
-    return data, [Record(window["r"], window["u"], window["y"], dither)]
+    return data, [Record(window["r"], window["u"], window["y"], dither, window.get("dv"))]

@@ -1,0 +1,115 @@
+"""Measured disturbances in bags: the contract topic, recorded like u, read back into ``Record.dv``.
+
+A small bag with r, u, y and ``pmr/disturbance`` written through the
+recorder's writer, replayed offline with a configuration that declares DVs:
+every aligned stretch carries the DVs written, sample by sample; without the
+topic (or without DVs in the configuration) the record has none, as before.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from pmr_ros.bag.disturbances import config_disturbances, disturbance_topic
+from pmr_ros.bag.offline import replay_bag
+from pmr_ros.bag.reader import open_bag
+from pmr_ros.bag.storage import recorded_topics, typestore
+from pmr_ros.bag.writer import BagWriter
+from pmr_ros.contract.topics import topic
+from pmr_ros.contract.windowing import useful_data, window_stretches
+
+SAMPLES = 120
+DVS = ("feed_rate", "feed_comp")
+CHANNELS = {
+    "setpoint": ("x_D", "x_B"),
+    "manipulated_input": ("reflux", "steam"),
+    "measured_output": ("x_D", "x_B"),
+    "disturbance": DVS,
+}
+
+
+def _joint_state(k: int, values: np.ndarray, names: tuple[str, ...]):
+    ts = typestore().types
+    stamp = ts["builtin_interfaces/msg/Time"](sec=k, nanosec=0)
+    return ts["sensor_msgs/msg/JointState"](
+        header=ts["std_msgs/msg/Header"](stamp=stamp, frame_id="wood_berry"),
+        name=list(names),
+        position=np.asarray(values, dtype=float),
+        velocity=np.zeros(0),
+        effort=np.zeros(0),
+    )
+
+
+def _bag(path, *, with_dv: bool = True, gap: int | None = None) -> dict[str, np.ndarray]:
+    """Write ``SAMPLES`` samples of every signal (DVs as random steps); the values written, by contract key."""
+    rng = np.random.default_rng(4)
+    values = {key: rng.normal(size=(SAMPLES, len(names))) for key, names in CHANNELS.items()}
+    values["disturbance"] = np.repeat(rng.normal(size=(SAMPLES // 20, 2)), 20, axis=0)
+    keys = [k for k in CHANNELS if with_dv or k != "disturbance"]
+    with BagWriter(path, topics={k: t for k, t in recorded_topics().items() if k in keys}) as writer:
+        for k in range(SAMPLES):
+            for key in keys:
+                if key == "disturbance" and k == gap:
+                    continue  # a lost DV message: the sample is incomplete
+                message = _joint_state(k, values[key][k], CHANNELS[key])
+                writer.write_message(topic(key).resolved(), k * 10**9 + 1, message)
+    return values
+
+
+@pytest.fixture
+def config(wood_berry):
+    """Wood-Berry with two DVs declared (laid into the tree as ``system.disturbance_names`` gives them)."""
+    tree = copy.deepcopy(wood_berry.parameters)
+    tree["system"]["disturbance_names"] = list(DVS)
+    window = replace(wood_berry.diagnostician, window_samples=SAMPLES, update_period_samples=10**6)
+    return replace(wood_berry, parameters=tree, diagnostician=window)
+
+
+def test_the_disturbance_topic_is_in_the_contract_like_u_and_recorded():
+    dv, u = topic("disturbance"), topic("manipulated_input")
+    assert dv.name == "pmr/disturbance" and dv.type == u.type and dv.qos == u.qos
+    assert "position" in dv.fields and "header.stamp" in dv.fields
+    assert "disturbance" in recorded_topics() and recorded_topics("/column_a")["disturbance"].name == (
+        "/column_a/pmr/disturbance"
+    )
+
+
+def test_a_bag_with_the_disturbance_topic_gives_record_dv(tmp_path, config):
+    written = _bag(tmp_path / "bag")
+    bag = open_bag(tmp_path / "bag")
+    assert disturbance_topic(bag, config) == "/pmr/disturbance" and config_disturbances(config) == DVS
+    replay = replay_bag(bag, config)
+    (stretch,) = window_stretches(replay.aligner, SAMPLES)
+    assert stretch.first == 0 and stretch.samples == SAMPLES
+    np.testing.assert_allclose(stretch.record.dv, written["disturbance"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(stretch.record.u, written["manipulated_input"], rtol=0, atol=1e-12)
+    assert replay.counts["dv"] == SAMPLES
+    (cut,) = window_stretches(replay.aligner, SAMPLES, since=30)
+    np.testing.assert_allclose(cut.record.dv, written["disturbance"][30:], rtol=0, atol=1e-12)
+    data = useful_data(replay.aligner, config)
+    assert all(np.shape(d.dv) == (d.samples, 2) for d in data.all_stretches)
+
+
+def test_a_lost_dv_message_breaks_the_stretch_like_a_lost_u(tmp_path, config):
+    written = _bag(tmp_path / "bag", gap=70)
+    replay = replay_bag(open_bag(tmp_path / "bag"), config)
+    first, second = window_stretches(replay.aligner, SAMPLES)
+    assert (first.first, first.samples, second.first) == (0, 70, 71)
+    np.testing.assert_allclose(second.record.dv, written["disturbance"][71:], atol=1e-12)
+
+
+def test_without_the_topic_or_without_dvs_the_record_has_none(tmp_path, config, wood_berry):
+    _bag(tmp_path / "plain", with_dv=False)
+    plain = open_bag(tmp_path / "plain")
+    assert disturbance_topic(plain, config) is None
+    (stretch,) = window_stretches(replay_bag(plain, config).aligner, SAMPLES)
+    assert stretch.record.dv is None and stretch.samples == SAMPLES
+    _bag(tmp_path / "full")
+    full = open_bag(tmp_path / "full")
+    assert disturbance_topic(full, wood_berry) is None  # no DVs declared: the topic is not read
+    (stretch,) = window_stretches(replay_bag(full, wood_berry).aligner, SAMPLES)
+    assert stretch.record.dv is None
