@@ -113,3 +113,17 @@ def test_without_the_topic_or_without_dvs_the_record_has_none(tmp_path, config, 
     assert disturbance_topic(full, wood_berry) is None  # no DVs declared: the topic is not read
     (stretch,) = window_stretches(replay_bag(full, wood_berry).aligner, SAMPLES)
     assert stretch.record.dv is None
+
+
+def test_the_aligner_needs_the_dvs_it_was_given_and_names_them_when_they_stop():
+    from pmr_ros.contract.alignment import SampleAligner
+
+    names = {"r": ("a",), "u": ("p",), "y": ("a",), "dv": ("f",)}
+    labels = {s: f"{s} on /pmr/{s}" for s in names}
+    aligner = SampleAligner(1.0, names, labels, capacity=100, max_lag_samples=5)
+    for k in range(20):
+        for s in ("r", "u", "y") if k >= 10 else names:
+            aligner.add(s, float(k), names[s], [float(k)])
+    (stretch,) = aligner.stretches(100)
+    assert stretch.samples == 10 and stretch.record.dv.tolist() == [[float(k)] for k in range(10)]
+    assert aligner.lagging() == "dv on /pmr/dv stopped at sample 9 while the other signals reached sample 19"
