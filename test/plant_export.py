@@ -154,6 +154,26 @@ class ExportTags:
         return block | ({"mode_on_values": [on]} if self.modes else {})
 
 
+def export_tags(config) -> ExportTags:
+    """Tags of a simulated run of ``config``: ``r_``, ``u_``, ``y_``, ``d_``, ``mode_`` + channel; no zone CV setpoint.
+
+    The DVs are the configuration's (its disturbance model, else ``system.disturbance_names``),
+    the zone CVs those of ``mpc.output_mode``.
+    """
+    from pmr_ros.config.data import ZONE, disturbance_names, output_modes
+
+    model = config.model
+    zone = output_modes(config.parameters, len(model.output_names))
+    dvs = config.disturbance_model.input_names if config.disturbance_model is not None else None
+    return ExportTags(
+        r=tuple("" if zone[i] == ZONE else f"r_{name}" for i, name in enumerate(model.output_names)),
+        u=tuple(f"u_{name}" for name in model.input_names),
+        y=tuple(f"y_{name}" for name in model.output_names),
+        dv=tuple(f"d_{name}" for name in (dvs or disturbance_names(config.parameters))),
+        modes=tuple(f"mode_{name}" for name in model.input_names),
+    )
+
+
 def export_frame(
     record: Record,
     tags: ExportTags,

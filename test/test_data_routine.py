@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from plant_export import ExportTags, export_frame
+from plant_export import ExportTags, export_frame, export_tags
 
 from pmr_ros.config import ConfigError, load_config
 from pmr_ros.config.data import check_data_settings, disturbance_names, output_modes
@@ -229,3 +229,17 @@ def test_the_tree_readers_are_defensive():
     assert output_modes({}, 2) == ("setpoint", "setpoint")
     assert output_modes({"mpc": {"output_mode": "zone"}}, 2) == ("zone", "zone")
     assert output_modes({"mpc": {"output_mode": ["zone", "setpoint"]}}, 2) == ("zone", "setpoint")
+
+
+def test_the_tags_of_a_simulated_run_read_back_with_their_data_block(tmp_path):
+    config = _config(tmp_path)
+    tags = export_tags(config)
+    assert tags.r == ("r_x_top", "", "r_t_tray") and tags.dv == ("d_feed_rate", "d_feed_comp")
+    block = tags.data_block()
+    data = replace(config.data, setpoint_columns=tuple(block["setpoint_columns"]), disturbance_columns=tags.dv)
+    data = replace(data, input_columns=tags.u, output_columns=tags.y, mode_columns=tags.modes)
+    record = _record()
+    got = load_plant_data(_write(export_frame(record, tags), tmp_path, "csv"), replace(config, data=data))
+    (first, _) = got.stretches(deviations=False)
+    np.testing.assert_allclose(first.dv, record.dv[: ALL_OFF[0]], atol=1e-9)
+    assert np.array_equal(first.manual, record.manual[: ALL_OFF[0]])
