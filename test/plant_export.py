@@ -130,7 +130,8 @@ def as_parquet_frame(frame: pd.DataFrame) -> pd.DataFrame:
 class ExportTags:
     """The tags of an export, one per channel; a setpoint tag ``""`` writes no column (a zone CV).
 
-    ``modes`` are the per-MV mode tags written from ``Record.manual`` (none: no mode column).
+    ``modes`` are the per-MV mode tags written from ``Record.manual`` (none: no mode column);
+    ``dither`` the logged MV dither of a step tester (none: not exported).
     """
 
     r: tuple[str, ...]
@@ -139,6 +140,7 @@ class ExportTags:
     dv: tuple[str, ...] = ()
     modes: tuple[str, ...] = ()
     time: str = "Timestamp"
+    dither: tuple[str, ...] = ()
 
     def data_block(self, *, on: str = "AUTO") -> dict[str, Any]:
         """The ``data`` block that maps these tags onto the model's channels (minutes)."""
@@ -150,27 +152,28 @@ class ExportTags:
             "output_columns": list(self.y),
             "disturbance_columns": list(self.dv),
             "mode_columns": list(self.modes),
+            "dither_columns": list(self.dither),
         }
         return block | ({"mode_on_values": [on]} if self.modes else {})
 
 
-def export_tags(config) -> ExportTags:
+def export_tags(config, *, dither: bool = False) -> ExportTags:
     """Tags of a simulated run of ``config``: ``r_``, ``u_``, ``y_``, ``d_``, ``mode_`` + channel; no zone CV setpoint.
 
     The DVs are the configuration's (its disturbance model, else ``system.disturbance_names``),
-    the zone CVs those of ``mpc.output_mode``.
+    the zone CVs those of ``mpc.output_mode``; ``dither``: the MV dither too (``dither_`` + MV).
     """
-    from pmr_ros.config.data import ZONE, disturbance_names, output_modes
+    from pmr_ros.config.data import ZONE, configured_disturbances, output_modes
 
     model = config.model
     zone = output_modes(config.parameters, len(model.output_names))
-    dvs = config.disturbance_model.input_names if config.disturbance_model is not None else None
     return ExportTags(
         r=tuple("" if zone[i] == ZONE else f"r_{name}" for i, name in enumerate(model.output_names)),
         u=tuple(f"u_{name}" for name in model.input_names),
         y=tuple(f"y_{name}" for name in model.output_names),
-        dv=tuple(f"d_{name}" for name in (dvs or disturbance_names(config.parameters))),
+        dv=tuple(f"d_{name}" for name in configured_disturbances(config)),
         modes=tuple(f"mode_{name}" for name in model.input_names),
+        dither=tuple(f"dither_{name}" for name in model.input_names) if dither else (),
     )
 
 
@@ -197,7 +200,7 @@ def export_frame(
     n = record.samples
     stamps = pd.Timestamp(START) + pd.to_timedelta(60.0 * np.arange(n), "s")
     frame = pd.DataFrame({tags.time: stamps.strftime("%Y-%m-%dT%H:%M:%S.%fZ")})
-    for signal in ("r", "u", "y", "dv"):
+    for signal in ("r", "u", "y", "dv", "dither"):
         names = getattr(tags, signal)
         if not names:
             continue

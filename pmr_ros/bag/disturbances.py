@@ -8,7 +8,7 @@ then every sample needs them, as it needs r, u and y (:attr:`Record.dv`).
 from __future__ import annotations
 
 from ..config import PmrConfig
-from ..config.data import disturbance_names
+from ..config.data import configured_disturbances
 from ..contract.topics import topic
 from .reader import Bag
 
@@ -20,8 +20,7 @@ DISTURBANCE_KEY = "disturbance"
 
 def config_disturbances(config: PmrConfig) -> tuple[str, ...]:
     """The DV names of a configuration: its disturbance model's inputs, else ``system.disturbance_names``."""
-    model = config.disturbance_model
-    return tuple(model.input_names) if model is not None else disturbance_names(config.parameters)
+    return configured_disturbances(config)
 
 
 def disturbance_topic(bag: Bag, config: PmrConfig, namespace: str = "/") -> str | None:

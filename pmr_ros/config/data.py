@@ -8,7 +8,14 @@ from typing import Any
 
 from .errors import ConfigError
 
-__all__ = ["DataSettings", "check_data_settings", "data_settings", "disturbance_names", "output_modes"]
+__all__ = [
+    "DataSettings",
+    "check_data_settings",
+    "configured_disturbances",
+    "data_settings",
+    "disturbance_names",
+    "output_modes",
+]
 
 DATA_BLOCK = "data"
 ZONE = "zone"
@@ -95,6 +102,15 @@ def disturbance_names(tree: Mapping[str, Any]) -> tuple[str, ...]:
     if isinstance(names, str):
         names = [names]
     return tuple(str(n) for n in names) if isinstance(names, list | tuple) else ()
+
+
+def configured_disturbances(config: Any) -> tuple[str, ...]:
+    """The DV names of a :class:`~pmr_ros.config.PmrConfig`: its disturbance model's inputs, else the tree's.
+
+    ``config.disturbance_model`` when set, else ``system.disturbance_names`` of ``config.parameters``.
+    """
+    model = getattr(config, "disturbance_model", None)
+    return tuple(model.input_names) if model is not None else disturbance_names(config.parameters)
 
 
 def output_modes(tree: Mapping[str, Any], n_outputs: int) -> tuple[str, ...]:

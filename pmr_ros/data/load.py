@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import PmrConfig
-from ..config.data import disturbance_names, output_modes
+from ..config.data import configured_disturbances, output_modes
 from ..core.sim.memory import available_bytes, format_bytes
 from .bad_data import DataError
 from .clean import CleaningStep, PlantData, at_limit, frozen
@@ -29,8 +29,8 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     ----------
     path : str or Path
     config : PmrConfig
-        The model (channel names, sample time), ``system.disturbance_names``,
-        ``mpc.output_mode`` and the ``data`` block.
+        The model (channel names, sample time), the DVs (its disturbance model
+        or ``system.disturbance_names``), ``mpc.output_mode`` and the ``data`` block.
     progress : callable, optional
         Called while reading (see :data:`pmr_ros.data.read.Progress`).
 
@@ -43,7 +43,7 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     columns = column_map(
         settings, config.model, output_modes=output_modes(config.parameters, len(config.model.output_names))
     )
-    _check_disturbances(columns, disturbance_names(config.parameters), str(path))
+    _check_disturbances(columns, configured_disturbances(config), str(path))
     raw = read_table(path, columns, settings.bad_values, progress=progress)
     spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
     raw, parsed, far = _without_far_rows(raw, spec, settings.time_format)
