@@ -49,7 +49,7 @@ def run():
     config = replace(load_config(), disturbance_model=DV_MODEL)
     gain = np.array([[10.0, 0.0], [0.0, 0.0]])
     plant = config.model.with_mismatch(Mismatch(gain, np.zeros((2, 2)), np.zeros((2, 2), dtype=int)))
-    routine = routine_loop.Routine(dither=np.array([0.2, 0.2]), dv_amplitude=0.1, manual=MANUAL, manual_amplitude=0.3)
+    routine = routine_loop.Routine(dither=np.array([0.2, 0.2]), dv_amplitude=0.1, manual=MANUAL, manual_amplitude=0.1)
     record = routine_loop.routine_run(config, plant, routine, samples=SAMPLES, seed=6, disturbances=DV_PLANT)
     return config, record
 
@@ -91,3 +91,5 @@ def test_the_export_of_a_routine_run_gives_the_records_verdicts(tmp_path, run):
     d11 = mine.elements["D11"].parametric
     assert d11.verdict == "mismatch" and abs(d11.gain_mismatch_pct - 20.0) <= 3.0
     assert abs(mine.elements["G11"].parametric.gain_mismatch_pct - 10.0) <= 3.0
+    for name in ("G12", "G21", "G22", "D12", "D21"):
+        assert mine.elements[name].verdict == "ok", (name, mine.elements[name].summary())
