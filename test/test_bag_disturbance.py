@@ -127,3 +127,46 @@ def test_the_aligner_needs_the_dvs_it_was_given_and_names_them_when_they_stop():
     (stretch,) = aligner.stretches(100)
     assert stretch.samples == 10 and stretch.record.dv.tolist() == [[float(k)] for k in range(10)]
     assert aligner.lagging() == "dv on /pmr/dv stopped at sample 9 while the other signals reached sample 19"
+
+
+def test_a_routine_runs_bag_is_diagnosed_with_its_d_elements_as_the_record(tmp_path, wood_berry):
+    """The offline replay of a bag with DVs gives the record's verdicts, D elements included (with the D diagnosis)."""
+    pytest.importorskip("pmr_ros.core.sim.augment", reason="the D-element diagnosis is not on this branch")
+    routine_loop = pytest.importorskip("routine_loop")
+    from test_data_routine_diagnosis import DV_MODEL, DV_PLANT
+
+    from pmr_ros.contract.windowing import evaluate_window
+    from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+
+    samples = 8192
+    window = replace(wood_berry.diagnostician, window_samples=samples, update_period_samples=10**6)
+    config = replace(wood_berry, disturbance_model=DV_MODEL, diagnostician=window)
+    routine = routine_loop.Routine(dither=np.zeros(2), dv_amplitude=0.3, setpoint_steps=1.0)
+    record = routine_loop.routine_run(config, config.model, routine, samples=samples, seed=2, disturbances=DV_PLANT)
+    signals = {"setpoint": record.r, "manipulated_input": record.u, "measured_output": record.y}
+    signals["disturbance"] = record.dv
+    names = {**CHANNELS, "disturbance": DV_MODEL.input_names}
+    with BagWriter(tmp_path / "bag", topics={k: t for k, t in recorded_topics().items() if k in signals}) as writer:
+        for k in range(samples):
+            for key, values in signals.items():
+                writer.write_message(topic(key).resolved(), k * 10**9 + 1, _joint_state(k, values[k], names[key]))
+    outcome = evaluate_window(replay_bag(open_bag(tmp_path / "bag"), config).aligner, config)
+    direct = diagnose_stretches(
+        [replace(record, dither=None)],
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        quality=config.quality,
+        disturbance_model=DV_MODEL,
+    )
+    got = outcome.diagnosis
+    assert got.status == direct.status == "ok", got.reason
+    assert [e.name for e in got] == [e.name for e in direct] and "D11" in got.elements
+    for name, theirs in direct.elements.items():
+        assert got.elements[name].verdict == theirs.verdict, name
+        ours, q = got.elements[name].parametric, theirs.parametric
+        if q is not None and q.gain_mismatch_pct is not None:
+            np.testing.assert_allclose(ours.gain_mismatch_pct, q.gain_mismatch_pct, rtol=1e-9, atol=1e-9, err_msg=name)
+    d11 = got.elements["D11"].parametric  # the plant's D11 gain is 20 % above the model's
+    assert d11.verdict == "mismatch" and abs(d11.gain_mismatch_pct - 20.0) <= 3.0
+    assert all(got.elements[name].verdict == "ok" for name in ("G11", "G12", "G21", "G22", "D12", "D21"))
