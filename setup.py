@@ -51,6 +51,8 @@ setup(
         # python-control: test_model checks the FOPTD responses against it.
         "test": [
             "pytest>=8",
+            # test.sh runs the suite on every core (CI has two).
+            "pytest-xdist>=3.5,<4",
             "ruff>=0.6",
             "mypy>=1.10",
             "types-PyYAML>=6",
