@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pmr.checks import MIN_SEGMENTS
+from ..pmr.checks import unbroken_samples_needed
 from ..pmr.spectra import WelchSettings
 from .model import TransferMatrix
 
@@ -81,8 +81,9 @@ def model_bytes(model: TransferMatrix, plant: TransferMatrix, *, prediction_hori
 def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0) -> int:
     """The fewest unbroken samples the diagnosis of ``model`` accepts with ``welch``'s segments.
 
-    The model's settling, then ``max(4, 2 n_instruments)`` Welch segments
-    (:func:`~pmr_ros.core.pmr.checks.check_stretches`).
+    The model's settling, then ``max(4, 2 n_instruments)`` Welch segments: the
+    rule of :func:`~pmr_ros.core.pmr.checks.check_stretches` itself
+    (:func:`~pmr_ros.core.pmr.checks.unbroken_samples_needed`).
 
     Parameters
     ----------
@@ -91,5 +92,4 @@ def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inpu
     dithered_inputs : int
         Inputs whose MV dither joins the setpoints as instruments.
     """
-    need = max(MIN_SEGMENTS, 2 * (model.n_outputs + int(dithered_inputs)))
-    return model.settling_samples() + welch.segment_length + (need - 1) * welch.step
+    return unbroken_samples_needed(model, welch, instruments=model.n_outputs + int(dithered_inputs))
