@@ -40,12 +40,15 @@ class TableDiagnosis:
         The unbroken stretches diagnosed (deviations from their means).
     config : PmrConfig
         The configuration diagnosed with.
+    notes : tuple of str
+        One line each, for the console: why the control impact was not computed.
     """
 
     diagnosis: Diagnosis
     data: PlantData
     stretches: list[Record]
     config: PmrConfig
+    notes: tuple[str, ...] = ()
 
 
 def limits_given(config: PmrConfig) -> bool:
@@ -93,6 +96,7 @@ def diagnose_table(
         quality=quality,
         as_read=data.stretches(deviations=False),
     )
+    notes: list[str] = []
     if diagnosis.status == "ok":
-        diagnosis = close_and_write(config, diagnosis, model_path=model_path)
-    return TableDiagnosis(diagnosis, data, stretches, config)
+        diagnosis = close_and_write(config, diagnosis, model_path=model_path, notes=notes)
+    return TableDiagnosis(diagnosis, data, stretches, config, tuple(notes))

@@ -23,12 +23,14 @@ import numpy as np
 
 from ..pmr.checks import unbroken_samples_needed
 from ..pmr.spectra import WelchSettings
+from .memory import simulation_bytes
 from .model import TransferMatrix
 
 __all__ = [
     "PREDICTION_COPIES",
     "REALIZATION_COPIES",
     "controller_bytes",
+    "impact_bytes",
     "model_bytes",
     "realization_bytes",
     "samples_needed",
@@ -76,6 +78,18 @@ def model_bytes(model: TransferMatrix, plant: TransferMatrix, *, prediction_hori
     """A closed loop's fixed memory: the plant's realization and the controller on the model [bytes]."""
     controller = controller_bytes(model, prediction_horizon=prediction_horizon, control_horizon=control_horizon)
     return realization_bytes(plant) + controller
+
+
+def impact_bytes(
+    model: TransferMatrix, plant: TransferMatrix, *, prediction_horizon: int, control_horizon: int, samples: int
+) -> int:
+    """One control-impact simulation: the MPC on ``model`` steering ``plant`` for ``samples`` samples [bytes].
+
+    The impact (:mod:`pmr_ros.core.loop.impact`) runs its simulations one
+    after the other, so one bounds them all.
+    """
+    loop = model_bytes(model, plant, prediction_horizon=prediction_horizon, control_horizon=control_horizon)
+    return loop + simulation_bytes(model, samples)
 
 
 def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0) -> int:
