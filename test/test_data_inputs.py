@@ -6,6 +6,10 @@ mode columns, encodings.
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -15,6 +19,7 @@ from plant_export import DATA_BLOCK, clean_frame
 
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+from pmr_ros.core.records import Record
 from pmr_ros.core.sim.closed_loop import simulate
 from pmr_ros.data import DataError, load_plant_data
 from pmr_ros.data.far_stamps import far_stamps
@@ -135,6 +140,41 @@ def test_a_year_typo_is_a_dropped_row_not_a_grid_of_decades(tmp_path, config, fr
     assert (step.count, step.detail) == (1, f"first: row {row + 1}, {typo.loc[row, 'Timestamp']}")
     assert data.samples == (ROWS if row == 150 else ROWS - 1)  # a middle row leaves a gap of one sample
     assert data.start == ("2024-03-01T00:01:00+00:00" if row == 0 else "2024-03-01T00:00:00+00:00")
+
+
+PEAK_SCRIPT = """
+import resource, sys
+sys.path.insert(0, sys.argv[2])
+from plant_export import DATA_BLOCK
+from pmr_ros.config import load_config
+from pmr_ros.data import load_plant_data
+config = load_config(overrides={"data": DATA_BLOCK})
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+data = load_plant_data(sys.argv[1], config)
+far = next(s for s in data.steps if s.name.startswith("time stamps far"))
+print(before, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, data.samples, far.count)
+"""
+
+
+def test_a_2124_typo_in_a_2_mb_export_neither_grids_decades_nor_takes_gigabytes(tmp_path):
+    """The probe's 1.9 MB file cost 3.5 GB with one stamp in 2124; its peak memory is measured in a fresh process."""
+    rows = 13100
+    rng = np.random.default_rng(0)
+    record = Record(*(rng.standard_normal((rows, 2)) for _ in range(3)))
+    typo = clean_frame(record)
+    typo.loc[6000, "Timestamp"] = "2124" + typo.loc[6000, "Timestamp"][4:]
+    path = tmp_path / "typo.csv"
+    typo.to_csv(path, index=False)
+    assert 1.8e6 < path.stat().st_size < 2.0e6
+    folder = str(Path(__file__).parent)
+    proc = subprocess.run(
+        [sys.executable, "-c", PEAK_SCRIPT, str(path), folder], capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr
+    before_kb, peak_kb, samples, dropped = (int(v) for v in proc.stdout.split())
+    assert (samples, dropped) == (rows, 1)  # the grid spans the data's 9 days, not a century of minutes
+    assert peak_kb - before_kb < 100_000, (before_kb, peak_kb)  # reading and cleaning: under 0.1 GB
+    assert peak_kb < 600_000, peak_kb  # the whole process, imports included: far below the 3.5 GB measured
 
 
 def test_a_shutdown_gap_is_kept_as_a_gap(tmp_path, config, frame):
