@@ -57,7 +57,17 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited, off=~on & ~missing)
     steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
     steps = (steps[0], far, *steps[1:])
-    data = PlantData(str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps)
+    data = PlantData(
+        str(path),
+        parsed.start,
+        spec.sample_time_s,
+        signals,
+        columns.signals,
+        excluded,
+        limited,
+        steps,
+        outliers=_split(outliers, columns),
+    )
     return _with_usable_step(data)
 
 
@@ -182,13 +192,4 @@ def _with_usable_step(data: PlantData) -> PlantData:
     step = CleaningStep(
         "usable samples", int(data.usable.sum()), "samples", f"{len(bounds)} unbroken stretch(es), longest {longest}"
     )
-    return PlantData(
-        data.source,
-        data.start,
-        data.sample_time_s,
-        data.signals,
-        data.columns,
-        data.excluded,
-        data.limited,
-        (*data.steps, step),
-    )
+    return replace(data, steps=(*data.steps, step))

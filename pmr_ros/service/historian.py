@@ -18,6 +18,7 @@ from ..core.records import Record
 from ..core.results import Diagnosis
 from ..data import DataError, PlantData, load_plant_data
 from .closing import close_and_write
+from .outlier_notes import outlier_cost, with_outlier_reasons
 from .refusal import ServiceError
 
 __all__ = ["LIMITS", "TableDiagnosis", "diagnose_table", "limits_given"]
@@ -96,6 +97,7 @@ def diagnose_table(
         quality=quality,
         as_read=data.stretches(deviations=False),
     )
+    diagnosis = with_outlier_reasons(diagnosis, outlier_cost(data, config, method=diagnosis.method))
     notes: list[str] = []
     if diagnosis.status == "ok":
         diagnosis = close_and_write(config, diagnosis, model_path=model_path, notes=notes)
