@@ -90,6 +90,33 @@ def test_the_plant_node_with_a_million_delay_samples_exits_with_one_line(tmp_pat
 
 
 @pytest.mark.ros
+@pytest.mark.parametrize(
+    ("executable", "words"),
+    [
+        ("pmr_diagnostician", "impact.samples = 4096: the control impact simulates the MPC on the 2x2 model (100006"),
+        ("mpc_controller", "system: the 2x2 model has 100006 states"),
+    ],
+)
+def test_a_node_on_a_model_of_a_hundred_thousand_states_exits_with_one_line(tmp_path, ros_domain, executable, words):
+    """G11's delay 99999 samples (the horizon 100000, the most allowed): 100006 states, hundreds of GB to simulate."""
+    text = (config_dir() / "wood_berry.yaml").read_text().replace("delay: [1.0,", "delay: [99999.0,")
+    path = tmp_path / "huge.yaml"
+    path.write_text(text + "    mpc:\n      prediction_horizon: 100000\n")
+    code = f"import sys; from pmr_ros.nodes.{executable} import main"  # the module is named as its executable
+    proc = subprocess.run(
+        [sys.executable, "-c", f"{code}; sys.exit(main())", "--ros-args", "--params-file", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr + proc.stdout, proc.stderr
+    assert lines[0].startswith(f"{executable}: error: parameters of node /{executable}: {words}"), lines[0]
+    assert "GB of memory" in lines[0]
+
+
+@pytest.mark.ros
 def test_the_diagnostician_and_controller_refuse_a_model_whose_work_does_not_fit(ros_context, monkeypatch):
     from pmr_ros.config import flatten_parameters
     from pmr_ros.nodes.mpc_controller import MpcControllerNode
