@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 import yaml
 
 from pmr_ros import cli
@@ -89,3 +90,35 @@ def test_a_64_by_64_model_with_too_few_samples_is_insufficient_before_simulating
     assert out[1].startswith("INSUFFICIENT DATA: window too short, known before simulating: 16384 samples for a 64x64")
     assert f"needs at least {needed} (82 of settling, then 128 Welch segments of 512" in out[1]
     assert f"--samples {needed}" in out[1]
+
+
+def test_the_samples_needed_before_simulating_are_the_checks_own_rule(wood_berry):
+    """One rule: check_stretches refuses one sample fewer than unbroken_samples_needed and accepts that many."""
+    from pmr_ros.core.pmr.checks import (
+        InsufficientData,
+        check_stretches,
+        segments_needed,
+        unbroken_samples_needed,
+        welch_segments,
+    )
+    from pmr_ros.core.pmr.diagnosis import method_welch
+    from pmr_ros.core.records import Record
+
+    model = wood_berry.model
+    welch = method_welch(4000, model=model, pmr=wood_berry.pmr, parametric=wood_berry.parametric)
+    assert welch == wood_berry.parametric.welch(model, 4000, wood_berry.pmr)
+    assert method_welch(4000, model=model, pmr=wood_berry.pmr, parametric=wood_berry.parametric, method="classic") == (
+        wood_berry.pmr.welch
+    )
+    need = unbroken_samples_needed(model, welch, instruments=2)
+    assert need == samples_needed(model, welch) == model.settling_samples() + 512 + 3 * 256
+    assert segments_needed(2) == 4 and segments_needed(5) == 10
+    assert welch_segments([need, need - 1], model=model, welch=welch) == 4 + 3
+    rng = np.random.default_rng(0)
+
+    def record(n: int) -> Record:
+        return Record(rng.standard_normal((n, 2)), rng.standard_normal((n, 2)), rng.standard_normal((n, 2)))
+
+    check_stretches([record(need)], model=model, welch=welch)
+    with pytest.raises(InsufficientData, match=f"give 3 Welch segments of 512, need 4 \\({need} unbroken samples\\)"):
+        check_stretches([record(need - 1)], model=model, welch=welch)

@@ -131,15 +131,11 @@ def check_memory(parts: dict[str, int], *, cause: str, advice: str = "use fewer 
     CommandError
         One line with the figures.
     """
-    from ..core.sim.memory import available_bytes, format_bytes
+    from ..core.sim.memory import memory_shortfall
 
-    needed, have = sum(parts.values()), available_bytes()
-    if have is None or needed <= have:
-        return
-    detail = ", ".join(f"{name} {format_bytes(n)}" for name, n in parts.items())
-    raise CommandError(
-        f"{cause}: needs about {format_bytes(needed)} of memory ({detail}); {format_bytes(have)} available: {advice}"
-    )
+    problem = memory_shortfall(parts)
+    if problem is not None:
+        raise CommandError(f"{cause}: {problem}: {advice}")
 
 
 def declared_int(name: str) -> Callable[[str], int]:

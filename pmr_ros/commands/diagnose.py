@@ -211,14 +211,17 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
+        notes: list[str] = []
         diagnosis = close_and_write(
-            result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None)
+            result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None), notes=notes
         )
         report = offline_report(result, bag, diagnosis)
     except BagError as exc:
         raise CommandError(str(exc)) from None
     sys.stdout.write(format_table(diagnosis, report))
     print_data_notes(result, bag)
+    for note in notes:
+        print(f"note: {note}")
     print_comparison(report, result)
     _write_bag_outputs(args, report, result, bag)
     if report["recorded_comparison"]["different"]:

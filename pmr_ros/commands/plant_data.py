@@ -140,6 +140,8 @@ def diagnose_table(args: argparse.Namespace) -> int:
     if diagnosis.status == "ok":
         sys.stdout.write(format_table(diagnosis, report))
         _print_cleaning(data)
+        for note in found.notes:
+            print(f"note: {note}")
     _write_outputs(args, report, ReportInput(report, diagnosis, stretches, data, config))
     if diagnosis.status != "ok":
         usable = int(data.usable.sum())

@@ -57,13 +57,12 @@ def run_samples_shortfall(config, *, samples: int) -> str | None:
     samples : int
         Samples the diagnosis will see (``run.samples``, at most the diagnostician's window).
     """
+    from ..core.pmr.checks import segments_needed
+    from ..core.pmr.diagnosis import method_welch
     from ..core.sim.footprint import samples_needed
 
     model = config.model
-    if config.pmr.method == "parametric":
-        welch = config.parametric.welch(model, samples, config.pmr)
-    else:
-        welch = config.pmr.welch
+    welch = method_welch(samples, model=model, pmr=config.pmr, parametric=config.parametric)
     dithered = int((config.excitation.mv_dither_amplitude > 0).sum())
     needed = samples_needed(model, welch, dithered_inputs=dithered)
     if samples >= needed:
@@ -72,7 +71,7 @@ def run_samples_shortfall(config, *, samples: int) -> str | None:
     return (
         f"window too short, known before simulating: {samples} samples for a {model.n_outputs}x{model.n_inputs} "
         f"model; its diagnosis needs at least {needed} ({model.settling_samples()} of settling, then "
-        f"{max(4, 2 * instruments)} Welch segments of {welch.segment_length} for {instruments} instruments): "
+        f"{segments_needed(instruments)} Welch segments of {welch.segment_length} for {instruments} instruments): "
         f"give --samples {needed} or more"
     )
 

@@ -170,11 +170,14 @@ def handle(args: argparse.Namespace) -> int:
     _check_before_running(args, config)
     diagnosed = config.run.samples if args.batch else min(config.run.samples, config.diagnostician.window_samples)
     short = run_samples_shortfall(config, samples=diagnosed)
+    notes: list[str] = []  # why the control impact was skipped, if it was
     if short is not None:  # known before simulating: no minute spent on a run that cannot be diagnosed
         diagnosis, report = not_run(config, short)
     else:
-        diagnosis, report = _batch_run(args, config) if args.batch else _node_set_run(args, config)
+        diagnosis, report = _batch_run(args, config, notes) if args.batch else _node_set_run(args, config, notes)
     sys.stdout.write(format_table(diagnosis, report))
+    for note in notes:
+        print(f"note: {note}")
     for line in adaptation_lines(report):
         print(line)
     if args.json:
@@ -182,18 +185,18 @@ def handle(args: argparse.Namespace) -> int:
     return 0 if diagnosis.status == "ok" else EXIT_INSUFFICIENT
 
 
-def _batch_run(args: argparse.Namespace, config: PmrConfig) -> tuple:
+def _batch_run(args: argparse.Namespace, config: PmrConfig, notes: list[str]) -> tuple:
     """The closed loop and its diagnosis in this process (``--batch``); the diagnosis and the report."""
     from ..report import build_report
     from ..service.batch_run import simulate_and_diagnose
 
-    diagnosis = simulate_and_diagnose(config, model_path=getattr(args, "write_model", None))
+    diagnosis = simulate_and_diagnose(config, model_path=getattr(args, "write_model", None), notes=notes)
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "batch"
     return diagnosis, report
 
 
-def _node_set_run(args: argparse.Namespace, config: PmrConfig) -> tuple:
+def _node_set_run(args: argparse.Namespace, config: PmrConfig, notes: list[str]) -> tuple:
     """The node set's run (adapted with ``--adapt``, recorded with ``--bag``); the diagnosis and the report."""
     from ..report import build_report
 
@@ -202,9 +205,12 @@ def _node_set_run(args: argparse.Namespace, config: PmrConfig) -> tuple:
     adaptation = None
     if adapter is not None:
         final, adaptation = adapted_report(adapter)
-        diagnosis = close_and_write(_on_model(config, adapter), final, model_path=getattr(args, "write_model", None))
+        on_model = _on_model(config, adapter)
+        diagnosis = close_and_write(on_model, final, model_path=getattr(args, "write_model", None), notes=notes)
     else:
-        diagnosis = close_and_write(config, result.diagnosis, model_path=getattr(args, "write_model", None))
+        diagnosis = close_and_write(
+            config, result.diagnosis, model_path=getattr(args, "write_model", None), notes=notes
+        )
     report = build_report(config, diagnosis, command="run", scenario=config.run.scenario, seed=config.run.seed)
     report["path"] = "nodes"
     if adaptation is not None:

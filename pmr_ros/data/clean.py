@@ -12,7 +12,7 @@ diagnosed as its own record and averaged into one estimate
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -212,6 +212,9 @@ class PlantData:
     steps : tuple of CleaningStep
     manual : ndarray of bool, shape (samples, n_inputs), optional
         Where an MV's controller was off (kept: open loop for it); None when all were on.
+    outliers : dict
+        The keys of ``signals`` to bool arrays of their shape: the gross
+        outliers dropped (now NaN; :mod:`pmr_ros.data.outliers`).  Empty: none looked for.
     """
 
     source: str
@@ -223,6 +226,7 @@ class PlantData:
     limited: np.ndarray
     steps: tuple[CleaningStep, ...]
     manual: np.ndarray | None = None
+    outliers: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def samples(self) -> int:
@@ -245,6 +249,20 @@ class PlantData:
     def stretch_bounds(self) -> list[tuple[int, int]]:
         """``[start, stop)`` of every unbroken stretch of usable samples."""
         return runs(self.usable)
+
+    def bounds_had_outliers_been_valid(self) -> list[tuple[int, int]]:
+        """:meth:`stretch_bounds` with the dropped gross outliers counted as values: what dropping them broke."""
+        if not any(mask.any() for mask in self.outliers.values()):
+            return self.stretch_bounds()
+        valid = np.ones(self.samples, dtype=bool)
+        for key, values in self.signals.items():
+            dropped = self.outliers.get(key, np.zeros(values.shape, dtype=bool))
+            valid &= np.all(np.isfinite(values) | dropped, axis=1)
+        usable = valid
+        for reason, mask in self.excluded.items():
+            if reason != "missing":
+                usable = usable & ~mask
+        return runs(usable)
 
     def stretches(self, *, deviations: bool = True) -> list[Record]:
         """The usable stretches as deviation variables (each one's means removed), or as read if not ``deviations``."""

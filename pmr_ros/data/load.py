@@ -69,7 +69,16 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
     steps = (steps[0], far, *steps[1:-1], *mode_steps(modes, columns.signals["u"]), steps[-1])
     data = PlantData(
-        str(path), parsed.start, spec.sample_time_s, signals, columns.signals, excluded, limited, steps, modes.manual
+        str(path),
+        parsed.start,
+        spec.sample_time_s,
+        signals,
+        columns.signals,
+        excluded,
+        limited,
+        steps,
+        modes.manual,
+        outliers=_split(outliers, columns),
     )
     return _with_usable_step(data)
 

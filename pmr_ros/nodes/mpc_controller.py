@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import PmrConfig
+from ..config import ConfigError, PmrConfig
 from ..contract.layout import read_signal
 from ..contract.model_topics import active_model_text
 from ..contract.samples import check_signal, sample_index
@@ -30,6 +30,7 @@ from ..core.mpc.controller import LinearMpc
 from ..core.sim.excitation import dither_generator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message, text_message
+from ..service.memory_checks import check_controller_memory
 
 NODE_NAME = "mpc_controller"
 
@@ -58,11 +59,19 @@ class MpcControllerNode(ConfiguredNode):
         self._r_sub = self.contract_subscription("setpoint", lambda msg: self._on_signal("r", msg))
         self._y_sub = self.contract_subscription("measured_output", lambda msg: self._on_signal("y", msg))
 
+    def check_start(self, config: PmrConfig) -> None:
+        """A model the controller cannot be built on in memory is refused before it is built (one line, exit 2)."""
+        check_controller_memory(config, self._source)
+
     def check_configuration(self, config: PmrConfig, names: list[str]) -> str | None:
         """A new model: its QP built now (refused if it cannot be), switched to at the next sample."""
         problem = self.controller.switch_problem(config.model)
         if problem:
             return problem
+        try:
+            check_controller_memory(config, "the new model")
+        except ConfigError as exc:
+            return str(exc)
         try:
             candidate = LinearMpc(config.model, self.controller.tuning)
         except (ValueError, np.linalg.LinAlgError) as exc:

@@ -34,9 +34,12 @@ from ..core.sim.true_plant import FoptdPlant
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import clock_message, signal_message, stamp_from_seconds
 from ..ros.flow import ProgressGate, stamp_ns
+from ..service.memory_checks import check_plant_memory
 
 if TYPE_CHECKING:
     from rclpy.timer import Timer
+
+    from ..config import PmrConfig
 
 EXECUTABLE = "wood_berry_plant"
 """The executable's name: what users type, kept from the reference case though it runs any system."""
@@ -106,6 +109,10 @@ class PlantNode(ConfiguredNode):
         self.get_logger().info(
             f"{self.model.name or 'plant'}: scenario {cfg.run.scenario}, {self.samples} samples, {self._mode()}"
         )
+
+    def check_start(self, config: PmrConfig) -> None:
+        """A plant whose realization cannot fit in memory is refused before it is built (one line, exit 2)."""
+        check_plant_memory(config, self._source)
 
     def _mode(self) -> str:
         sim = self.config.simulation

@@ -69,6 +69,7 @@ from ..ros.flow import ProgressReporter, stamp_ns
 from ..ros.parameters import ros_value
 from ..ros.worker import SerialWorker
 from ..service.closing import ClosedWindow, close_window
+from ..service.memory_checks import check_impact_memory
 
 NODE_NAME = "pmr_diagnostician"
 
@@ -103,7 +104,6 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, live_parameters=True, **kwargs)
-        check_window_memory(self.config, f"parameters of node {self.get_fully_qualified_name()}")
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0
@@ -119,6 +119,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._stale_reported: float | None = None
         self.model_since = 0
         self.last_proposal: str | None = None
+        self._impact_note = ""
         self.worker = SerialWorker("pmr_diagnosis", self._job_failed)
         self._diag_pub = self.contract_publisher("diagnostics")
         self._estimates_pub = self.contract_publisher("estimates")
@@ -130,6 +131,11 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._start_timers()
 
     # -- set-up --------------------------------------------------------------
+    def check_start(self, config: PmrConfig) -> None:
+        """A window or a control impact that cannot fit in memory is refused before the node starts (exit 2)."""
+        check_window_memory(config, self._source)
+        check_impact_memory(config, self._source)
+
     def _new_aligner(self) -> SampleAligner:
         model = self.config.model
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
@@ -330,6 +336,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _publish_outcome(self, closed: ClosedWindow, config: PmrConfig) -> None:
         outcome = closed.outcome
+        if closed.impact_note and closed.impact_note != self._impact_note:
+            self._warn(closed.impact_note)  # once per cause, not every window
+        self._impact_note = closed.impact_note or self._impact_note
         state = STALE_STATUS if outcome.kind == STALE else None
         self._publish(outcome.diagnosis, outcome.window, outcome.stamp_s, state)
         if outcome.kind == VERDICT:

@@ -75,6 +75,7 @@ class ConfiguredNode(Node):
         self._declared = [p.name for p in node_parameters(executable)]
         try:
             self._configure(executable)
+            self.check_start(self.config)
         except ConfigError:
             Node.destroy_node(self)  # refused at start: nothing left in the graph (not the subclass's, half-built)
             raise
@@ -138,6 +139,13 @@ class ConfiguredNode(Node):
         self._given.update(ours)
         self.on_configuration_changed(sorted(ours))
         return SetParametersResult(successful=True)
+
+    def check_start(self, config: PmrConfig) -> None:
+        """Hook: refuse, before the node builds anything, a configuration it cannot run (raise ConfigError).
+
+        Called once the parameters are read; the node is destroyed again and its
+        entry point prints the one line (e.g. a plant too large for the memory).
+        """
 
     def check_configuration(self, config: PmrConfig, names: list[str]) -> str | None:
         """Hook of live nodes: why ``config`` (valid as a params file) cannot be taken now, in one line, or None."""

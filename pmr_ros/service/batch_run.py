@@ -11,12 +11,15 @@ from .closing import close_and_write
 __all__ = ["simulate_and_diagnose"]
 
 
-def simulate_and_diagnose(config: PmrConfig, *, model_path: str | None = None) -> Diagnosis:
+def simulate_and_diagnose(
+    config: PmrConfig, *, model_path: str | None = None, notes: list[str] | None = None
+) -> Diagnosis:
     """Simulate ``config``'s run (``run.samples``, ``run.seed``, ``run.scenario``) and diagnose it.
 
     The diagnosis carries the data-quality figures of the ``quality`` block
     and, for a mismatch, the control impact; ``model_path`` receives the
-    corrected model (``--write-model``).
+    corrected model (``--write-model``); ``notes`` receives why the control
+    impact was not computed, when it was skipped.
 
     Raises
     ------
@@ -30,4 +33,4 @@ def simulate_and_diagnose(config: PmrConfig, *, model_path: str | None = None) -
         parametric=config.parametric,
         quality=config.quality,
     )
-    return close_and_write(config, diagnosis, model_path=model_path)
+    return close_and_write(config, diagnosis, model_path=model_path, notes=notes)

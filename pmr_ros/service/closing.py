@@ -19,6 +19,7 @@ from ..contract.windowing import VERDICT, WindowOutcome
 from ..core.loop.impact import control_impact
 from ..core.loop.update import ModelUpdate, NotCorrectable, corrected_model
 from ..core.results import Diagnosis
+from .memory_checks import impact_shortfall
 from .refusal import EXIT_INSUFFICIENT, ServiceError
 
 __all__ = ["Closed", "ClosedWindow", "close_and_write", "close_diagnosis", "close_window", "model_file_text"]
@@ -37,11 +38,15 @@ class Closed:
         The corrected model; None when the diagnosis cannot give one.
     why_not : str
         Why there is no corrected model ("" when there is).
+    impact_note : str
+        Why the control impact was not computed although a mismatch stands (the
+        simulation would not fit in memory), in one line; "" otherwise.
     """
 
     diagnosis: Diagnosis
     update: ModelUpdate | None
     why_not: str = ""
+    impact_note: str = ""
 
     @property
     def proposes(self) -> bool:
@@ -63,13 +68,18 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
     -------
     Closed
         A diagnosis that has its impact already (the live diagnostician's, read
-        from /diagnostics) keeps it.
+        from /diagnostics) keeps it.  The impact is skipped, with
+        :attr:`Closed.impact_note` saying why, when its simulation of the MPC on
+        the estimated plant would not fit in memory (checked before allocating).
     """
     try:
         update = corrected_model(config.model, diagnosis)
     except NotCorrectable as exc:
         return Closed(diagnosis, None, str(exc))
     if config.impact.active and update.changes and diagnosis.impact is None:  # (read from /diagnostics: has it)
+        skipped = impact_shortfall(config, update.model)
+        if skipped is not None:
+            return Closed(diagnosis, update, impact_note=skipped)
         diagnosis = control_impact(diagnosis, loop=config, update=update, samples=config.impact.samples)
     return Closed(diagnosis, update)
 
@@ -123,10 +133,13 @@ class ClosedWindow:
     proposal : str or None
         The corrected model's params file (:func:`model_file_text`, naming the
         window) when a mismatch verdict stands, else None.
+    impact_note : str
+        Why the control impact was not computed (:attr:`Closed.impact_note`), "" otherwise.
     """
 
     outcome: WindowOutcome
     proposal: str | None = None
+    impact_note: str = ""
 
 
 def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
@@ -141,10 +154,12 @@ def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
     proposal = None
     if closed.proposes and closed.update is not None:
         proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
-    return ClosedWindow(replace(outcome, diagnosis=closed.diagnosis), proposal)
+    return ClosedWindow(replace(outcome, diagnosis=closed.diagnosis), proposal, closed.impact_note)
 
 
-def close_and_write(config: PmrConfig, diagnosis: Diagnosis, *, model_path: str | None = None) -> Diagnosis:
+def close_and_write(
+    config: PmrConfig, diagnosis: Diagnosis, *, model_path: str | None = None, notes: list[str] | None = None
+) -> Diagnosis:
     """The diagnosis with its control impact; the corrected model written to ``model_path`` if given.
 
     Parameters
@@ -154,6 +169,9 @@ def close_and_write(config: PmrConfig, diagnosis: Diagnosis, *, model_path: str 
     diagnosis : Diagnosis
     model_path : str, optional
         Where to write the corrected model's params file (``--write-model``).
+    notes : list of str, optional
+        Receives why the control impact was not computed, when it was skipped
+        (:attr:`Closed.impact_note`), for the command to print.
 
     Raises
     ------
@@ -161,6 +179,8 @@ def close_and_write(config: PmrConfig, diagnosis: Diagnosis, *, model_path: str 
         ``model_path`` with a diagnosis that cannot give a corrected model (exit code 3).
     """
     closed = close_diagnosis(diagnosis, config)
+    if closed.impact_note and notes is not None:
+        notes.append(closed.impact_note)
     if closed.update is None:
         if model_path is not None:
             raise ServiceError(f"--write-model {model_path}: {closed.why_not}", code=EXIT_INSUFFICIENT)

@@ -18,6 +18,7 @@ from ..core.records import Record
 from ..core.results import Diagnosis
 from ..data import DataError, PlantData, load_plant_data
 from .closing import close_and_write
+from .outlier_notes import outlier_cost, with_outlier_reasons
 from .refusal import ServiceError
 
 __all__ = ["LIMITS", "TableDiagnosis", "diagnose_table", "limits_given"]
@@ -40,12 +41,15 @@ class TableDiagnosis:
         The unbroken stretches diagnosed (deviations from their means).
     config : PmrConfig
         The configuration diagnosed with.
+    notes : tuple of str
+        One line each, for the console: why the control impact was not computed.
     """
 
     diagnosis: Diagnosis
     data: PlantData
     stretches: list[Record]
     config: PmrConfig
+    notes: tuple[str, ...] = ()
 
 
 def limits_given(config: PmrConfig) -> bool:
@@ -93,6 +97,8 @@ def diagnose_table(
         quality=quality,
         as_read=data.stretches(deviations=False),
     )
+    diagnosis = with_outlier_reasons(diagnosis, outlier_cost(data, config, method=diagnosis.method))
+    notes: list[str] = []
     if diagnosis.status == "ok":
-        diagnosis = close_and_write(config, diagnosis, model_path=model_path)
-    return TableDiagnosis(diagnosis, data, stretches, config)
+        diagnosis = close_and_write(config, diagnosis, model_path=model_path, notes=notes)
+    return TableDiagnosis(diagnosis, data, stretches, config, tuple(notes))

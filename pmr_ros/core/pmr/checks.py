@@ -10,7 +10,15 @@ from ..records import Record, active_dither
 from ..sim.model import TransferMatrix
 from .spectra import WelchSettings
 
-__all__ = ["MIN_SEGMENTS", "InsufficientData", "check_record", "check_stretches"]
+__all__ = [
+    "MIN_SEGMENTS",
+    "InsufficientData",
+    "check_record",
+    "check_stretches",
+    "segments_needed",
+    "unbroken_samples_needed",
+    "welch_segments",
+]
 
 MIN_SEGMENTS = 4
 """Fewest Welch segments with which a row regression is attempted."""
@@ -37,6 +45,42 @@ def _check_shapes(stretch: Record, model: TransferMatrix, where: str) -> None:
             )
 
 
+def segments_needed(instruments: int) -> int:
+    """Fewest Welch segments a diagnosis with ``instruments`` instruments accepts: ``max(4, 2 n_instruments)``.
+
+    Each row regresses the output on the instruments bin by bin; fewer
+    segments than twice the instruments leave the cross-spectral matrices
+    too noisy to invert.
+
+    Examples
+    --------
+    >>> segments_needed(2), segments_needed(64)
+    (4, 128)
+    """
+    return max(MIN_SEGMENTS, 2 * int(instruments))
+
+
+def welch_segments(lengths: Sequence[int], *, model: TransferMatrix, welch: WelchSettings) -> int:
+    """Welch segments stretches of ``lengths`` samples give once the model's settling is dropped from each."""
+    warmup = model.settling_samples()
+    return sum(welch.segments(int(n) - warmup) for n in lengths)
+
+
+def unbroken_samples_needed(model: TransferMatrix, welch: WelchSettings, *, instruments: int) -> int:
+    """The fewest unbroken samples that pass :func:`check_stretches`: the settling, then :func:`segments_needed`.
+
+    Parameters
+    ----------
+    model : TransferMatrix
+        The controller's model (its settling is dropped first).
+    welch : WelchSettings
+    instruments : int
+        Setpoints plus the inputs whose MV dither is active.
+    """
+    need = segments_needed(instruments)
+    return model.settling_samples() + welch.segment_length + (need - 1) * welch.step
+
+
 def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings) -> None:
     """Raise :class:`InsufficientData` if the stretches cannot support an estimate.
 
@@ -59,11 +103,11 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
     for j, stretch in enumerate(stretches):
         _check_shapes(stretch, model, "" if len(stretches) == 1 else f" of stretch {j + 1}")
     warmup = model.settling_samples()
-    segments = sum(welch.segments(s.samples - warmup) for s in stretches)
+    segments = welch_segments([s.samples for s in stretches], model=model, welch=welch)
     n_z = model.n_outputs + int(active_dither(stretches).sum())
-    need = max(MIN_SEGMENTS, 2 * n_z)
+    need = segments_needed(n_z)
     if segments < need:
-        shortest = warmup + welch.segment_length + (need - 1) * welch.step
+        shortest = unbroken_samples_needed(model, welch, instruments=n_z)
         samples = sum(s.samples for s in stretches)
         where = "" if len(stretches) == 1 else f" in {len(stretches)} stretches"
         raise InsufficientData(

@@ -19,6 +19,7 @@ __all__ = [
     "METHODS",
     "diagnose",
     "diagnose_stretches",
+    "method_welch",
     "shortest_useful_stretch",
     "useful_stretches",
     "with_data_quality",
@@ -41,6 +42,34 @@ METHODS: dict[str, Callable[..., Diagnosis]] = {"classic": _classic, "parametric
 """Diagnosis methods by name: the paper's Table 1, or the FOPTD-ratio fit of :mod:`pmr_ros.core.pmr.parametric`."""
 
 
+def method_welch(
+    longest: int,
+    *,
+    model: TransferMatrix,
+    pmr: PmrSettings,
+    parametric: ParametricSettings,
+    method: str | None = None,
+) -> WelchSettings:
+    """The Welch segments ``method`` averages when the longest stretch has ``longest`` samples.
+
+    The parametric method sizes its segment from the slowest element and the
+    longest stretch; the classic one uses ``pmr.welch``.
+
+    Parameters
+    ----------
+    longest : int
+        Samples of the longest stretch.
+    model : TransferMatrix
+    pmr : PmrSettings
+    parametric : ParametricSettings
+    method : str, optional
+        A key of :data:`METHODS` (default ``pmr.method``).
+    """
+    if (method or pmr.method) == "parametric":
+        return parametric.welch(model, int(longest), pmr)
+    return pmr.welch
+
+
 def _welch(
     stretches: Sequence[Record],
     *,
@@ -49,10 +78,9 @@ def _welch(
     parametric: ParametricSettings,
     method: str | None = None,
 ) -> WelchSettings:
-    """The Welch segments ``method`` would average over ``stretches`` (the parametric one depends on the longest)."""
-    if (method or pmr.method) == "parametric":
-        return parametric.welch(model, max((s.samples for s in stretches), default=0), pmr)
-    return pmr.welch
+    """:func:`method_welch` of the longest of ``stretches``."""
+    longest = max((s.samples for s in stretches), default=0)
+    return method_welch(longest, model=model, pmr=pmr, parametric=parametric, method=method)
 
 
 def shortest_useful_stretch(

@@ -21,14 +21,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pmr.checks import MIN_SEGMENTS
+from ..pmr.checks import unbroken_samples_needed
 from ..pmr.spectra import WelchSettings
+from .memory import simulation_bytes
 from .model import TransferMatrix
 
 __all__ = [
     "PREDICTION_COPIES",
     "REALIZATION_COPIES",
     "controller_bytes",
+    "impact_bytes",
     "model_bytes",
     "realization_bytes",
     "samples_needed",
@@ -78,11 +80,24 @@ def model_bytes(model: TransferMatrix, plant: TransferMatrix, *, prediction_hori
     return realization_bytes(plant) + controller
 
 
+def impact_bytes(
+    model: TransferMatrix, plant: TransferMatrix, *, prediction_horizon: int, control_horizon: int, samples: int
+) -> int:
+    """One control-impact simulation: the MPC on ``model`` steering ``plant`` for ``samples`` samples [bytes].
+
+    The impact (:mod:`pmr_ros.core.loop.impact`) runs its simulations one
+    after the other, so one bounds them all.
+    """
+    loop = model_bytes(model, plant, prediction_horizon=prediction_horizon, control_horizon=control_horizon)
+    return loop + simulation_bytes(model, samples)
+
+
 def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0) -> int:
     """The fewest unbroken samples the diagnosis of ``model`` accepts with ``welch``'s segments.
 
-    The model's settling, then ``max(4, 2 n_instruments)`` Welch segments
-    (:func:`~pmr_ros.core.pmr.checks.check_stretches`).
+    The model's settling, then ``max(4, 2 n_instruments)`` Welch segments: the
+    rule of :func:`~pmr_ros.core.pmr.checks.check_stretches` itself
+    (:func:`~pmr_ros.core.pmr.checks.unbroken_samples_needed`).
 
     Parameters
     ----------
@@ -91,5 +106,4 @@ def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inpu
     dithered_inputs : int
         Inputs whose MV dither joins the setpoints as instruments.
     """
-    need = max(MIN_SEGMENTS, 2 * (model.n_outputs + int(dithered_inputs)))
-    return model.settling_samples() + welch.segment_length + (need - 1) * welch.step
+    return unbroken_samples_needed(model, welch, instruments=model.n_outputs + int(dithered_inputs))

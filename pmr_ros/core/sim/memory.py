@@ -24,6 +24,7 @@ __all__ = [
     "available_bytes",
     "diagnosis_bytes",
     "format_bytes",
+    "memory_shortfall",
     "simulation_bytes",
     "window_bytes",
 ]
@@ -92,3 +93,25 @@ def format_bytes(value: float) -> str:
         if value >= size:
             return f"{value / size:.3g} {unit}"
     return f"{value:.0f} B"
+
+
+def memory_shortfall(parts: dict[str, int]) -> str | None:
+    """Why work needing ``parts`` [bytes] cannot fit in the memory available now, in words; None when it fits.
+
+    Unknown available memory (no ``/proc/meminfo``) is taken to fit.
+
+    Parameters
+    ----------
+    parts : dict
+        What needs memory -> bytes (``{"plant realization": 3 * 10**12}``).
+
+    Examples
+    --------
+    >>> memory_shortfall({"a": 1}) is None
+    True
+    """
+    needed, have = sum(parts.values()), available_bytes()
+    if have is None or needed <= have:
+        return None
+    detail = ", ".join(f"{name} {format_bytes(n)}" for name, n in parts.items())
+    return f"needs about {format_bytes(needed)} of memory ({detail}); {format_bytes(have)} available"
