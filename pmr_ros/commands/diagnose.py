@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from ..outputs import check_outputs
 from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
-from .arguments import JSON, add_options, config_option
+from .arguments import JSON, MONITOR_OPTIONS, add_options, config_option
 from .model_output import add_model_arguments, check_model_output
 
 if TYPE_CHECKING:
@@ -49,7 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "bag",
         metavar="PATH",
-        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config)",
+        nargs="?",
+        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config); "
+        "none with --fleet",
     )
     add_options(
         p,
@@ -71,6 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="a bag: fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for "
         "a 'pmr-ros run --bag' recording cut short, the declared default)",
     )
+    add_options(p, MONITOR_OPTIONS)
     p.set_defaults(handler=handle)
 
 
@@ -172,8 +175,16 @@ def print_comparison(report: dict, result: OfflineResult) -> None:
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from .plant_data import TABLE, diagnose_table, source_kind
+    from .rolling import check_monitor_options
 
-    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model"), folders=("report",))
+    if args.fleet:
+        from .fleet import diagnose_fleet
+
+        return diagnose_fleet(args)
+    if args.bag is None:
+        raise CommandError("diagnose: give a bag or a historian export (PATH), or --fleet FLEET.yaml")
+    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model", "trend"), folders=("report",))
+    check_monitor_options(args)
     if args.json:
         writable_file(args.json, "--json")  # before any work, for a bag and an export alike
     if source_kind(args.bag) == TABLE:
