@@ -6,6 +6,7 @@ The records are our own closed loop (:mod:`drifting`), a day per lockstep run, t
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 
 import numpy as np
 import pandas as pd
@@ -15,6 +16,7 @@ from shipped import system_only_params
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
+from pmr_ros.report.trend_page import write_trend_page
 from pmr_ros.service.monitoring import WindowJob, diagnose_window, monitor, window_stretches
 from pmr_ros.service.refusal import ServiceError
 
@@ -148,7 +150,7 @@ def test_a_window_is_diagnosed_as_its_stretches_alone(config):
     np.testing.assert_allclose(after.elements["G11"].parametric.gain_mismatch_pct, 15.0, atol=2.0)
 
 
-def test_a_drift_and_a_delay_step_are_found_on_their_days(config):
+def test_a_drift_and_a_delay_step_are_found_on_their_days(config, tmp_path):
     """The year's structure, shortened for the suite (benchmarks/bench_monitor.py runs the year)."""
     data = drifting_data(config, days=36, changes=(RAMP, STEP))
     found = monitor(data, config, window="7d", step="1d", jobs=2)
@@ -168,3 +170,29 @@ def test_a_drift_and_a_delay_step_are_found_on_their_days(config):
         for name, element in window["elements"].items():
             if element["verdict"] == "mismatch":
                 assert name in changed and day(window["end"]) > changed[name], (name, window["end"])
+    # the trend figures render with the onsets marked
+    report = {"elements": {name: {"onset": onset} for name, onset in found.onsets.items()}, "system": "wb"}
+    report |= {"monitor": {"window": "7d", "step": "1d"}, "settings": {"parametric": asdict(config.parametric)}}
+    page = write_trend_page(tmp_path, report, found.table)
+    assert "drift" in page.read_text() and (tmp_path / "figures" / "trend_G11.png").stat().st_size > 20000
+
+
+def test_the_trend_page_renders_in_a_headless_browser(export, capsys, tmp_path):
+    from test_report_html import _pixels_near, _screenshot
+
+    argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
+    code, out, err = _run(capsys, [*argv, "--step", "1d", "--jobs", "1", "--report", str(tmp_path / "page")])
+    assert code == 0, err
+    folder = tmp_path / "page"
+    assert 'href="trend.html"' in (folder / "index.html").read_text()
+    text = (folder / "trend.html").read_text()
+    assert text.count("data:image/png;base64,") == 5  # the strip and one figure per element
+    assert all((folder / "figures" / f"trend_{name}.png").is_file() for name in ("G11", "G12", "G21", "G22"))
+    image = _screenshot(folder / "trend.html", tmp_path / "shot.png", tmp_path)
+    # the strip's red cells (G11 a mismatch in its last two windows) and the estimates' 95 % bands (light blue)
+    red, blue = _pixels_near(image, (0xC6, 0x28, 0x28)), _pixels_near(image, (0xBB, 0xDE, 0xFB))
+    assert red > 5000 and blue > 5000, (red, blue)
+    broken = tmp_path / "broken.html"
+    broken.write_text(text.replace("data:image/png;base64,", "data:image/png;base64,AAAA"))
+    image = _screenshot(broken, tmp_path / "broken.png", tmp_path)
+    assert _pixels_near(image, (0xC6, 0x28, 0x28)) < 500 and _pixels_near(image, (0xBB, 0xDE, 0xFB)) < 500

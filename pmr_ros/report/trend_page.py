@@ -52,7 +52,7 @@ def _times(values: Any) -> tuple[np.ndarray, str]:
 
     if pandas.api.types.is_numeric_dtype(values):
         return np.asarray(values, dtype=float) / 3600.0, "time [h]"
-    return pandas.to_datetime(values, utc=True).tz_localize(None).to_numpy(), "window end (UTC)"
+    return pandas.DatetimeIndex(pandas.to_datetime(values, utc=True)).tz_localize(None).to_numpy(), "window end (UTC)"
 
 
 def _onset_time(value: Any, dated: bool) -> Any:
