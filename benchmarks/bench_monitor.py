@@ -79,10 +79,39 @@ def _shifted(changes: tuple[Change, ...], start: int) -> tuple[Change, ...]:
     return tuple(replace(c, day=c.day - start) for c in changes)
 
 
-def _peak_mb() -> tuple[float, float]:
-    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    return mine, children
+class PeakMemory:
+    """The largest resident memory of this process and all its descendants together [MB].
+
+    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.
+    """
+
+    def __init__(self) -> None:
+        import threading
+
+        self.peak = 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+
+    def _sample(self) -> None:
+        import psutil
+
+        me = psutil.Process()
+        while not self._stop.wait(0.2):
+            total = me.memory_info().rss
+            for child in me.children(recursive=True):
+                try:
+                    total += child.memory_info().rss
+                except psutil.Error:
+                    pass
+            self.peak = max(self.peak, total / 2**20)
+
+    def __enter__(self) -> PeakMemory:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
 
 
 def year(args: argparse.Namespace) -> None:
@@ -97,11 +126,15 @@ def year(args: argparse.Namespace) -> None:
     record_mb = sum(values.nbytes for values in signals.values()) / 2**20
     del signals
     start = time.perf_counter()
-    found = monitor(data, config, window=args.window, step=args.step, jobs=args.jobs)
+    with PeakMemory() as memory:
+        found = monitor(data, config, window=args.window, step=args.step, jobs=args.jobs)
     wall = time.perf_counter() - start
-    mine, worker = _peak_mb()
+    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"monitor: {len(found.windows)} windows of {args.window} stepped by {args.step} in {wall:.1f} s")
-    print(f"peak memory: this process {mine:.0f} MB, largest worker {worker:.0f} MB (the record: {record_mb:.0f} MB)")
+    print(
+        f"peak memory: {memory.peak:.0f} MB this process and its workers together (this process alone "
+        f"{mine:.0f} MB; the record {record_mb:.0f} MB)"
+    )
     (i, k), (j, m) = _elements(config)
     names = config.model.element_names()
     n_in = config.model.n_inputs
