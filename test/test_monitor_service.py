@@ -196,3 +196,34 @@ def test_the_trend_page_renders_in_a_headless_browser(export, capsys, tmp_path):
     broken.write_text(text.replace("data:image/png;base64,", "data:image/png;base64,AAAA"))
     image = _screenshot(broken, tmp_path / "broken.png", tmp_path)
     assert _pixels_near(image, (0xC6, 0x28, 0x28)) < 500 and _pixels_near(image, (0xBB, 0xDE, 0xFB)) < 500
+
+
+def test_a_bag_in_the_live_window_gives_the_live_verdicts(capsys, tmp_path):
+    from pathlib import Path
+
+    bag = Path(__file__).resolve().parents[1] / "bags" / "wood_berry_full"
+    assert main(["diagnose", str(bag), "--json", str(tmp_path / "live.json")]) == 0
+    live = json.loads((tmp_path / "live.json").read_text())  # the live diagnostician's window, compared with its record
+    window = str(live["window"]["window_samples"])
+    argv = [
+        "diagnose",
+        str(bag),
+        "--window",
+        window,
+        "--step",
+        "1024",
+        "--jobs",
+        "1",
+        "--json",
+        str(tmp_path / "w.json"),
+    ]
+    assert main(argv) == 0
+    capsys.readouterr()
+    found = json.loads((tmp_path / "w.json").read_text())
+    (only,) = found["windows"]
+    assert (only["first"], only["last"]) == (live["window"]["first_sample"], live["window"]["last_sample"])
+    for name, element in live["elements"].items():
+        assert only["elements"][name]["verdict"] == element["verdict"] == "mismatch"
+        np.testing.assert_allclose(
+            only["elements"][name]["classic"]["gain_ratio"], element["classic"]["gain_ratio"], rtol=1e-9
+        )

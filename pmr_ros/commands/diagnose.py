@@ -211,6 +211,28 @@ def _write_bag_outputs(args: argparse.Namespace, report: dict, result: OfflineRe
         write_bag_report(args, result, bag, report)
 
 
+def _bag_windows(args: argparse.Namespace) -> int:
+    """``diagnose BAG --window``: the bag's whole record read once, every window diagnosed."""
+    from ..bag.reader import open_bag
+    from ..bag.storage import BagError
+    from ..report import build_report
+    from ..service.bag_diagnosis import bag_record
+    from .rolling import diagnose_windows
+
+    try:
+        bag = open_bag(args.bag)
+        data, config = bag_record(bag, args.config, args.method, namespace=args.namespace)
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+
+    def report_of(diagnosis: Diagnosis) -> dict:
+        report = build_report(config, diagnosis, command="diagnose", scenario=None, seed=None)
+        report.update(path="bag", source=str(bag.path))
+        return report
+
+    return diagnose_windows(args, data, config, report_of)
+
+
 def diagnose_bag_command(args: argparse.Namespace) -> int:
     """``pmr-ros diagnose BAG``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from ..bag.reader import open_bag
@@ -219,6 +241,8 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     from ..service.bag_diagnosis import diagnose_bag
 
     check_model_output(args)
+    if args.window:
+        return _bag_windows(args)
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)
