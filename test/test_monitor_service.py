@@ -15,6 +15,7 @@ from drifting import DAY, Change, drifting_data, drifting_signals
 from shipped import system_only_params
 
 from pmr_ros.cli import main
+from pmr_ros.commands.rolling import onset_lines
 from pmr_ros.config import load_config
 from pmr_ros.report.trend_page import write_trend_page
 from pmr_ros.service.monitoring import WindowJob, diagnose_window, monitor, window_stretches
@@ -170,6 +171,10 @@ def test_a_drift_and_a_delay_step_are_found_on_their_days(config, tmp_path):
         for name, element in window["elements"].items():
             if element["verdict"] == "mismatch":
                 assert name in changed and day(window["end"]) > changed[name], (name, window["end"])
+    # the terminal says when and how each moved
+    lines = onset_lines(found.onsets)
+    assert any(line.startswith("  G11 gain: drift from 2025-01-") for line in lines), lines
+    assert any(line.startswith("  G22 delay: step from 2025-01-") for line in lines), lines
     # the trend figures render with the onsets marked
     report = {"elements": {name: {"onset": onset} for name, onset in found.onsets.items()}, "system": "wb"}
     report |= {"monitor": {"window": "7d", "step": "1d"}, "settings": {"parametric": asdict(config.parametric)}}
@@ -227,3 +232,26 @@ def test_a_bag_in_the_live_window_gives_the_live_verdicts(capsys, tmp_path):
         np.testing.assert_allclose(
             only["elements"][name]["classic"]["gain_ratio"], element["classic"]["gain_ratio"], rtol=1e-9
         )
+
+
+def test_windows_on_a_dask_cluster_are_those_of_one_process(config):
+    import logging
+
+    from distributed import LocalCluster
+
+    data = drifting_data(config, days=3, changes=(Change(0, 0, "gain", day=1, size=15.0),))
+    here = monitor(data, config, window=2 * DAY, step=DAY // 2, jobs=1)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster:  # fmt: skip
+        there = monitor(data, config, window=2 * DAY, step=DAY // 2, scheduler=cluster.scheduler_address)
+    assert [w["first"] for w in there.windows] == [w["first"] for w in here.windows] == [0, DAY // 2, DAY]
+    for mine, theirs in zip(here.windows, there.windows, strict=True):
+        for name, element in mine["elements"].items():
+            assert theirs["elements"][name]["verdict"] == element["verdict"]
+            np.testing.assert_allclose(
+                theirs["elements"][name]["parametric"]["gain_mismatch_pct"],
+                element["parametric"]["gain_mismatch_pct"],
+                rtol=1e-9,
+            )
