@@ -11,7 +11,7 @@ from drifting import Change, drifting_signals
 from shipped import system_only_params
 
 from pmr_ros.cli import main
-from pmr_ros.commands.fleet import index_page
+from pmr_ros.commands.fleet_summary import index_page
 from pmr_ros.config import load_config
 from pmr_ros.service.fleet import rank_rows, read_fleet
 from pmr_ros.service.refusal import ServiceError

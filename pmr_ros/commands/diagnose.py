@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING
 from ..outputs import check_outputs
 from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
-from .arguments import JSON, MONITOR_OPTIONS, add_options, config_option
+from .arguments import JSON, add_options, config_option
 from .model_output import add_model_arguments, check_model_output
+from .monitor_options import MONITOR_OPTIONS
 
 if TYPE_CHECKING:
     from ..bag.offline import OfflineResult
@@ -178,7 +179,7 @@ def handle(args: argparse.Namespace) -> int:
     from .rolling import check_monitor_options
 
     if args.fleet:
-        from .fleet import diagnose_fleet
+        from .fleet_summary import diagnose_fleet
 
         return diagnose_fleet(args)
     if args.bag is None:
