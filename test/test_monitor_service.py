@@ -114,6 +114,7 @@ def test_windows_run_in_parallel_as_in_one_process(export, capsys, tmp_path):
         (["--window", "2d", "--step", "0d"], "--step: '0d' must be positive"),
         (["--window", "3000", "--step", "2d"], "must both be samples or both clock time"),
         (["--step", "1d"], "--step: an option of --window"),
+        (["--jobs", "2"], "--jobs: an option of --window"),
         (["--window", "2d", "--trend", "t.xlsx"], "--trend t.xlsx: the trend file must end in .csv or .parquet"),
     ],
 )

@@ -34,12 +34,13 @@ def check_monitor_options(args: argparse.Namespace) -> None:
     Raises
     ------
     CommandError
-        ``--step`` or ``--trend`` without ``--window``, a trend file of another
+        ``--step``, ``--trend``, ``--jobs``, ``--scheduler`` without ``--window`` (or ``--fleet``), a trend file of another
         kind, an unreachable ``--scheduler``.
     """
-    for name in ("step", "trend"):
+    for name in ("step", "trend", "jobs", "scheduler", "connect_timeout"):
         if getattr(args, name) is not None and args.window is None and not getattr(args, "fleet", None):
-            raise CommandError(f"--{name}: an option of --window W (the rolling windows)")
+            flag = name.replace("_", "-")
+            raise CommandError(f"--{flag}: an option of --window W (the rolling windows) or --fleet")
     if args.trend is not None and not args.trend.lower().endswith((".csv", ".parquet")):
         raise CommandError(f"--trend {args.trend}: the trend file must end in .csv or .parquet")
     if args.scheduler:
