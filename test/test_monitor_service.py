@@ -256,3 +256,11 @@ def test_windows_on_a_dask_cluster_are_those_of_one_process(config):
                 element["parametric"]["gain_mismatch_pct"],
                 rtol=1e-9,
             )
+
+
+def test_data_without_a_date_keep_their_seconds(config):
+    from dataclasses import replace
+
+    data = replace(drifting_data(config, days=2, changes=()), start="1000 s")  # a time column of seconds
+    found = monitor(data, config, window=DAY, step=DAY, jobs=1)
+    assert [(w["start"], w["end"]) for w in found.windows] == [(1000.0, 1000.0 + 86400), (87400.0, 87400.0 + 86400)]

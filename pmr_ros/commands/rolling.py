@@ -34,8 +34,8 @@ def check_monitor_options(args: argparse.Namespace) -> None:
     Raises
     ------
     CommandError
-        ``--step``, ``--trend``, ``--jobs``, ``--scheduler`` without ``--window`` (or ``--fleet``), a trend file of another
-        kind, an unreachable ``--scheduler``.
+        ``--step``, ``--trend``, ``--jobs``, ``--scheduler`` without ``--window`` (or ``--fleet``), a trend
+        file of another kind, an unreachable ``--scheduler``.
     """
     for name in ("step", "trend", "jobs", "scheduler", "connect_timeout"):
         if getattr(args, name) is not None and args.window is None and not getattr(args, "fleet", None):

@@ -13,6 +13,7 @@ elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
 from __future__ import annotations
 
 import os
+import re
 import signal
 import time
 from collections.abc import Callable, Sequence
@@ -83,24 +84,28 @@ def diagnose_window(job: WindowJob, span: tuple[int, int]) -> Diagnosis:
     )
 
 
+_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
+_SECONDS = re.compile(r"^\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*s\s*$")
+
+
 def _clock(data: PlantData) -> Any:
-    """The time of sample 0 as a UTC timestamp, or None when the data have no date (seconds only)."""
+    """The time of sample 0: a UTC timestamp for dated data, else its seconds (``"1000 s"``; 0 otherwise)."""
     import pandas
 
-    try:
+    if _DATE.match(data.start):
         stamp = pandas.Timestamp(data.start)
-    except (ValueError, TypeError):
-        return None
-    if stamp is pandas.NaT:
-        return None
-    return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+        return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+    seconds = _SECONDS.match(data.start)
+    return float(seconds.group(1)) if seconds else 0.0
 
 
 def _time(origin: Any, seconds: float) -> float | str:
-    """A time ``seconds`` after sample 0: ISO text when the data have a date, else the seconds."""
+    """A time ``seconds`` after sample 0: ISO text when the data have a date, else seconds on the data's clock."""
     import pandas
 
-    return float(seconds) if origin is None else (origin + pandas.Timedelta(seconds=float(seconds))).isoformat()
+    if isinstance(origin, float):
+        return origin + float(seconds)
+    return (origin + pandas.Timedelta(seconds=float(seconds))).isoformat()
 
 
 def window_entry(index: int, span: tuple[int, int], diagnosis: Diagnosis, job: WindowJob) -> dict[str, Any]:
