@@ -46,6 +46,8 @@ def _config(shape: str, folder: Path, seed: int = 0):
     tree["mismatch"] = {key: [0] * len(value) for key, value in tree["mismatch"].items()}
     tree["system"]["name"] = f"c{seed}_{shape}"
     tree["data"] = {"time_unit_s": 60.0}  # 1-minute data of a model in minutes
+    if tree["excitation"]["mv_dither_amplitude"] > 0:  # the export carries the MV dither (the instruments)
+        tree["data"]["dither_columns"] = [f"d_{name}" for name in tree["system"]["input_names"]]
     return load(tree, folder)
 
 
@@ -175,9 +177,12 @@ def _write_export(path: Path, signals: dict[str, np.ndarray], config) -> None:
     stamps = pd.Timestamp("2025-03-01", tz="UTC") + pd.to_timedelta(60.0 * np.arange(signals["y"].shape[0]), "s")
     frame = pd.DataFrame({"time": stamps.strftime("%Y-%m-%dT%H:%M:%SZ")})
     model = config.model
-    for signal, names in (("r", model.output_names), ("u", model.input_names), ("y", model.output_names)):
+    channels = [("r", model.output_names), ("u", model.input_names), ("y", model.output_names)]
+    if "dither" in signals:
+        channels.append(("dither", model.input_names))
+    for signal, names in channels:
         for j, channel in enumerate(names):
-            frame[f"{signal}_{channel}"] = signals[signal][:, j]
+            frame[f"{signal[0] if signal == 'dither' else signal}_{channel}"] = signals[signal][:, j]
     frame.to_csv(path, index=False)
 
 
