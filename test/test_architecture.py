@@ -32,7 +32,7 @@ LAYERS: dict[str, set[str]] = {
     "models": {"core", "config"},
     "sweep": {"core", "config", "progress", "outputs"},
     "bag": {"core", "config", "contract"},
-    "service": {"core", "config", "contract", "data", "report", "bag"},
+    "service": {"core", "config", "contract", "data", "report", "bag", "sweep"},  # sweep: its Dask cluster
     "ros": {"core", "config", "contract", "resources"},
     "nodes": {"core", "config", "contract", "ros", "bag", "service"},
     "node_set": {"core", "config", "contract", "ros", "nodes"},

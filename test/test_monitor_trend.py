@@ -18,6 +18,7 @@ from pmr_ros.core.monitor import (
     window_views,
     write_trend,
 )
+from pmr_ros.core.monitor.trend import delay_interval
 
 DAYS, WINDOW = 120, 14
 PLAN = window_plan(n_samples=DAYS, window=WINDOW, step=1)
@@ -193,3 +194,23 @@ def test_onset_entries_are_plain_json_per_element():
         "windows": len(PLAN),
     }
     assert back["G21"]["lasting_mismatch_window"] is None
+
+
+def test_the_codecs_low_and_high_and_the_delays_own_interval():
+    element = {
+        "verdict": "mismatch",
+        "parametric": {
+            "gain_mismatch_pct": 12.0,
+            "gain_mismatch_pct_low": 10.0,
+            "gain_mismatch_pct_high": 14.0,
+            "delay_mismatch_samples": 2,
+            "delay_confidence": 0.99,
+        },
+    }
+    unsure = {"verdict": "ok", "delay_mismatch_samples": 0, "delay_confidence": 0.6}
+    table = trend_table([{"first": 0, "last": 9, "elements": {"G11": element, "G12": unsure}}])
+    row, other = table.iloc[0], table.iloc[1]
+    assert (row["gain_mismatch_pct_low"], row["gain_mismatch_pct_high"]) == (10.0, 14.0)
+    assert (row["delay_mismatch_samples_low"], row["delay_mismatch_samples_high"]) == (1.5, 2.5)
+    assert (other["delay_mismatch_samples_low"], other["delay_mismatch_samples_high"]) == (-1.5, 1.5)
+    assert delay_interval(None, 0.99) is None and delay_interval(3, None) == (1.5, 4.5)

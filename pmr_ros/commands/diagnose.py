@@ -22,6 +22,7 @@ from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
 from .arguments import JSON, add_options, config_option
 from .model_output import add_model_arguments, check_model_output
+from .monitor_options import MONITOR_OPTIONS
 
 if TYPE_CHECKING:
     from ..bag.offline import OfflineResult
@@ -49,7 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "bag",
         metavar="PATH",
-        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config)",
+        nargs="?",
+        help="rosbag2 bag directory (or a .mcap file), or a historian export (.csv or .parquet; needs --config); "
+        "none with --fleet",
     )
     add_options(
         p,
@@ -71,6 +74,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="a bag: fewest samples for a verdict (default: diagnostician.min_samples of the configuration; for "
         "a 'pmr-ros run --bag' recording cut short, the declared default)",
     )
+    add_options(p, MONITOR_OPTIONS)
     p.set_defaults(handler=handle)
 
 
@@ -172,8 +176,16 @@ def print_comparison(report: dict, result: OfflineResult) -> None:
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros diagnose``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from .plant_data import TABLE, diagnose_table, source_kind
+    from .rolling import check_monitor_options
 
-    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model"), folders=("report",))
+    if args.fleet:
+        from .fleet_summary import diagnose_fleet
+
+        return diagnose_fleet(args)
+    if args.bag is None:
+        raise CommandError("diagnose: give a bag or a historian export (PATH), or --fleet FLEET.yaml")
+    check_outputs(args, inputs=(args.bag, args.config), files=("json", "write_model", "trend"), folders=("report",))
+    check_monitor_options(args)
     if args.json:
         writable_file(args.json, "--json")  # before any work, for a bag and an export alike
     if source_kind(args.bag) == TABLE:
@@ -200,6 +212,28 @@ def _write_bag_outputs(args: argparse.Namespace, report: dict, result: OfflineRe
         write_bag_report(args, result, bag, report)
 
 
+def _bag_windows(args: argparse.Namespace) -> int:
+    """``diagnose BAG --window``: the bag's whole record read once, every window diagnosed."""
+    from ..bag.reader import open_bag
+    from ..bag.storage import BagError
+    from ..report import build_report
+    from ..service.bag_diagnosis import bag_record
+    from .rolling import diagnose_windows
+
+    try:
+        bag = open_bag(args.bag)
+        data, config = bag_record(bag, args.config, args.method, namespace=args.namespace)
+    except BagError as exc:
+        raise CommandError(str(exc)) from None
+
+    def report_of(diagnosis: Diagnosis) -> dict:
+        report = build_report(config, diagnosis, command="diagnose", scenario=None, seed=None)
+        report.update(path="bag", source=str(bag.path))
+        return report
+
+    return diagnose_windows(args, data, config, report_of)
+
+
 def diagnose_bag_command(args: argparse.Namespace) -> int:
     """``pmr-ros diagnose BAG``; the exit code (0 ok, 3 insufficient data, 4 a recorded verdict differs)."""
     from ..bag.reader import open_bag
@@ -208,6 +242,8 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
     from ..service.bag_diagnosis import diagnose_bag
 
     check_model_output(args)
+    if args.window:
+        return _bag_windows(args)
     try:
         bag = open_bag(args.bag)
         result = diagnose_bag(bag, args.config, args.method, min_samples=args.min_samples, namespace=args.namespace)

@@ -130,6 +130,8 @@ def diagnose_table(args: argparse.Namespace) -> int:
 
     config = _table_config(args)
     check_model_output(args)
+    if getattr(args, "window", None):
+        return _diagnose_table_windows(args, config)
     update, close = progress_callback(f"reading {Path(args.bag).name}")
     try:
         found = diagnose_export(args.bag, config, progress=update, model_path=getattr(args, "write_model", None))
@@ -151,6 +153,19 @@ def diagnose_table(args: argparse.Namespace) -> int:
             code=EXIT_INSUFFICIENT,
         )
     return 0
+
+
+def _diagnose_table_windows(args: argparse.Namespace, config: Any) -> int:
+    """``--window``: the export read once, every window diagnosed (:mod:`pmr_ros.commands.rolling`)."""
+    from ..service.historian import read_export
+    from .rolling import diagnose_windows
+
+    update, close = progress_callback(f"reading {Path(args.bag).name}")
+    try:
+        data = read_export(args.bag, config, progress=update)
+    finally:
+        close()
+    return diagnose_windows(args, data, config, lambda diagnosis: _data_report(config, diagnosis, data, str(args.bag)))
 
 
 def write_bag_report(args: argparse.Namespace, result: Any, bag: Any, report: dict[str, Any]) -> None:

@@ -38,6 +38,10 @@ TEMPLATE = """<!DOCTYPE html>
  {{ diagnosis.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
  sample time {{ report.sample_time }} (model time unit) &middot; pmr_ros {{ report.version }}
 </p>
+{% if report.get("windows") %}
+<p class="note">The last of {{ report.windows|length }} rolling windows ({{ report.monitor.window }} stepped by
+ {{ report.monitor.step }}): <a href="trend.html">the trend over every window, with the onsets</a>.</p>
+{% endif %}
 {% if diagnosis.status != "ok" %}
 <p class="badge" style="background: {{ colours.inconclusive }}">no verdict: {{ diagnosis.reason }}</p>
 {% endif %}

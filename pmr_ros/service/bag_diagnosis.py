@@ -40,7 +40,7 @@ from ..core.results.codec import diagnosis_to_json
 from ..data import PlantData
 from .closing import close_diagnosis
 
-__all__ = ["compare", "diagnose_bag", "judged_config", "window_data", "window_signals"]
+__all__ = ["bag_record", "compare", "diagnose_bag", "judged_config", "window_data", "window_signals"]
 
 
 def judged_config(
@@ -238,3 +238,57 @@ def window_data(bag: Bag, result: OfflineResult) -> tuple[PlantData, list[Record
     )
     dither = window_dither(config, first, data.samples)
     return data, [Record(window["r"], window["u"], window["y"], dither, window.get("dv"))]
+
+
+def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int, np.ndarray]]:
+    """Every r, u, y message of the node set as ``(signal, sample, values)``, in the model's channel order."""
+    model = config.model
+    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in names}
+    placed = []
+    for message in bag.messages(set(by_topic)):
+        signal = by_topic[message.topic]
+        stamp, channels, values = read_signal(bag.decode(message))
+        if tuple(channels) == names[signal] and values.size == len(channels):
+            placed.append((signal, sample_index(stamp, model.sample_time)[0], np.asarray(values, dtype=float)))
+    return placed
+
+
+def bag_record(
+    bag: Bag, config_path: str | None = None, method: str | None = None, *, namespace: str | None = None
+) -> tuple[PlantData, PmrConfig]:
+    """The bag's whole r, u, y (and dither) on the sample grid, read once, and the configuration to judge it with.
+
+    Each message goes to the sample its stamp names (as the aligner places
+    it); a sample no message filled is missing.  Sample 0 of the data is the
+    first stamped sample; ``start`` is its time (ISO, from the stamps).
+
+    Raises
+    ------
+    BagError
+        A needed topic is missing, no configuration, channels that are not the bag's, no r, u, y message.
+    """
+    import pandas
+
+    namespace = bag_namespace(bag) if namespace is None else namespace
+    bag.require(required_topics(namespace))
+    config, origin = bag_configuration(bag, config_path)
+    check_system(bag, config, origin, namespace)
+    if method is not None:
+        config = replace(config, pmr=replace(config.pmr, method=method))
+    placed = _placed(bag, config, namespace)
+    if not placed:
+        raise BagError(f"{bag.path}: no r, u, y message of the configuration's channels to diagnose")
+    first = min(k for _, k, _ in placed)
+    samples = max(k for _, k, _ in placed) - first + 1
+    model = config.model
+    widths = {"r": model.n_outputs, "u": model.n_inputs, "y": model.n_outputs}
+    signals = {s: np.full((samples, n), np.nan) for s, n in widths.items()}
+    for signal, k, values in placed:
+        signals[signal][k - first] = values
+    dither = window_dither(config, first, samples)
+    if dither is not None:
+        signals["dither"] = dither
+    start = pandas.Timestamp(first * model.sample_time, unit="s", tz="UTC").isoformat()
+    data = PlantData.from_record(signals, source=str(bag.path), sample_time_s=model.sample_time, start=start)
+    return data, config

@@ -21,7 +21,7 @@ from .closing import close_and_write
 from .outlier_notes import outlier_cost, with_outlier_reasons
 from .refusal import ServiceError
 
-__all__ = ["LIMITS", "TableDiagnosis", "diagnose_table", "limits_given"]
+__all__ = ["LIMITS", "TableDiagnosis", "diagnose_table", "limits_given", "read_export"]
 
 LIMITS = frozenset({"mpc.u_min", "mpc.u_max"})
 """The settings that must both be given for saturation to be judged on plant data."""
@@ -57,6 +57,22 @@ def limits_given(config: PmrConfig) -> bool:
     return LIMITS <= config.given
 
 
+def read_export(
+    path: str | Path, config: PmrConfig, *, progress: Callable[[int, int], None] | None = None
+) -> PlantData:
+    """Read and clean a historian export once (for a rolling-window diagnosis).
+
+    Raises
+    ------
+    ServiceError
+        Bad input (one line naming the file, column, row and value).
+    """
+    try:
+        return load_plant_data(path, config, progress=progress)
+    except DataError as exc:
+        raise ServiceError(str(exc)) from None
+
+
 def diagnose_table(
     path: str | Path,
     config: PmrConfig,
@@ -83,10 +99,7 @@ def diagnose_table(
         Bad input (one line naming the file, column, row and value); a
         ``model_path`` the diagnosis cannot give a model for.
     """
-    try:
-        data = load_plant_data(path, config, progress=progress)
-    except DataError as exc:
-        raise ServiceError(str(exc)) from None
+    data = read_export(path, config, progress=progress)
     stretches = data.stretches()
     quality = config.quality if limits_given(config) else config.quality.without_limits()
     diagnosis = diagnose_stretches(

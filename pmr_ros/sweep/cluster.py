@@ -93,19 +93,20 @@ def _client(address: str) -> Any:
 
 
 def run_on_cluster(
-    config: PmrConfig,
+    config: PmrConfig | Any,
     tasks: Sequence[Any],
     address: str,
     *,
-    work: Callable[[PmrConfig, Any], tuple[Any, list[dict], float]],
-    record: Callable[[Any, list[dict], float], None],
+    work: Callable[[Any, Any], tuple[Any, Any, float]],
+    record: Callable[[Any, Any, float], None],
 ) -> None:
     """Run ``work(config, task)`` for each task on the Dask cluster at ``address``; ``record`` each result at once.
 
     Parameters
     ----------
-    config : PmrConfig
-        The sweep's configuration (scattered to every worker once).
+    config : PmrConfig or any
+        The sweep's configuration, or whatever every task shares (the monitor's record): scattered to every
+        worker once.
     tasks : sequence
         The points to run (``PointTask``), in the order to submit them.
     address : str

@@ -9,7 +9,16 @@ finds every element's onsets from it.
 """
 
 from .onset import KINDS, Onset, OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
-from .trend import ELEMENT_KEYS, FOLLOW, PARAMETERS, onset_entries, trend_onsets, trend_table, write_trend
+from .trend import (
+    ELEMENT_KEYS,
+    FOLLOW,
+    PARAMETERS,
+    delay_interval,
+    onset_entries,
+    trend_onsets,
+    trend_table,
+    write_trend,
+)
 from .windows import Span, parse_span, window_plan, window_views
 
 __all__ = [
@@ -20,6 +29,7 @@ __all__ = [
     "Onset",
     "OnsetSettings",
     "Span",
+    "delay_interval",
     "detect_onset",
     "first_lasting_mismatch",
     "onset_entries",

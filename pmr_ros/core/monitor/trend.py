@@ -31,7 +31,17 @@ import numpy as np
 
 from .onset import OnsetSettings, detect_onset, first_lasting_mismatch, standard_errors
 
-__all__ = ["ELEMENT_KEYS", "FOLLOW", "PARAMETERS", "onset_entries", "trend_onsets", "trend_table", "write_trend"]
+__all__ = [
+    "DELAY_HALF_WIDTH",
+    "ELEMENT_KEYS",
+    "FOLLOW",
+    "PARAMETERS",
+    "delay_interval",
+    "onset_entries",
+    "trend_onsets",
+    "trend_table",
+    "write_trend",
+]
 
 PARAMETERS: dict[str, str] = {
     "gain": "gain_mismatch_pct",
@@ -70,11 +80,54 @@ def _named(elements: Mapping[str, Any] | Sequence[Mapping[str, Any]]) -> list[tu
     return [(str(element["element"]), element) for element in elements]
 
 
+DELAY_HALF_WIDTH: tuple[float, float] = (0.5, 1.5)
+"""Half width of dD's 95 % interval [samples] when the element gives none (today's never does): the delay is
+chosen on the integer grid, so half a sample when its profile confidence (``delay_confidence``) reaches 0.95,
+one and a half (either neighbour possible) below that or when no confidence is given."""
+
+
+def delay_interval(value: float | None, confidence: float | None) -> tuple[float, float] | None:
+    """The 95 % interval of dD from its integer estimate and profile confidence (:data:`DELAY_HALF_WIDTH`).
+
+    Parameters
+    ----------
+    value : float or None
+        dD [samples].
+    confidence : float or None
+        Its profile-likelihood confidence against the neighbouring delays (0..1).
+
+    Returns
+    -------
+    (float, float) or None
+        None without an estimate.
+
+    Examples
+    --------
+    >>> delay_interval(2, 0.99)
+    (1.5, 2.5)
+    """
+    if value is None:
+        return None
+    sure, unsure = DELAY_HALF_WIDTH
+    half = sure if confidence is not None and confidence >= 0.95 else unsure
+    return float(value) - half, float(value) + half
+
+
+def _interval(element: Mapping[str, Any], key: str) -> Any:
+    """``<key>_interval``, else the codec's ``<key>_low``/``<key>_high``, else dD's own (:func:`delay_interval`)."""
+    interval = _field(element, f"{key}_interval")
+    if interval is None and _field(element, f"{key}_low") is not None:
+        interval = (_field(element, f"{key}_low"), _field(element, f"{key}_high"))
+    if interval is None and key == PARAMETERS["delay"]:
+        interval = delay_interval(_field(element, key), _field(element, "delay_confidence"))
+    return interval
+
+
 def _element_row(element: Mapping[str, Any]) -> dict[str, Any]:
     """The element's estimates, interval bounds, verdicts and per-element data quality."""
     row: dict[str, Any] = {"verdict": _field(element, "verdict")}
     for parameter, key in PARAMETERS.items():
-        value, interval = _field(element, key), _field(element, f"{key}_interval")
+        value, interval = _field(element, key), _interval(element, key)
         low, high = (np.nan, np.nan) if interval is None else (float(interval[0]), float(interval[1]))
         row.update({key: np.nan if value is None else float(value), f"{key}_low": low, f"{key}_high": high})
         row[f"{parameter}_verdict"] = _field(element, f"{parameter}_verdict")

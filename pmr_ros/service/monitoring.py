@@ -1,0 +1,305 @@
+"""Rolling-window diagnosis of one long record: every window diagnosed, the trend table and the onsets.
+
+The record (a historian export or a bag, read and cleaned once) is cut into
+the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
+unbroken stretches are slices of the one record (a window's own deviations
+are the only copy).  Windows run on local processes (the sweep's
+``forkserver`` pool, :func:`pmr_ros.core.sim.batch.worker_context`), in this
+process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
+results are the same, in window order.  Each window's entry carries its
+elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..config import PmrConfig
+from ..core.monitor import OnsetSettings, onset_entries, trend_onsets, trend_table, window_plan
+from ..core.pmr.diagnosis import diagnose_stretches
+from ..core.records import Record
+from ..core.results import Diagnosis
+from ..core.results.codec import diagnosis_to_json
+from ..data import PlantData
+from .historian import limits_given
+from .refusal import ServiceError
+
+__all__ = ["Monitoring", "WindowJob", "diagnose_window", "monitor", "window_entry", "window_stretches"]
+
+
+@dataclass(frozen=True)
+class WindowJob:
+    """What every worker holds once: the configuration, the whole record and its usable-sample mask.
+
+    Attributes
+    ----------
+    config : PmrConfig
+    data : PlantData
+        The whole record, cleaned.
+    usable : ndarray of bool, shape (samples,)
+        ``data.usable``, computed once.
+    """
+
+    config: PmrConfig
+    data: PlantData
+    usable: np.ndarray
+
+
+def window_stretches(job: WindowJob, first: int, last: int, *, deviations: bool = True) -> list[Record]:
+    """The unbroken usable stretches of samples ``first..last`` (inclusive), each one's means removed if ``deviations``.
+
+    Each stretch is a slice of the record; only the deviations are new arrays.
+    """
+    usable = job.usable[first : last + 1]
+    edges = np.flatnonzero(np.diff(np.concatenate(([False], usable, [False])).astype(np.int8)))
+    out = []
+    for a, b in zip(edges[::2] + first, edges[1::2] + first, strict=True):
+        part = {key: values[a:b] for key, values in job.data.signals.items()}
+        if deviations:
+            part = {key: values - values.mean(axis=0) for key, values in part.items()}
+        out.append(Record(part["r"], part["u"], part["y"], part.get("dither")))
+    return out
+
+
+def diagnose_window(job: WindowJob, span: tuple[int, int]) -> Diagnosis:
+    """The diagnosis of one window (one estimate from its unbroken stretches), with its data quality."""
+    first, last = span
+    config = job.config
+    quality = config.quality if limits_given(config) else config.quality.without_limits()
+    return diagnose_stretches(
+        window_stretches(job, first, last),
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        quality=quality,
+        as_read=window_stretches(job, first, last, deviations=False),
+    )
+
+
+_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
+_SECONDS = re.compile(r"^\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*s\s*$")
+
+
+def _clock(data: PlantData) -> Any:
+    """The time of sample 0: a UTC timestamp for dated data, else its seconds (``"1000 s"``; 0 otherwise)."""
+    import pandas
+
+    if _DATE.match(data.start):
+        stamp = pandas.Timestamp(data.start)
+        return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+    seconds = _SECONDS.match(data.start)
+    return float(seconds.group(1)) if seconds else 0.0
+
+
+def _time(origin: Any, seconds: float) -> float | str:
+    """A time ``seconds`` after sample 0: ISO text when the data have a date, else seconds on the data's clock."""
+    import pandas
+
+    if isinstance(origin, float):
+        return origin + float(seconds)
+    return (origin + pandas.Timedelta(seconds=float(seconds))).isoformat()
+
+
+def window_entry(index: int, span: tuple[int, int], diagnosis: Diagnosis, job: WindowJob) -> dict[str, Any]:
+    """One window of the JSON's ``windows``: samples, times, status, data quality and elements (codec shape).
+
+    ``end`` is the end of the last sample's period (``(last + 1) Ts`` after sample 0).
+    """
+    first, last = span
+    ts, origin = job.data.sample_time_s, _clock(job.data)
+    usable = int(np.count_nonzero(job.usable[first : last + 1]))
+    coded = diagnosis_to_json(diagnosis)
+    return {
+        "window": index,
+        "first": first,
+        "last": last,
+        "start": _time(origin, first * ts),
+        "end": _time(origin, (last + 1) * ts),
+        "status": coded["status"],
+        "reason": coded["reason"],
+        "samples": coded["samples"],
+        "quality": {"usable_share": usable / (last - first + 1)},
+        "elements": coded["elements"],
+    }
+
+
+@dataclass(frozen=True)
+class Monitoring:
+    """Every window of a record diagnosed.
+
+    Attributes
+    ----------
+    plan : list of (int, int)
+        Each window's first and last sample.
+    diagnoses : list of Diagnosis
+        One per window, in time order.
+    windows : list of dict
+        The JSON's ``windows`` (:func:`window_entry`).
+    table : pandas.DataFrame
+        The trend table (:func:`pmr_ros.core.monitor.trend_table`).
+    onsets : dict
+        Per element, its ``onset`` entry (:func:`pmr_ros.core.monitor.onset_entries`; times as the windows'),
+        with ``lasting_mismatch_end``, the end of the window the mismatch lasts from.
+    window_s : float
+        Window length [s].
+    wall_time_s : float
+        Time the windows took [s].
+    """
+
+    plan: list[tuple[int, int]]
+    diagnoses: list[Diagnosis]
+    windows: list[dict[str, Any]]
+    table: Any
+    onsets: dict[str, dict[str, Any]]
+    window_s: float
+    wall_time_s: float
+
+
+ONSET_SETTINGS = OnsetSettings(scale_errors=True)
+"""How the monitor decides onsets: window estimates of plant data scatter more than their intervals say
+(the daily operation is not white noise), so the errors are scaled up by the scatter about the best fit."""
+
+_WORKER_JOB: WindowJob | None = None
+
+
+def _init_worker(job: WindowJob) -> None:
+    # Ctrl-C goes to the whole process group; only the main process handles it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    global _WORKER_JOB
+    _WORKER_JOB = job
+
+
+def _work(task: tuple[int, int, int]) -> tuple[int, Diagnosis]:
+    if _WORKER_JOB is None:
+        raise RuntimeError("_work runs in a pool worker that _init_worker set up")
+    return task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]))
+
+
+def cluster_window(job: WindowJob, task: tuple[int, int, int]) -> tuple[tuple[int, int, int], Diagnosis, float]:
+    """One window on a Dask worker: ``(task, diagnosis, cpu_s)`` (the shape :func:`run_on_cluster` records)."""
+    t0 = time.process_time()
+    diagnosis = diagnose_window(job, (task[1], task[2]))
+    return task, diagnosis, time.process_time() - t0
+
+
+def _run(job: WindowJob, tasks: list[tuple[int, int, int]], jobs: int, scheduler: str | None) -> list[Diagnosis]:
+    """Every window's diagnosis in window order: here, on a local pool or on the cluster."""
+    found: dict[int, Diagnosis] = {}
+    if scheduler is not None:
+        from ..sweep.cluster import run_on_cluster
+
+        def record(task: Any, diagnosis: Any, _cpu_s: float) -> None:
+            found[task[0]] = diagnosis
+
+        run_on_cluster(job, tasks, scheduler, work=cluster_window, record=record)
+    elif jobs == 1:
+        found = {task[0]: diagnose_window(job, (task[1], task[2])) for task in tasks}
+    else:
+        from ..core.sim.batch import worker_context
+
+        pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(job,))
+        try:
+            found = dict(pool.imap_unordered(_work, tasks, chunksize=max(1, len(tasks) // (8 * jobs))))
+            pool.close()
+        except BaseException:
+            pool.terminate()
+            raise
+        finally:
+            pool.join()
+    return [found[index] for index in range(len(tasks))]
+
+
+def _window_seconds(window: int | float | str, ts: float) -> float:
+    from ..core.monitor import parse_span
+
+    span = parse_span(window, option="window")
+    return span.value if span.seconds else span.value * ts
+
+
+def _onsets(table: Any, windows: Sequence[dict[str, Any]], window_s: float) -> dict[str, dict[str, Any]]:
+    """Each element's onset entry; times in the windows' form (ISO text or seconds)."""
+    import pandas
+
+    entries = onset_entries(trend_onsets(table, window=window_s, time="end", settings=ONSET_SETTINGS))
+    dated = bool(windows) and isinstance(windows[0]["end"], str)
+
+    def shown(value: Any) -> Any:
+        if value is None or not dated:
+            return value
+        return pandas.Timestamp(value, unit="s", tz="UTC").isoformat()
+
+    for entry in entries.values():
+        lasting = entry["lasting_mismatch_window"]
+        entry["lasting_mismatch_end"] = None if lasting is None else windows[lasting]["end"]
+        for parameter in ("gain", "tau", "delay"):
+            found = entry[parameter]
+            found["onset"], found["end"] = shown(found["onset"]), shown(found["end"])
+            if found["interval"] is not None:
+                found["interval"] = [shown(t) for t in found["interval"]]
+    return entries
+
+
+def monitor(
+    data: PlantData,
+    config: PmrConfig,
+    *,
+    window: int | float | str,
+    step: int | float | str,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Monitoring:
+    """Diagnose every window of ``data``, lay the results out as a trend table and find each element's onsets.
+
+    Parameters
+    ----------
+    data : PlantData
+        The whole record, read and cleaned once.
+    config : PmrConfig
+        The controller's model and the PMR settings.
+    window, step : int, float or str
+        Window length and the step between window ends: samples (``20160``) or
+        clock time (``"14d"``, ``"1d"``, ``"6h"``; :func:`~pmr_ros.core.monitor.window_plan`).
+    jobs : int, optional
+        Local worker processes (default: the cores; 1: in this process).
+    scheduler : str, optional
+        A Dask scheduler's address: the windows run on its cluster instead.
+    progress : callable, optional
+        Told, in one line, what is about to run.
+
+    Returns
+    -------
+    Monitoring
+
+    Raises
+    ------
+    ServiceError
+        A window longer than the data, a step of zero, a length that is not one (one line).
+    ClusterError
+        ``scheduler`` cannot be used.
+    """
+    try:
+        plan = window_plan(n_samples=data.samples, window=window, step=step, times=data.time_s)
+    except ValueError as exc:
+        raise ServiceError(f"--{exc}") from None
+    job = WindowJob(config, data, data.usable)
+    tasks = [(index, first, last) for index, (first, last) in enumerate(plan)]
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    if progress is not None:
+        where = f"the Dask cluster at {scheduler}" if scheduler else f"{jobs} process(es)"
+        progress(f"diagnosing {len(tasks)} windows on {where}")
+    start = time.perf_counter()
+    diagnoses = _run(job, tasks, jobs, scheduler)
+    windows = [window_entry(i, span, d, job) for i, (span, d) in enumerate(zip(plan, diagnoses, strict=True))]
+    table = trend_table(windows)
+    window_s = _window_seconds(window, data.sample_time_s)
+    onsets = _onsets(table, windows, window_s)
+    return Monitoring(plan, diagnoses, windows, table, onsets, window_s, time.perf_counter() - start)
