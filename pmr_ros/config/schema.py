@@ -36,7 +36,20 @@ __all__ = [
 SCHEMA_FILE = "parameters.yaml"
 """The declaration file in the package's ``config/`` folder."""
 
-KINDS = ("int", "float", "bool", "string", "names", "channels", "matrix", "types", "columns", "values", "strings")
+KINDS = (
+    "int",
+    "float",
+    "bool",
+    "string",
+    "names",
+    "channels",
+    "matrix",
+    "types",
+    "columns",
+    "values",
+    "strings",
+    "stretches",
+)
 """Parameter types of the declaration (see its header comment)."""
 
 _REQUIRED = object()
@@ -50,10 +63,21 @@ class Shape:
     ----------
     n_outputs, n_inputs : int
         Channels of the system.
+    n_disturbances : int
+        Measured disturbances (DVs): the columns of a parameter declared ``per: disturbances``.
     """
 
     n_outputs: int
     n_inputs: int
+    n_disturbances: int = 0
+
+    def columns(self, per: str) -> int:
+        """The columns of a matrix declared ``per`` (``disturbance_elements``: the DVs), else the inputs."""
+        return self.n_disturbances if per.startswith("disturbance") else self.n_inputs
+
+    def channels(self, per: str) -> int:
+        """The channels of a per-channel list declared ``per`` (outputs, inputs or disturbances)."""
+        return self.n_outputs if per == "outputs" else self.columns(per)
 
 
 @dataclass(frozen=True)
@@ -73,11 +97,15 @@ class Parameter:
     choices : tuple of str
         Allowed strings (empty: any).
     per : str
-        ``outputs`` or ``inputs`` for ``channels``.
+        ``outputs``, ``inputs`` or ``disturbances`` for ``channels``, ``columns`` and ``types``: one
+        per channel; ``disturbance_elements`` for a ``matrix`` or ``types`` of n_outputs x
+        n_disturbances (the DV model).
     scalar : bool
         A ``matrix`` may be one number for every element.
     integer : bool
         The numbers of a ``matrix`` must be whole.
+    infinite : bool
+        ``.inf`` and ``-.inf`` are allowed (a limit that is not there); NaN never is.
     unit, doc : str
     nodes : tuple of str
         The executables that declare it.
@@ -97,6 +125,7 @@ class Parameter:
     per: str = ""
     scalar: bool = False
     integer: bool = False
+    infinite: bool = False
     unit: str = ""
     doc: str = ""
     nodes: tuple[str, ...] = ()
@@ -148,6 +177,8 @@ class Parameter:
     def _number(self, value: Any, source: str, field: str, *, integer: bool) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self._error(source, value, "must be a number", field)
+        if self.infinite and isinstance(value, float) and math.isinf(value):
+            return value
         if not math.isfinite(value if isinstance(value, float) else (0.0 if abs(value) < 2**1023 else math.inf)):
             raise self._error(source, value, "must be finite", field)
         if integer and float(value) != int(value):
@@ -180,6 +211,8 @@ class Parameter:
         return value
 
     def _check_names(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
+        if value == [] and self.default == []:  # an optional list of names (no DVs)
+            return ()
         if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
             raise self._error(source, value, "must be a non-empty list of names")
         if not all(v.isprintable() for v in value):
@@ -194,7 +227,7 @@ class Parameter:
             raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
         if value == []:
             return ()
-        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        length = shape.channels(self.per)
         if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
             raise self._error(source, value, f"must be a list of {length} column names (one per {self.per[:-1]})")
         if len(value) != length:
@@ -215,10 +248,28 @@ class Parameter:
                 out.append(self._number(item, source, f"{self.name}[{j}]", integer=False))
         return tuple(out)
 
+    def _check_stretches(self, value: Any, source: str, shape: Shape | None) -> tuple[tuple[int, int, int | str], ...]:
+        """A list of ``[start, length, channel]`` (channel a 0-based index or a name); numbers whole, >= 0."""
+        if not isinstance(value, list):
+            raise self._error(source, value, "must be a list of [start, length, MV index or name]")
+        out: list[tuple[int, int, int | str]] = []
+        for j, item in enumerate(value):
+            field = f"{self.name}[{j}]"
+            if not isinstance(item, list) or len(item) != 3:
+                raise self._error(source, item, "must be [start, length, MV index or name]", field)
+            start, length, channel = item
+            numbers = [start, length] + ([] if isinstance(channel, str) else [channel])
+            if any(isinstance(n, bool) or not isinstance(n, int) or n < 0 for n in numbers):
+                raise self._error(source, item, "start, length and an MV index must be whole numbers >= 0", field)
+            if length < 1:
+                raise self._error(source, item, "the length must be at least 1 sample", field)
+            out.append((int(start), int(length), channel))
+        return tuple(out)
+
     def _check_channels(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:
             raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
-        length = shape.n_outputs if self.per == "outputs" else shape.n_inputs
+        length = shape.channels(self.per)
         if not isinstance(value, list):
             return np.full(length, self._number(value, source, self.name, integer=False))
         if len(value) != length:
@@ -229,20 +280,23 @@ class Parameter:
     def _check_types(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:
             raise ValueError(f"{self.name}: a per-element parameter needs the system's shape")
-        n = shape.n_outputs * shape.n_inputs
+        if self.per in ("outputs", "inputs", "disturbances"):  # one string per channel
+            rows, cols, what = 1, shape.channels(self.per), f"one per {self.per[:-1]}"
+        else:
+            rows, cols = shape.n_outputs, shape.columns(self.per)
+            what = f"{rows}x{cols}, row by row"
+        n = rows * cols
         items = [value] * n if isinstance(value, str) else value
         if not isinstance(items, list) or len(items) != n:
             count = f", got {len(items)}" if isinstance(items, list) else ""
-            raise self._error(
-                source,
-                value,
-                f"needs {n} entries ({shape.n_outputs}x{shape.n_inputs}, row by row) or one for all{count}",
-            )
+            raise self._error(source, value, f"needs {n} entries ({what}) or one for all{count}")
         for j, item in enumerate(items):
             if item not in self.choices:
-                field = f"{self.name}[{j}] ({element_label(j, shape)})"
-                raise self._error(source, item, f"must be one of {', '.join(self.choices)}", field)
-        return np.array(items, dtype=object).reshape(shape.n_outputs, shape.n_inputs)
+                per_channel = self.per in ("outputs", "inputs", "disturbances")
+                label = "" if per_channel else f" ({element_label(j, shape, self.per)})"
+                raise self._error(source, item, f"must be one of {', '.join(self.choices)}", f"{self.name}[{j}]{label}")
+        out = np.array(items, dtype=object)
+        return out if self.per in ("outputs", "inputs", "disturbances") else out.reshape(rows, cols)
 
     def _check_strings(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         """One string per element (row-major), or one string for every element."""
@@ -264,7 +318,7 @@ class Parameter:
     def _check_matrix(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:
             raise ValueError(f"{self.name}: a matrix parameter needs the system's shape")
-        n_out, n_in = shape.n_outputs, shape.n_inputs
+        n_out, n_in = shape.n_outputs, shape.columns(self.per)
         if self.scalar and isinstance(value, (int, float)) and not isinstance(value, bool):
             value = [value] * (n_out * n_in)
         if not isinstance(value, list):
@@ -282,7 +336,7 @@ class Parameter:
         if fast is not None:
             return fast.reshape(n_out, n_in)
         items = [
-            self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape)})", integer=self.integer)
+            self._number(v, source, f"{self.name}[{j}] ({element_label(j, shape, self.per)})", integer=self.integer)
             for j, v in enumerate(value)
         ]
         return np.array(items, dtype=float).reshape(n_out, n_in)
@@ -310,10 +364,15 @@ class Parameter:
         return array if bool(np.all(ok)) else None
 
 
-def element_label(flat_index: int, shape: Shape) -> str:
-    """``G21`` for the row-major index of an element (``G2_10`` style beyond 9 channels)."""
-    i, k = divmod(flat_index, shape.n_inputs)
-    return element_name(i, k, max(shape.n_outputs, shape.n_inputs))
+def element_label(flat_index: int, shape: Shape, per: str = "") -> str:
+    """``G21`` for the row-major index of an element (``G2_10`` style beyond 9 channels).
+
+    ``per="disturbance_elements"``: an element of the DV model, ``D21`` (``D10_3`` beyond nine).
+    """
+    columns = shape.columns(per)
+    i, k = divmod(flat_index, max(columns, 1))
+    name = element_name(i, k, max(shape.n_outputs, columns))
+    return "D" + name[1:] if per.startswith("disturbance") else name
 
 
 @dataclass(frozen=True)
@@ -343,6 +402,7 @@ def _parameter(block: str, key: str, entry: dict, nodes: tuple[str, ...], live: 
         per=str(entry.get("per", "")),
         scalar=bool(entry.get("scalar", False)),
         integer=bool(entry.get("integer", False)),
+        infinite=bool(entry.get("infinite", False)),
         unit=str(entry.get("unit", "")),
         doc=str(entry.get("doc", "")),
         nodes=tuple(entry.get("nodes", nodes)),
