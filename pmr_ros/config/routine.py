@@ -7,18 +7,27 @@ line naming the field and the value.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.operation import DisturbanceSignalSettings, ManualSettings
+from .errors import ConfigError
 from .schema import parameter
 
-if TYPE_CHECKING:
-    from .build import _Values
-
 __all__ = ["disturbance_mismatch", "disturbance_names", "disturbance_signal", "manual_settings", "zone_settings"]
+
+
+class _Values(Protocol):
+    """The checked access to the effective tree that the config reader gives (``pmr_ros.config.build``)."""
+
+    tree: dict[str, dict[str, Any]]
+
+    def __getitem__(self, name: str) -> Any: ...
+
+    def error(self, name: str, value: Any, reason: str) -> ConfigError: ...
+
 
 DISTURBANCE_FIELDS = ("disturbance_gain", "disturbance_time_constant", "disturbance_delay", "disturbance_element_type")
 """The DV model's fields in the ``system`` and ``plant`` blocks."""

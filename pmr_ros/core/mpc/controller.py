@@ -53,6 +53,7 @@ import numpy as np
 
 from ..sim.model import TransferMatrix
 from .design import (
+    CondensedQp,
     QpWeights,
     condensed_qp,
     input_target_penalty,
@@ -61,10 +62,11 @@ from .design import (
     target_map,
 )
 from .estimator import DisturbanceEstimator
+from .given_inputs import GivenInputs
 from .solver import QpSolver
 from .spec import MpcMatrices, MpcStatistics, MpcTuning
 from .switch import ModelSwitch
-from .zones import ZoneQp, zone_qp
+from .zones import ZoneQp, ZoneTarget, zone_qp
 
 __all__ = ["HISTORY_TIME_CONSTANTS", "LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
 
@@ -82,7 +84,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return out
 
 
-class LinearMpc(ModelSwitch):
+class LinearMpc(GivenInputs, ModelSwitch):
     """Constrained MPC for a transfer-matrix model of any shape.
 
     Parameters
@@ -146,20 +148,33 @@ class LinearMpc(ModelSwitch):
         self._solver = QpSolver(qp.hessian, constraints, self.statistics)
         self._zones: ZoneQp | None = None
         self._zone_solver: QpSolver | None = None
+        self._zone_target: ZoneTarget | None = None
         if tuning.zones_active and np.any(tuning.limited_outputs):
-            zones = (tuning.output_low, tuning.output_high, _vector(tuning.zone_weight, model.n_outputs))
-            plain = (qp.hessian, qp.gradient, qp.gradient_offset, constraints)
-            self._zones = zone_qp(
-                ss,
-                horizons=(Np, Nc),
-                estimator=self.estimator,
-                plain=plain,
-                zones=zones,
-                n_disturbances=self.n_disturbances,
-            )
-            self._zone_solver = QpSolver(self._zones.hessian, self._zones.constraints, self.statistics)
+            self._setup_zones(qp, constraints, unconstrained)
         self._history = np.zeros((max(whole.settling_samples(HISTORY_TIME_CONSTANTS), Np), n_in + self.n_disturbances))
         self.reset()
+
+    def _setup_zones(self, qp: CondensedQp, constraints: np.ndarray, unconstrained: np.ndarray) -> None:
+        """The QP with the soft zones (:mod:`pmr_ros.core.mpc.zones`) and the zone-respecting input target."""
+        t, n_out, n_in = self.tuning, self.model.n_outputs, self.model.n_inputs
+        self._zones = zone_qp(
+            self._ss,
+            horizons=(t.prediction_horizon, t.control_horizon),
+            estimator=self.estimator,
+            plain=(qp.hessian, qp.gradient, qp.gradient_offset, constraints),
+            zones=(t.output_low, t.output_high, _vector(t.zone_weight, n_out)),
+            n_disturbances=self.n_disturbances,
+        )
+        self._zone_solver = QpSolver(self._zones.hessian, self._zones.constraints, self.statistics)
+        self._zone_target = ZoneTarget(
+            tracked_gain=self._tracked_gain(),
+            steady_gain=steady_state_gain(self.model),
+            integrating=self.model.integrating_outputs,
+            zones=(t.output_low, t.output_high),
+            weight=_vector(t.input_target_weight, n_in),
+            input_target=_vector(t.input_target, n_in),
+        )
+        self._target_gradient, self._target_gain = qp.target_gradient, unconstrained @ qp.target_gradient
 
     def _weights(self) -> QpWeights:
         t, n_out, n_in = self.tuning, self.model.n_outputs, self.model.n_inputs
@@ -260,18 +275,16 @@ class LinearMpc(ModelSwitch):
         parts = (self._x, self._u_prev, measured) if self.n_disturbances else (self._x, self._u_prev)
         z = np.concatenate((*parts, np.asarray(setpoint, dtype=float), self._step, self._slope))
         self.statistics.steps += 1
-        moves = self._gain @ z + self._gain_offset
-        manual = None
-        if manual_input is not None and np.any(np.isfinite(manual_input)):
-            manual = np.isfinite(np.asarray(manual_input, dtype=float))
+        offsets = self._offsets(np.asarray(setpoint, dtype=float))
+        moves = self._gain @ z + offsets[0]
+        manual = self.manual_inputs(manual_input)
         if self.always_solve_qp or manual is not None or not self._fast_path_ok(z, moves):
-            move = self._constrained_move(z, manual_input if manual is not None else None)
+            move = self._constrained_move(z, offsets[1], manual)
         else:
             move = moves[: self.model.n_inputs]
         u, applied = self.apply_move(self._u_prev, move, dither)
-        if manual is not None:
-            given = np.asarray(manual_input, dtype=float)
-            u, applied = np.where(manual, given, u), np.where(manual, given, applied)
+        if manual is not None:  # the operator's value, without dither
+            u, applied = np.where(np.isfinite(manual), manual, u), np.where(np.isfinite(manual), manual, applied)
         whole = np.concatenate((applied, measured)) if self.n_disturbances else applied
         self._x = self._ss.advance(self._x, whole)
         self._u_prev = u
@@ -279,13 +292,15 @@ class LinearMpc(ModelSwitch):
         self._applied += 1
         return applied
 
-    def _measured(self, disturbance: np.ndarray | None) -> np.ndarray:
-        """The measured DVs as a vector; a controller with a DV model needs them."""
-        if not self.n_disturbances:
-            return np.zeros(0)
-        if disturbance is None:
-            raise ValueError(f"this controller has a model of {self.n_disturbances} measured disturbances: give them")
-        return np.broadcast_to(np.asarray(disturbance, dtype=float), (self.n_disturbances,)).copy()
+    def _offsets(self, setpoint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The input target's terms of the unconstrained moves and of the QP's linear term, this step.
+
+        Fixed without zones; with zones from the target calculation (:class:`~pmr_ros.core.mpc.zones.ZoneTarget`).
+        """
+        if self._zone_target is None:
+            return self._gain_offset, self._gradient_offset
+        target = self._zone_target.input_target(setpoint, self._step, self._slope)
+        return self._target_gain @ target, self._target_gradient @ target
 
     def _fast_path_ok(self, z: np.ndarray, moves: np.ndarray) -> bool:
         """Whether the unconstrained moves keep every input limit and every soft output zone."""
@@ -293,40 +308,24 @@ class LinearMpc(ModelSwitch):
             return False
         return self._zones is None or self._zones.inside(z, moves)
 
-    def _constrained_move(self, z: np.ndarray, manual_input: np.ndarray | None) -> np.ndarray:
+    def _constrained_move(self, z: np.ndarray, offset: np.ndarray, manual_input: np.ndarray | None) -> np.ndarray:
         """The first move of the QP (with the zones, when there are any); a manual MV's moves fixed."""
         lower, upper = self.move_bounds(self._u_prev)
         if manual_input is not None:
             self._pin_manual(lower, upper, np.asarray(manual_input, dtype=float))
+        q = self._gradient @ z + offset
         if self._zones is None or self._zone_solver is None:
-            return self.solve_constrained(self._gradient @ z + self._gradient_offset, lower=lower, upper=upper)
+            return self.solve_constrained(q, lower=lower, upper=upper)
         zones = self._zones
+        x = self._solver.solve(q, lower=lower, upper=upper)
+        if x is not None and zones.inside(z, x):  # only an input limit binds: the plain QP's answer stands
+            return x[: self.model.n_inputs]
         x = self._zone_solver.solve(
-            zones.gradient @ z + zones.gradient_offset,
+            zones.gradient @ z + np.concatenate([offset, np.zeros(zones.low.size)]),
             lower=np.concatenate([lower, zones.low]),
             upper=np.concatenate([upper, zones.high]),
         )
         return np.zeros(self.model.n_inputs) if x is None else x[: self.model.n_inputs]
-
-    def _pin_manual(self, lower: np.ndarray, upper: np.ndarray, manual_input: np.ndarray) -> None:
-        """Fix a manual MV's moves in the bounds of ``[L dU; dU]``: to the operator's value now, none after."""
-        n_in, Nc = self.model.n_inputs, self.tuning.control_horizon
-        for j in np.flatnonzero(np.isfinite(manual_input)).tolist():
-            path = np.arange(Nc) * n_in + j
-            lower[path], upper[path] = -np.inf, np.inf  # the path follows the fixed moves; no second row on them
-            lower[Nc * n_in + path], upper[Nc * n_in + path] = 0.0, 0.0
-            lower[Nc * n_in + j] = upper[Nc * n_in + j] = manual_input[j] - self._u_prev[j]
-
-    def prediction(self, disturbance: np.ndarray | None = None) -> np.ndarray:
-        """The model's outputs over the horizon with the inputs held and no move, without the disturbance estimates.
-
-        ``yhat(k+j) = C A^j x + S_j [u_prev; v]`` for ``j = 1 .. Np``: what the model alone expects
-        (the feedforward part of the prediction) [output unit], shape (Np, n_outputs).
-        """
-        Np = self.tuning.prediction_horizon
-        Phi, Psi, _ = prediction_matrices(self._ss, prediction_horizon=Np, control_horizon=1)
-        held = np.concatenate((self._u_prev, self._measured(disturbance)))
-        return (Phi @ self._x + Psi @ held).reshape(Np, self.model.n_outputs)
 
     def advance_model(self, x: np.ndarray, applied: np.ndarray) -> np.ndarray:
         """The model's next state ``A x + B u`` after the applied input (rows of a batch alike; no DV model)."""

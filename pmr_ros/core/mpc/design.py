@@ -226,12 +226,16 @@ class CondensedQp:
         From the input targets.
     cumulative : ndarray, shape (Nc*n_in, Nc*n_in)
         Moves to input path: ``u_path = tile(u_prev) + cumulative @ dU``.
+    target_gradient : ndarray, shape (Nc*n_in, n_in)
+        ``gradient_offset`` per unit of input target: ``gradient_offset = target_gradient @ input_target``
+        (a target computed each step, as with CV zones, enters through it).
     """
 
     hessian: np.ndarray
     gradient: np.ndarray
     gradient_offset: np.ndarray
     cumulative: np.ndarray
+    target_gradient: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -287,4 +291,4 @@ def condensed_qp(
     to_target = -W.reshape(-1, Np, n_out).sum(axis=1) @ targets
     to_target[:, 2 * n_out :] += W @ ramp
     gradient = np.hstack([W @ Phi, W @ Psi + hold, *([W @ Psi_v] if n_disturbances else []), to_target])
-    return CondensedQp(0.5 * (hessian + hessian.T), gradient, -hold @ weights.input_target, cumulative)
+    return CondensedQp(0.5 * (hessian + hessian.T), gradient, -hold @ weights.input_target, cumulative, -hold)

@@ -10,7 +10,7 @@ output plus step estimate) carry over.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,7 +19,8 @@ from .estimator import DisturbanceEstimator
 from .spec import MpcStatistics, MpcTuning
 
 if TYPE_CHECKING:
-    from .controller import LinearMpc
+    from typing_extensions import Self
+
     from .solver import QpSolver
 
 __all__ = ["ModelSwitch"]
@@ -87,7 +88,7 @@ class ModelSwitch:
             return f"the new model's sample time {model.sample_time:g} is not the controller's {old.sample_time:g}"
         return None
 
-    def switched(self, model: TransferMatrix) -> LinearMpc:
+    def switched(self, model: TransferMatrix) -> Self:
         """A controller on ``model``, same tuning, that takes over from this one without a bump.
 
         Its QP is built for ``model``, then it :meth:`take_over` this one's
@@ -112,11 +113,8 @@ class ModelSwitch:
         problem = self.switch_problem(model)
         if problem:
             raise ValueError(problem)
-        new = cast(
-            "LinearMpc",
-            type(self)(
-                model, self.tuning, always_solve_qp=self.always_solve_qp, disturbance_model=self.disturbance_model
-            ),
+        new = type(self)(
+            model, self.tuning, always_solve_qp=self.always_solve_qp, disturbance_model=self.disturbance_model
         )
         new.take_over(self)
         return new

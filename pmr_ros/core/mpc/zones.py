@@ -10,10 +10,11 @@ limited CV, bounded to its zone, and the cost ``w (yhat - t)^2``:
 Inside its zone ``t = yhat`` costs nothing; outside, the cost is ``w`` times the
 squared distance to the zone (a soft constraint: a slack whose square is
 penalized, so the QP is always feasible).  The points reach to the end of the
-horizon, which covers the settling, so the steady state the controller heads
-for lies inside the zones as far as the setpoints allow (the target
-calculation respects the zones); zone CVs take no part in the setpoint
-compromise of :func:`~pmr_ros.core.mpc.design.target_map`.
+horizon, which covers the settling, and the input target the controller
+heads for is moved each step to a steady state inside the zones
+(:class:`ZoneTarget`): the target calculation respects the zones, with the
+setpoints first, the zones next and the input targets last.  Zone CVs take
+no part in the setpoint compromise of :func:`~pmr_ros.core.mpc.design.target_map`.
 
 The extra variables exist only in the constrained solve.  When the
 unconstrained moves keep every input limit and every predicted limited output
@@ -28,10 +29,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..sim.model import StateSpace
-from .design import prediction_matrices, split_disturbances
+from .design import null_space, prediction_matrices, split_disturbances
 from .estimator import DisturbanceEstimator
+from .qp import DenseQp
 
-__all__ = ["ZONE_POINTS", "ZoneQp", "zone_points", "zone_qp"]
+__all__ = ["ZONE_POINTS", "ZoneQp", "ZoneTarget", "zone_points", "zone_qp"]
 
 ZONE_POINTS = 10
 """Checked points of the horizon per limited CV (fewer when the horizon is shorter)."""
@@ -149,3 +151,73 @@ def zone_qp(
         prediction=P,
         moves=T,
     )
+
+
+class ZoneTarget:
+    """The input target of the steady state that meets the setpoints and keeps the stable limited CVs in their zones.
+
+    The controller's input-target penalty pulls the inputs, along the freedom
+    the setpoints leave (the null space ``N`` of the tracked steady-state
+    gain), towards ``u_target``; a zone CV is free there, so the pull may take
+    it out of its zone, against the zone's soft penalty.  Each step this
+    target calculation moves the target to the steady state nearest
+    ``u_target`` (S-norm) among those that meet the setpoints (least squares)
+    and keep every stable limited CV inside its zone -- a small QP in the
+    free coordinates ``alpha``, ``u = u_sp + N alpha``.  Priorities: the
+    setpoints, then the zones, then the input targets.  When no zone binds
+    the penalty is unchanged (``M u_target`` is the same), so the controller
+    is the plain one; when the zones cannot be met with the setpoints, the
+    configured target stands and the soft penalty over the horizon decides.
+
+    Parameters
+    ----------
+    tracked_gain : ndarray, shape (n_outputs, n_inputs)
+        The steady-state gain of what the setpoints fix (a stable zone CV's row zero).
+    steady_gain : ndarray, shape (n_outputs, n_inputs)
+        :func:`~pmr_ros.core.mpc.design.steady_state_gain`.
+    integrating : ndarray of bool, shape (n_outputs,)
+        The integrating outputs (their steady state: the rate ``-p``).
+    zones : (low, high)
+        Per output [output unit].
+    weight, input_target : ndarray, shape (n_inputs,)
+        ``S`` and ``u_target``.
+    """
+
+    def __init__(
+        self,
+        *,
+        tracked_gain: np.ndarray,
+        steady_gain: np.ndarray,
+        integrating: np.ndarray,
+        zones: tuple[np.ndarray, np.ndarray],
+        weight: np.ndarray,
+        input_target: np.ndarray,
+    ) -> None:
+        low, high = (np.asarray(a, dtype=float) for a in zones)
+        self._integrating = np.asarray(integrating, dtype=bool)
+        self._fixed = np.any(tracked_gain != 0, axis=1) & ~self._integrating  # stable setpoint rows: r - d
+        self._pinv = np.linalg.pinv(tracked_gain)
+        self._free = null_space(tracked_gain)
+        self._rows = np.flatnonzero((np.isfinite(low) | np.isfinite(high)) & ~self._integrating)
+        self._gain = steady_gain[self._rows]
+        self._low, self._high = low[self._rows], high[self._rows]
+        self._target, self._weight = np.asarray(input_target, dtype=float), np.asarray(weight, dtype=float)
+        self._qp: DenseQp | None = None
+        if self._free.shape[1] and self._rows.size:
+            sn = self._weight[:, None] * self._free
+            self._qp = DenseQp(self._free.T @ sn, self._gain @ self._free)
+
+    def input_target(self, setpoint: np.ndarray, step: np.ndarray, slope: np.ndarray) -> np.ndarray:
+        """The zone-respecting input target for setpoints ``r``, step estimates ``d`` and slopes ``p``."""
+        if self._qp is None:
+            return self._target
+        b = np.zeros(step.shape[0])
+        b[self._fixed] = (setpoint - step)[self._fixed]
+        b[self._integrating] = -slope
+        u_sp = self._pinv @ b
+        q = self._free.T @ (self._weight * (u_sp - self._target))
+        base = step[self._rows] + self._gain @ u_sp
+        solution = self._qp.solve(q, lower=self._low - base, upper=self._high - base)
+        if not solution.solved:  # setpoints and zones cannot both be met: the horizon's soft penalty decides
+            return self._target
+        return u_sp + self._free @ solution.x

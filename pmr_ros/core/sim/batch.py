@@ -199,11 +199,7 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     Returns
     -------
     LockstepResult
-
-    Notes
-    -----
-    A configuration with routine-operation features (DVs, CV zones, setpoint
-    steps, manual stretches) falls back to :func:`simulate` run by run.
+        With routine-operation features (DVs, zones, setpoint steps, manual stretches): ``simulate``'s, run by run.
     """
     runs = _check_runs(runs)
     samples = config.run.samples if samples is None else int(samples)
