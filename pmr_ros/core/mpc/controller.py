@@ -260,9 +260,8 @@ class LinearMpc(GivenInputs, ModelSwitch):
             needed with a DV model: its predicted effect enters the prediction
             (feedforward) and ``v(k)`` advances the model with ``u(k)``.
         manual_input : array_like, shape (n_inputs,), optional
-            The operator's value of each MV in manual (its controller off), NaN
-            for the MVs in automatic [input unit].  A manual MV is a given
-            input: its moves are fixed in the QP, and its value (no dither) is applied.
+            The operator's value of each MV in manual (its controller off), NaN for the MVs in
+            automatic [input unit]: a given input, its moves fixed in the QP, its value applied (no dither).
 
         Returns
         -------
@@ -278,19 +277,25 @@ class LinearMpc(GivenInputs, ModelSwitch):
         offsets = self._offsets(np.asarray(setpoint, dtype=float))
         moves = self._gain @ z + offsets[0]
         manual = self.manual_inputs(manual_input)
-        if self.always_solve_qp or manual is not None or not self._fast_path_ok(z, moves):
-            move = self._constrained_move(z, offsets[1], manual)
+        limits_ok = self.within_limits(moves, self._u_prev)
+        zones_ok = self._zones is None or self._zones.inside(z, moves)
+        if self.always_solve_qp or manual is not None or not (limits_ok and zones_ok):
+            move = self._constrained_move(z, offsets[1], manual, plain_first=not limits_ok)
         else:
             move = moves[: self.model.n_inputs]
         u, applied = self.apply_move(self._u_prev, move, dither)
         if manual is not None:  # the operator's value, without dither
             u, applied = np.where(np.isfinite(manual), manual, u), np.where(np.isfinite(manual), manual, applied)
+        self._advance(u, applied, measured)
+        return applied
+
+    def _advance(self, u: np.ndarray, applied: np.ndarray, measured: np.ndarray) -> None:
+        """Advance the model with the applied inputs and the measured DVs; keep them in the history."""
         whole = np.concatenate((applied, measured)) if self.n_disturbances else applied
         self._x = self._ss.advance(self._x, whole)
         self._u_prev = u
         self._history[self._applied % self._history.shape[0]] = whole
         self._applied += 1
-        return applied
 
     def _offsets(self, setpoint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The input target's terms of the unconstrained moves and of the QP's linear term, this step.
@@ -302,14 +307,14 @@ class LinearMpc(GivenInputs, ModelSwitch):
         target = self._zone_target.input_target(setpoint, self._step, self._slope)
         return self._target_gain @ target, self._target_gradient @ target
 
-    def _fast_path_ok(self, z: np.ndarray, moves: np.ndarray) -> bool:
-        """Whether the unconstrained moves keep every input limit and every soft output zone."""
-        if not self.within_limits(moves, self._u_prev):
-            return False
-        return self._zones is None or self._zones.inside(z, moves)
+    def _constrained_move(
+        self, z: np.ndarray, offset: np.ndarray, manual_input: np.ndarray | None, *, plain_first: bool = True
+    ) -> np.ndarray:
+        """The first move of the QP (with the zones, when there are any); a manual MV's moves fixed.
 
-    def _constrained_move(self, z: np.ndarray, offset: np.ndarray, manual_input: np.ndarray | None) -> np.ndarray:
-        """The first move of the QP (with the zones, when there are any); a manual MV's moves fixed."""
+        With zones, ``plain_first``: the plain QP first (an input limit binds), its answer taken when it keeps
+        every zone; else (or when the unconstrained moves already left a zone) the QP with the zones.
+        """
         lower, upper = self.move_bounds(self._u_prev)
         if manual_input is not None:
             self._pin_manual(lower, upper, np.asarray(manual_input, dtype=float))
@@ -317,7 +322,7 @@ class LinearMpc(GivenInputs, ModelSwitch):
         if self._zones is None or self._zone_solver is None:
             return self.solve_constrained(q, lower=lower, upper=upper)
         zones = self._zones
-        x = self._solver.solve(q, lower=lower, upper=upper)
+        x = self._solver.solve(q, lower=lower, upper=upper) if plain_first else None
         if x is not None and zones.inside(z, x):  # only an input limit binds: the plain QP's answer stands
             return x[: self.model.n_inputs]
         x = self._zone_solver.solve(
