@@ -272,8 +272,8 @@ def test_metadata_yaml_is_rosbag2_jazzy_metadata():
     assert info["relative_file_paths"] == ["wood_berry_full.mcap"]
     assert info["message_count"] == sum(t["message_count"] for t in info["topics_with_message_count"])
     topics = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
-    # the model topics joined the contract after the reference bag was recorded
-    later = {topic(key).resolved() for key in ("proposed_model", "active_model")}
+    # the model topics and the measured disturbances joined the contract after the reference bag was recorded
+    later = {topic(key).resolved() for key in ("proposed_model", "active_model", "disturbance")}
     assert set(topics) == {t.name for t in recorded_topics().values()} - later
     for t in recorded_topics().values():
         if t.name in later:

@@ -13,6 +13,7 @@ from functools import cache
 from typing import Any
 
 from ..resources import share_dir
+from .errors import ConfigError
 from .files import load_yaml
 from .value_checks import Shape, ValueChecks, element_label
 
@@ -20,6 +21,7 @@ __all__ = [
     "KINDS",
     "SCHEMA_FILE",
     "Block",
+    "ConfigError",
     "Parameter",
     "Shape",
     "blocks",
