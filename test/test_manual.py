@@ -67,3 +67,17 @@ def test_stretches_beyond_the_run_are_cut_and_draw_the_same_moves():
     np.testing.assert_array_equal(short_manual, long_manual[:100])
     np.testing.assert_array_equal(short_offset, long_offset[:100])
     assert short_manual[95:, 1].all() and long_manual[95:145, 1].all() and not long_manual[145:, 1].any()
+
+
+def test_a_node_set_run_says_it_plays_no_operator(manual_run, capsys):
+    import argparse
+
+    from pmr_ros.commands.run import _check_before_running
+
+    config, _ = manual_run
+    args = argparse.Namespace(adapt=False, bag=None, batch=False, samples=None, json=None)
+    _check_before_running(args, config)
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "run.manual_stretches are simulated by --batch only" in err
+    _check_before_running(argparse.Namespace(adapt=False, bag=None, batch=True, samples=None, json=None), config)
+    assert capsys.readouterr().err == ""
