@@ -153,3 +153,18 @@ def test_the_number_grammar_reads_yaml_infinities_not_nan():
 
     assert parse_number("-.inf") == -math.inf and parse_number("+.INF") == math.inf
     assert parse_number(".nan") is None and parse_number("inf") is None
+
+
+def test_a_written_model_file_and_a_new_system_block_keep_the_dv_model(tmp_path):
+    from pmr_ros.config.write import model_params_text, system_tree
+    from pmr_ros.contract.model_topics import with_system
+
+    config = _config()
+    path = tmp_path / "model.yaml"
+    path.write_text(model_params_text(config.model, settings=config.parameters))
+    again = load_config(path)
+    assert again.disturbance_model is not None and config.disturbance_model is not None
+    np.testing.assert_array_equal(again.disturbance_model.gain, config.disturbance_model.gain)
+    switched = with_system(config, system_tree(config.model), "test")
+    assert switched.disturbance_model is not None
+    np.testing.assert_array_equal(switched.disturbance_model.delay, config.disturbance_model.delay)
