@@ -115,3 +115,15 @@ def test_the_lockstep_batch_runs_routine_configurations_as_simulate_does(with_dv
         np.testing.assert_allclose(record.y, alone.y, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(record.dv, alone.dv)
     assert result.statistics[0].steps == 300
+
+
+def test_the_loop_matrix_of_a_feedforward_controller_is_the_plain_ones(with_dvs):
+    from pmr_ros.core.mpc.stability import closed_loop_matrix, loop_spectral_radius
+
+    plain = LinearMpc(with_dvs.model, with_dvs.mpc)
+    fed = LinearMpc(with_dvs.model, with_dvs.mpc, disturbance_model=with_dvs.disturbance_model)
+    plant = with_dvs.plant()
+    # the DVs are external inputs: with them at zero the loop is the plain controller's on the G part of the model
+    radius = loop_spectral_radius(fed, plant)
+    np.testing.assert_allclose(radius, loop_spectral_radius(plain, plant), rtol=1e-9)
+    assert closed_loop_matrix(fed, plant).shape[0] > closed_loop_matrix(plain, plant).shape[0]  # the DV states
