@@ -101,7 +101,8 @@ def test_no_node_declares_the_data_block(wood_berry):
     from pmr_ros.config.schema import parameters
 
     assert all(not p.nodes for name, p in parameters().items() if name.startswith("data."))
-    # read by pmr-ros alone: the data block and --adapt's rollback tolerance
-    assert all(p.nodes for name, p in parameters().items() if not name.startswith(("data.", "adapt.")))
+    # read by pmr-ros alone: the data block, --adapt's rollback tolerance and the simulated manual stretches
+    alone = ("data.", "adapt.", "run.manual_")
+    assert all(p.nodes for name, p in parameters().items() if not name.startswith(alone))
     assert not parameters()["adapt.ise_rise_tolerance_pct"].nodes
     assert "bad_values" in wood_berry.parameters["data"]  # in the effective tree, with its mixed-type list

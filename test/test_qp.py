@@ -93,7 +93,8 @@ def test_the_mpc_falls_back_to_osqp_when_the_active_set_method_fails(wood_berry)
     r = np.tile([3.0, -3.0], (60, 1))  # far beyond the limits: every step binds
     exact = LinearMpc(wood_berry.model, wood_berry.mpc)
     forced = LinearMpc(wood_berry.model, wood_berry.mpc)
-    forced._qp = DenseQp(forced._hessian, forced._constraints, max_iterations=1)  # breaks down on purpose
+    solver = forced._solver
+    solver.qp = DenseQp(solver.hessian, solver.constraints, max_iterations=1)  # breaks down on purpose
     y = np.zeros(2)
     for setpoint in r:
         np.testing.assert_allclose(forced.step(y, setpoint), exact.step(y, setpoint), atol=1e-6)

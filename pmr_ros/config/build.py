@@ -27,6 +27,13 @@ from .data import DataSettings, check_data_settings, data_settings
 from .errors import ConfigError
 from .plant_block import plant_block
 from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
+from .routine import (
+    disturbance_mismatch,
+    disturbance_names,
+    disturbance_signal,
+    manual_settings,
+    zone_settings,
+)
 from .schema import Shape, blocks, closest_name, default_tree, element_label, parameter, parameters
 
 __all__ = ["check_tree", "parse_config"]
@@ -120,52 +127,62 @@ def _model(v: _Values) -> TransferMatrix:
             "gain, time_constant, delay)",
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
-    v.shape = Shape(len(outputs), len(inputs))
+    v.shape = Shape(len(outputs), len(inputs), len(disturbance_names(v, inputs)))
     return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
 
 
-def _check_elements(v: _Values, block: str, kinds: np.ndarray, gain: np.ndarray, tau: np.ndarray) -> None:
+def _check_elements(
+    v: _Values, block: str, kinds: np.ndarray, gain: np.ndarray, tau: np.ndarray, *, prefix: str
+) -> None:
     """Per element type: a non-zero gain, a positive FOPTD time constant; warn of an integrating one's ignored tau."""
-    shape = v.shape
-    label = (lambda j: element_label(j, shape)) if shape is not None else (lambda j: "")
+    shape, per = v.shape, "disturbance_elements" if prefix else ""
+    label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
     flat_kinds, g, t = kinds.ravel(), gain.ravel(), tau.ravel()
     zero_gain = np.flatnonzero((flat_kinds != "none") & (g == 0))
     bad_tau = np.flatnonzero((flat_kinds == "foptd") & (t <= 0))
     if zero_gain.size and (not bad_tau.size or zero_gain[0] <= bad_tau[0]):
         j = int(zero_gain[0])
         raise v.error(
-            f"{block}.gain[{j}] ({label(j)})", 0.0, "must be non-zero: use element_type none for an empty cell"
+            f"{block}.{prefix}gain[{j}] ({label(j)})", 0.0, "must be non-zero: use element_type none for an empty cell"
         )
     if bad_tau.size:
         j = int(bad_tau[0])
-        raise v.error(f"{block}.time_constant[{j}] ({label(j)})", float(t[j]), "must be > 0")
+        raise v.error(f"{block}.{prefix}time_constant[{j}] ({label(j)})", float(t[j]), "must be > 0")
     for j in np.flatnonzero((flat_kinds == "integrating") & (t > 0)).tolist():
         v.warnings.append(
-            f"{v.source_of(f'{block}.time_constant')}: {block}.time_constant[{j}] ({label(j)}) = "
+            f"{v.source_of(f'{block}.{prefix}time_constant')}: {block}.{prefix}time_constant[{j}] ({label(j)}) = "
             f"{t[j]:g} is ignored: {label(j)} is integrating"
         )
 
 
-def _matrix(v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[str, ...], name: str) -> TransferMatrix:
-    """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type."""
+def _matrix(
+    v: _Values, block: str, *, outputs: tuple[str, ...], inputs: tuple[str, ...], name: str, prefix: str = ""
+) -> TransferMatrix:
+    """The elements of ``block`` (``system`` or ``plant``) as a :class:`TransferMatrix`, checked per element type.
+
+    ``prefix="disturbance_"``: the block's DV elements (``disturbance_gain``, ...), n_outputs x n_disturbances.
+    """
     ts = v["system.sample_time"]
-    kinds = v[f"{block}.element_type"]
+    per = "disturbance_elements" if prefix else ""
+    shape = v.shape
+    label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
+    kinds = v[f"{block}.{prefix}element_type"]
     later = np.flatnonzero(np.isin(kinds.ravel(), ("tf", "step_response")))
     if later.size:  # read by pmr-ros model import/export; the simulation and diagnosis take them later (issue 23)
         j = int(later[0])
         raise v.error(
-            f"{block}.element_type[{j}] ({element_label(j, v.shape) if v.shape else ''})",
+            f"{block}.element_type[{j}] ({label(j)})",
             kinds.ravel()[j],
             "is read by pmr-ros model import/export but not yet simulated or diagnosed",
         )
-    gain, tau, delay = v[f"{block}.gain"], v[f"{block}.time_constant"], v[f"{block}.delay"]
-    _check_elements(v, block, kinds, gain, tau)
+    gain, tau, delay = v[f"{block}.{prefix}gain"], v[f"{block}.{prefix}time_constant"], v[f"{block}.{prefix}delay"]
+    _check_elements(v, block, kinds, gain, tau, prefix=prefix)
     whole = np.where(kinds == "none", 0.0, delay / ts)
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
     if bad.size:
         j = int(bad[0])
         raise v.error(
-            f"{block}.delay[{j}] ({element_label(j, v.shape) if v.shape else ''})",
+            f"{block}.{prefix}delay[{j}] ({label(j)})",
             float(delay.ravel()[j]),
             f"must be a whole number of samples (sample_time = {ts:g})",
         )
@@ -182,9 +199,19 @@ def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any])
             raise v.error(
                 clash, None, "cannot be given with a plant block: the plant block is the true plant of the run"
             )
-    plant_block(v.tree[PLANT_BLOCK], model, error=v.error)
+    plant_block(v.tree[PLANT_BLOCK], model, error=v.error, disturbance_names=disturbance_names(v, model.input_names))
     name = v[f"{PLANT_BLOCK}.name"] or model.name
     return _matrix(v, PLANT_BLOCK, outputs=model.output_names, inputs=model.input_names, name=name)
+
+
+def _disturbance_model(v: _Values, model: TransferMatrix, block: str = SYSTEM_BLOCK) -> TransferMatrix | None:
+    """The DV elements of ``block`` (the feedforward model, or the plant's true ones); None without DVs."""
+    names = disturbance_names(v, model.input_names)
+    if not names or (block == PLANT_BLOCK and "disturbance_gain" not in v.tree.get(PLANT_BLOCK, {})):
+        return None
+    if block == PLANT_BLOCK:
+        plant_block(v.tree[PLANT_BLOCK], model, error=v.error, disturbance_names=names)
+    return _matrix(v, block, outputs=model.output_names, inputs=names, name=model.name, prefix="disturbance_")
 
 
 def _mismatch(v: _Values, model: TransferMatrix) -> Mismatch:
@@ -200,6 +227,9 @@ def _prbs(v: _Values) -> PrbsSettings:
         clock_period=v["prbs.clock_period"],
         amplitude=v["prbs.amplitude"],
         nominal=v["prbs.nominal"],
+        mode=v["prbs.mode"],
+        step_interval_samples=v["prbs.step_interval_samples"],
+        step_amplitude=v["prbs.step_amplitude"],
     )
 
 
@@ -243,6 +273,7 @@ def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
         input_target=target,
         input_target_weight=v["mpc.input_target_weight"],
         ramp_filter_samples=v["mpc.ramp_filter_samples"],
+        **zone_settings(v, model.output_names),
     )
 
 
@@ -324,6 +355,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     _check_prbs_channels(v, model, excitation)
     mpc = _mpc(v, model)
+    dv_model = _disturbance_model(v, model)
     return PmrConfig(
         model=model,
         mismatch=_mismatch(v, model),
@@ -350,6 +382,11 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),
+        disturbance_model=dv_model,
+        disturbance_mismatch=None if dv_model is None else disturbance_mismatch(v, dv_model),
+        explicit_disturbance_plant=None if dv_model is None else _disturbance_model(v, model, PLANT_BLOCK),
+        disturbance_signal=disturbance_signal(v),
+        manual=manual_settings(v, model.input_names),
         warnings=tuple(v.warnings),
         given=frozenset(f"{block}.{key}" for block, values in checked.items() for key in values),
     )

@@ -7,9 +7,11 @@ with an optional decimal point, an optional exponent (``12``, ``-0.5``,
 (YAML 1.1) read those as numbers and Python's ``int``/``float`` read some of
 them too, while a node's ROS parameter parser refused them -- and PyYAML read
 ``1e9`` (no decimal point) as text, which the nodes took as a number.  A
-leading zero is decimal (``010`` is ten, not octal eight).  YAML's special
-floats (``.inf``, ``.nan``) stay what YAML makes of them; every range check
-refuses them.
+leading zero is decimal (``010`` is ten, not octal eight).  YAML's
+infinities (``.inf``, ``-.inf``, ``+.Inf``, ``.INF``) are read as infinite
+floats: a limit that is not there (``mpc.output_low``, ``mpc.output_high``);
+every other range check refuses them.  ``.nan`` stays what YAML makes of it
+and is refused everywhere.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ INT_TAG, FLOAT_TAG, STR_TAG = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
 
 _INTEGER = re.compile(r"[-+]?[0-9]+").fullmatch
 _DECIMAL = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?").fullmatch
+_INFINITY = re.compile(r"[-+]?\.(?:inf|Inf|INF)").fullmatch
 
 
 def is_integer_text(text: str) -> bool:
@@ -44,12 +47,16 @@ def parse_number(text: str) -> int | float | None:
     (1000000000.0, 10, -0.5)
     >>> parse_number("0x10"), parse_number("1_9.4"), parse_number("1:30"), parse_number("nan")
     (None, None, None, None)
+    >>> parse_number("-.inf"), parse_number(".Inf"), parse_number("inf")
+    (-inf, inf, None)
     """
     text = text.strip()
     if _INTEGER(text):
         return int(text)
     if _DECIMAL(text):
         return float(text)
+    if _INFINITY(text):
+        return float(text.replace(".", "").lower())
     return None
 
 

@@ -17,11 +17,17 @@ from .schema import parameter
 
 __all__ = ["plant_block"]
 
-SHARED = ("sample_time", "output_names", "input_names")
+SHARED = ("sample_time", "output_names", "input_names", "disturbance_names")
 """Fields the plant block may repeat from the system block, equal to it."""
 
 
-def plant_block(block: dict[str, Any], model: TransferMatrix, *, error: Callable[[str, Any, str], ConfigError]) -> None:
+def plant_block(
+    block: dict[str, Any],
+    model: TransferMatrix,
+    *,
+    error: Callable[[str, Any, str], ConfigError],
+    disturbance_names: tuple[str, ...] = (),
+) -> None:
     """Lay the block's declared defaults under it and check its repeated system fields, in place.
 
     Parameters
@@ -32,18 +38,24 @@ def plant_block(block: dict[str, Any], model: TransferMatrix, *, error: Callable
         The system's model.
     error : callable
         ``error(name, value, reason)`` -> the :class:`ConfigError` to raise.
+    disturbance_names : tuple of str
+        The system's DVs, when the block's DV elements are read (their defaults laid under them too).
 
     Raises
     ------
     ConfigError
         A repeated field that differs from the system's.
     """
-    for key in ("name", "element_type"):
+    keys: tuple[str, ...] = ("name", "element_type")
+    if disturbance_names:
+        keys += ("disturbance_time_constant", "disturbance_delay", "disturbance_element_type")
+    for key in keys:
         block.setdefault(key, parameter(f"plant.{key}").default)
     system: dict[str, Any] = {
         "sample_time": model.sample_time,
         "output_names": model.output_names,
         "input_names": model.input_names,
+        "disturbance_names": disturbance_names,
     }
     for key in SHARED:
         if key not in block:

@@ -5,7 +5,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ from ..core.pmr.data_quality import QualitySettings
 from ..core.pmr.parametric import ParametricSettings
 from ..core.sim.excitation import ExcitationSettings, PrbsSettings
 from ..core.sim.model import Mismatch, TransferMatrix
+from ..core.sim.operation import DisturbanceSignalSettings, ManualSettings
 from ..core.sim.true_plant import OutputDisturbance
 from .data import DataSettings
 
@@ -107,6 +108,14 @@ class PmrConfig:
     disturbance_model : TransferMatrix or None
         The controller's feedforward model of the measured disturbances (DVs),
         n_outputs x n_disturbances, its input names the DV names; None without DVs.
+    disturbance_mismatch : Mismatch or None
+        The ``mismatch`` block's DV part (``disturbance_gain_pct``, ...); None without DVs.
+    explicit_disturbance_plant : TransferMatrix or None
+        The ``plant`` block's DV elements, when given.
+    disturbance_signal : DisturbanceSignalSettings
+        How the simulated DVs move (the ``disturbance_signal`` block).
+    manual : ManualSettings
+        The simulated manual stretches (``run.manual_stretches``).
     warnings : tuple of str
         Values accepted but worth a word (a time constant an integrating element ignores).
     given : frozenset of str
@@ -133,6 +142,10 @@ class PmrConfig:
     parameters: dict[str, Any]
     explicit_plant: TransferMatrix | None = None
     disturbance_model: TransferMatrix | None = None
+    disturbance_mismatch: Mismatch | None = None
+    explicit_disturbance_plant: TransferMatrix | None = None
+    disturbance_signal: DisturbanceSignalSettings = field(default_factory=DisturbanceSignalSettings)
+    manual: ManualSettings = field(default_factory=ManualSettings)
     warnings: tuple[str, ...] = ()
     given: frozenset[str] = frozenset()
 
@@ -144,3 +157,16 @@ class PmrConfig:
         if self.explicit_plant is not None:
             return self.explicit_plant
         return self.model.with_mismatch(self.mismatch.for_scenario(scenario or self.run.scenario))
+
+    def disturbance_plant(self, scenario: str | None = None) -> TransferMatrix | None:
+        """The true DV elements ``Gd``: the ``plant`` block's, else the DV model under ``scenario``'s DV mismatch.
+
+        None without DVs.  With a ``plant`` block that gives no DV elements they are the model's.
+        """
+        if self.explicit_disturbance_plant is not None or self.disturbance_model is None:
+            return self.explicit_disturbance_plant
+        if self.disturbance_mismatch is None or self.explicit_plant is not None:
+            return self.disturbance_model
+        return self.disturbance_model.with_mismatch(
+            self.disturbance_mismatch.for_scenario(scenario or self.run.scenario)
+        )

@@ -90,6 +90,11 @@ def model_params_text(
     """
     lines = [f"# {line}" for line in header]
     lines += ["/**:", "  ros__parameters:", *_system_lines(model, notes or {})]
+    # the measured disturbances' model is the controller's too: kept as it is
+    dvs = {k: v for k, v in dict(settings.get("system", {})).items() if k.startswith("disturbance_") and v != []}
+    if dvs.get("disturbance_names"):
+        dumped = yaml.safe_dump(dvs, sort_keys=False, default_flow_style=None, width=120)
+        lines += [f"{INDENT}  {line}" for line in dumped.splitlines()]
     rest = {k: v for k, v in settings.items() if k != "system" and k not in SIMULATION_TRUTH}
     if rest:
         dumped = yaml.safe_dump(rest, sort_keys=False, default_flow_style=None, width=120)

@@ -99,10 +99,13 @@ def system_parameters(text: str, source: str) -> dict[str, Any]:
 def with_system(config: PmrConfig, system: dict[str, Any], source: str) -> PmrConfig:
     """``config`` with its ``system`` block replaced, validated as a params file would be.
 
+    The measured disturbances' model (``system.disturbance_*``) stays the configuration's.
+
     Raises
     ------
     ConfigError
         The block is invalid (one line naming ``source`` and the field).
     """
-    tree = {**config.parameters, "system": dict(system)}
+    dvs = {k: v for k, v in config.parameters.get("system", {}).items() if k.startswith("disturbance_")}
+    tree = {**config.parameters, "system": {**dvs, **system}}
     return parse_config(tree, source)

@@ -141,7 +141,8 @@ def _system_values(path: Path) -> dict[str, Any]:
         if key not in system:
             raise ConfigError(path, f"system.{key}", None, "missing")
         names[key] = parameter(f"system.{key}").check(system[key], source=str(path))
-    shape = Shape(len(names["output_names"]), len(names["input_names"]))
+    dvs = parameter("system.disturbance_names").check(system.get("disturbance_names", []), source=str(path))
+    shape = Shape(len(names["output_names"]), len(names["input_names"]), len(dvs))
     values = dict(names)
     for key in known:
         spec = parameter(f"system.{key}")

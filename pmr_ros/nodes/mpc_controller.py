@@ -1,7 +1,8 @@
-"""``mpc_controller``: constrained MPC on the model Ghat; u(k) from y(k) and r(k).
+"""``mpc_controller``: constrained MPC on the model Ghat; u(k) from y(k) and r(k) (and the DVs v(k)).
 
 The controller answers sample k once both y(k) and r(k) have arrived (in
-either order), steps :class:`~pmr_ros.core.mpc.controller.LinearMpc` once per sample in
+either order; with measured disturbances, ``system.disturbance_names``, v(k)
+on ``pmr/disturbance`` as well: fed forward), steps :class:`~pmr_ros.core.mpc.controller.LinearMpc` once per sample in
 index order and publishes u(k) with the same stamp.  In real-time mode a late
 setpoint is replaced by the newest earlier one.
 
@@ -41,7 +42,7 @@ class MpcControllerNode(ConfiguredNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, sim_time=True, **kwargs)
         self.model = self.config.model
-        self.controller = LinearMpc(self.model, self.config.mpc)
+        self.controller = LinearMpc(self.model, self.config.mpc, disturbance_model=self.config.disturbance_model)
         # the MV dither is a pure function of the sample and the seed, as in the batch core
         cfg = self.config
         self.dither = dither_generator(cfg.excitation, cfg.prbs, cfg.run.seed) if cfg.excitation.active else None
@@ -49,8 +50,16 @@ class MpcControllerNode(ConfiguredNode):
         self.next_sample = 0
         self._r: dict[int, np.ndarray] = {}
         self._y: dict[int, np.ndarray] = {}
+        self._v: dict[int, np.ndarray] | None = None if self.config.disturbance_model is None else {}
+        self._latest_v = np.zeros(
+            0 if self.config.disturbance_model is None else self.config.disturbance_model.n_inputs
+        )
         self._latest_r: np.ndarray | None = None
-        self._labels = {"r": f"r on {topic('setpoint').name}", "y": f"y on {topic('measured_output').name}"}
+        self._labels = {
+            "r": f"r on {topic('setpoint').name}",
+            "y": f"y on {topic('measured_output').name}",
+            "v": f"v on {topic('disturbance').name}",
+        }
         self.revision = 0
         self._pending: LinearMpc | None = None
         self._model_pub = self.contract_publisher("active_model")
@@ -58,6 +67,8 @@ class MpcControllerNode(ConfiguredNode):
         self._pub = self.contract_publisher("manipulated_input")
         self._r_sub = self.contract_subscription("setpoint", lambda msg: self._on_signal("r", msg))
         self._y_sub = self.contract_subscription("measured_output", lambda msg: self._on_signal("y", msg))
+        if self._v is not None:
+            self._v_sub = self.contract_subscription("disturbance", lambda msg: self._on_signal("v", msg))
 
     def check_start(self, config: PmrConfig) -> None:
         """A model the controller cannot be built on in memory is refused before it is built (one line, exit 2)."""
@@ -73,7 +84,7 @@ class MpcControllerNode(ConfiguredNode):
         except ConfigError as exc:
             return str(exc)
         try:
-            candidate = LinearMpc(config.model, self.controller.tuning)
+            candidate = LinearMpc(config.model, self.controller.tuning, disturbance_model=config.disturbance_model)
         except (ValueError, np.linalg.LinAlgError) as exc:
             return f"the controller cannot be built on the new model: {exc}"
         self._pending = candidate
@@ -99,23 +110,31 @@ class MpcControllerNode(ConfiguredNode):
 
     def _on_signal(self, signal: str, msg: Any) -> None:
         stamp, names, values = read_signal(msg)
-        problem = check_signal(self._labels[signal], names, values, self.model.output_names)
+        expected = self.model.output_names
+        if signal == "v" and self.config.disturbance_model is not None:
+            expected = self.config.disturbance_model.input_names
+        problem = check_signal(self._labels[signal], names, values, expected)
         if problem:
             self.get_logger().warning(problem)
             return
         k, _ = sample_index(stamp, self.sample_time)
         if k < self.next_sample:
             return  # already answered (a duplicate or a late message)
-        (self._r if signal == "r" else self._y)[k] = values
+        store = {"r": self._r, "y": self._y, "v": self._v}[signal]
+        if store is None:
+            return
+        store[k] = values
+        if signal == "v":
+            self._latest_v = values
         if signal == "r":
             self._latest_r = values
         self._answer()
 
     def _answer(self) -> None:
-        ready = sorted(k for k in self._y if k in self._r)
+        ready = sorted(k for k in self._y if k in self._r and (self._v is None or k in self._v))
         if not ready and not self.config.simulation.lockstep and self._y and self._latest_r is not None:
             k = min(self._y)
-            self._r[k] = self._latest_r  # real time: a late setpoint is held
+            self._r[k] = self._r.get(k, self._latest_r)  # real time: a late setpoint (or DV) is held
             ready = [k]
         for k in ready:
             if k < self.next_sample:
@@ -126,10 +145,11 @@ class MpcControllerNode(ConfiguredNode):
                 )
             self._switch(k)
             dither = None if self.dither is None else self.dither.value(k)
-            u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither)
+            v = None if self._v is None else self._v.pop(k, self._latest_v)
+            u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither, disturbance=v)
             self.next_sample = k + 1
             self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))
-        for store in (self._r, self._y):
+        for store in (self._r, self._y, self._v or {}):
             for old in [j for j in store if j < self.next_sample]:
                 del store[old]
 

@@ -82,7 +82,12 @@ class PlantNode(ConfiguredNode):
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=EXECUTABLE, sim_time=True, **kwargs)
         cfg = self.config
         self.model = cfg.plant()
-        self.plant = FoptdPlant(self.model, cfg.noise_std, cfg.run.seed, disturbance=cfg.disturbance)
+        dv_plant = cfg.disturbance_plant() if cfg.disturbance_model is not None else None
+        whole = self.model if dv_plant is None else self.model.beside(dv_plant)
+        self.plant = FoptdPlant(whole, cfg.noise_std, cfg.run.seed, disturbance=cfg.disturbance)
+        # the measured disturbances: a pure function of the sample and the seed, as in the batch core
+        self.dv = None if dv_plant is None else cfg.disturbance_signal.generator(cfg.run.seed)
+        self._dv_now = np.zeros(0)
         self.samples = cfg.run.samples
         self.sample_time = cfg.model.sample_time
         self.sample = -1
@@ -97,6 +102,7 @@ class PlantNode(ConfiguredNode):
         self._next: int | None = None
         self._clock_pub = self.contract_publisher("clock")
         self._y_pub = self.contract_publisher("measured_output")
+        self._dv_pub = self.contract_publisher("disturbance") if self.dv is not None else None
         self.gate = ProgressGate(self, max_ahead=cfg.simulation.max_samples_ahead, on_change=self._release)
         self._u_sub = self.contract_subscription("manipulated_input", self._on_input)
         self._started_at = time.monotonic()
@@ -202,16 +208,20 @@ class PlantNode(ConfiguredNode):
         self._publish_sample(k)
 
     def _publish_sample(self, k: int) -> None:
-        """Publish the clock k Ts, then the measurement y(k)."""
+        """Publish the clock k Ts, the measured disturbances v(k) (when there are DVs), then the measurement y(k)."""
         self.sample = k
         stamp = k * self.sample_time
         self._clock_pub.publish(clock_message(stamp))
+        if self.dv is not None and self._dv_pub is not None:
+            self._dv_now = self.dv.value(k)
+            names = self.config.disturbance_model.input_names if self.config.disturbance_model else ()
+            self._dv_pub.publish(signal_message(self._dv_now, names, stamp, self.model.name))
         self._y_pub.publish(signal_message(self.plant.measure(), self.model.output_names, stamp, self.model.name))
         self.gate.published(stamp_ns(stamp_from_seconds(stamp)))
 
     def _advance(self, u: np.ndarray) -> None:
-        """Hold u(k) over sample k, then publish sample k + 1 (or finish)."""
-        self.plant.advance(u)
+        """Hold u(k) (and v(k)) over sample k, then publish sample k + 1 (or finish)."""
+        self.plant.advance(u if self.dv is None else np.concatenate((u, self._dv_now)))
         self._u_held = u
         if self.sample + 1 >= self.samples:
             self.finished = True

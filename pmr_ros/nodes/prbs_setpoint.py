@@ -1,4 +1,7 @@
-"""``prbs_setpoint``: publishes the PRBS setpoints r(k) on every sample of the plant's clock.
+"""``prbs_setpoint``: publishes the setpoints r(k) on every sample of the plant's clock.
+
+The PRBS, or operator-like steps (``prbs.mode: steps``), on the setpoint CVs
+only: a zone CV's setpoint stays at its nominal (``mpc.output_mode``).
 
 The setpoint of sample k is a pure function of k (and the seed), so the node
 needs no state but the last sample published: r(k) goes out as soon as the
@@ -14,7 +17,7 @@ from typing import Any
 
 from ..contract.layout import seconds_from_stamp
 from ..contract.samples import sample_index
-from ..core.sim.excitation import PrbsGenerator
+from ..core.sim.operation import setpoint_generator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message
 
@@ -26,7 +29,9 @@ class PrbsSetpointNode(ConfiguredNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, sim_time=True, **kwargs)
-        self.generator = PrbsGenerator(self.config.prbs, self.config.run.seed)
+        zones = self.config.mpc.zone_outputs
+        moving = ~zones if zones.size else None
+        self.generator = setpoint_generator(self.config.prbs, self.config.run.seed, moving=moving)
         self.names = self.config.model.output_names
         self.sample_time = self.config.model.sample_time
         self.sample = -1

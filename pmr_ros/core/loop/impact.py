@@ -25,6 +25,7 @@ from ..results import Diagnosis, ImpactResult
 from ..sim.closed_loop import LoopConfig, RunPlan, simulate
 from ..sim.excitation import ExcitationSettings, PrbsSettings
 from ..sim.model import TransferMatrix
+from ..sim.operation import DisturbanceSignalSettings, ManualSettings
 from ..sim.true_plant import OutputDisturbance
 from .update import ModelUpdate
 
@@ -95,8 +96,26 @@ class _Loop:
         """None: the loop is noise-free."""
         return OutputDisturbance.off(self.model.n_outputs)
 
+    @property
+    def disturbance_model(self) -> TransferMatrix | None:
+        """None: the measured disturbances do not move in the impact's simulation."""
+        return None
+
+    @property
+    def disturbance_signal(self) -> DisturbanceSignalSettings:
+        """None moves."""
+        return DisturbanceSignalSettings()
+
+    @property
+    def manual(self) -> ManualSettings:
+        """No manual stretch: every controller on."""
+        return ManualSettings()
+
     def plant(self, scenario: str | None = None) -> TransferMatrix:
         return self.truth
+
+    def disturbance_plant(self, scenario: str | None = None) -> TransferMatrix | None:
+        return None
 
 
 def loop_figures(loop: LoopConfig, plant: TransferMatrix, *, samples: int) -> LoopFigures:

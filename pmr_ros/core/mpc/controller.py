@@ -13,16 +13,25 @@ the control horizon (:mod:`pmr_ros.core.mpc.design`):
 so its Hessian and constraint matrix never change: they are factored once, and
 each step only the linear term and the bounds change.
 The linear term and the unconstrained minimizer ``-H^-1 q`` are linear in
-``z = [x; u_prev; r; d; p]``, so one precomputed matrix gives the moves in
-one product.  When they satisfy every constraint they are the QP's solution
-and are used directly; only when a limit would bind is the QP solved, exactly,
-by the dual active-set method of :mod:`pmr_ros.core.mpc.qp` (OSQP stands by should
-it break down) (``statistics`` counts how often).
+``z = [x; u_prev; v; r; d; p]`` (``v`` the measured disturbances, when there
+is a DV model), so one precomputed matrix gives the moves in one product.
+When they satisfy every constraint they are the QP's solution and are used
+directly; only when a limit would bind is the QP solved, exactly, by the dual
+active-set method of :mod:`pmr_ros.core.mpc.qp` (OSQP stands by should it
+break down: :mod:`pmr_ros.core.mpc.solver`) (``statistics`` counts how often).
 
 Disturbance model (:mod:`pmr_ros.core.mpc.estimator`): every output carries an
 estimated step ``d`` (the DMC/IMC output bias ``y - yhat``), and an integrating
 output a ramp ``d + j p`` as well, so a constant unmeasured input disturbance
 leaves no offset and no ramp on any output.
+
+Routine operation: measured disturbances (DVs) enter as feedforward -- the
+model is ``[Ghat, Ghat_d]``, its state advanced with the applied inputs and the
+measured DVs, and the prediction holds each DV at its current value over the
+horizon; CVs may have soft zones and limits instead of setpoints
+(:mod:`pmr_ros.core.mpc.zones`); an MV in manual (its controller off) is a
+given input: its moves are fixed to the operator's in the QP and its value
+goes into the model like any applied input.
 
 Model switch (:meth:`LinearMpc.switched`): a controller on a new model takes
 over at a sample boundary without a bump.  Its QP is built for the new model;
@@ -40,14 +49,11 @@ setpoints allow; with more CVs than MVs the outputs settle at the
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
-import osqp
-import scipy.sparse as sp
 
 from ..sim.model import TransferMatrix
 from .design import (
+    CondensedQp,
     QpWeights,
     condensed_qp,
     input_target_penalty,
@@ -56,8 +62,11 @@ from .design import (
     target_map,
 )
 from .estimator import DisturbanceEstimator
-from .qp import DenseQp
+from .given_inputs import GivenInputs
+from .solver import QpSolver
 from .spec import MpcMatrices, MpcStatistics, MpcTuning
+from .switch import ModelSwitch
+from .zones import ZoneQp, ZoneTarget, zone_qp
 
 __all__ = ["HISTORY_TIME_CONSTANTS", "LinearMpc", "MpcMatrices", "MpcStatistics", "MpcTuning", "prediction_matrices"]
 
@@ -75,7 +84,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return out
 
 
-class LinearMpc:
+class LinearMpc(GivenInputs, ModelSwitch):
     """Constrained MPC for a transfer-matrix model of any shape.
 
     Parameters
@@ -88,6 +97,9 @@ class LinearMpc:
     always_solve_qp : bool
         Solve the QP every step, even when no constraint binds (for benchmarks
         and for checking the unconstrained shortcut).
+    disturbance_model : TransferMatrix, optional
+        ``Ghat_d``: the measured disturbances' model (n_outputs x n_disturbances),
+        used as feedforward; :meth:`step` then needs the measured DVs.
 
     Attributes
     ----------
@@ -102,24 +114,28 @@ class LinearMpc:
         *,
         record_solve_times: bool = False,
         always_solve_qp: bool = False,
+        disturbance_model: TransferMatrix | None = None,
     ) -> None:
         self.model = model
         self.always_solve_qp = always_solve_qp
         self.tuning = tuning
+        self.disturbance_model = disturbance_model
+        self.n_disturbances = 0 if disturbance_model is None else disturbance_model.n_inputs
         Np, Nc = tuning.prediction_horizon, tuning.control_horizon
         if Nc > Np:
             raise ValueError("control_horizon must not exceed prediction_horizon")
-        self._ss = ss = model.state_space()
+        whole = model if disturbance_model is None else model.beside(disturbance_model)
+        self._ss = ss = whole.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C
         self.estimator = DisturbanceEstimator.for_model(model, filter_samples=tuning.ramp_filter_samples)
+        weights = self._weights()
         qp = condensed_qp(
             ss,
             horizons=(Np, Nc),
-            weights=self._weights(),
-            targets=target_map(
-                steady_state_gain(model), model.integrating_outputs, _vector(tuning.output_weight, model.n_outputs)
-            ),
+            weights=weights,
+            targets=target_map(self._tracked_gain(), model.integrating_outputs, weights.output),
             estimator=self.estimator,
+            n_disturbances=self.n_disturbances,
         )
         unconstrained = -np.linalg.solve(qp.hessian, np.eye(qp.hessian.shape[0]))  # dU* = this @ q
         self._gradient, self._gradient_offset = qp.gradient, qp.gradient_offset
@@ -127,38 +143,61 @@ class LinearMpc:
         n_in = model.n_inputs
         self._du = _vector(tuning.du_max, n_in)
         self._u_min, self._u_max = _vector(tuning.u_min, n_in), _vector(tuning.u_max, n_in)
-        self._hessian, self._constraints = qp.hessian, np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
-        self._qp = DenseQp(self._hessian, self._constraints)
-        self._fallback: osqp.OSQP | None = None  # set up on first need
+        constraints = np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
-        self._history = np.zeros((max(model.settling_samples(HISTORY_TIME_CONSTANTS), Np), n_in))
+        self._solver = QpSolver(qp.hessian, constraints, self.statistics)
+        self._zones: ZoneQp | None = None
+        self._zone_solver: QpSolver | None = None
+        self._zone_target: ZoneTarget | None = None
+        if tuning.zones_active and np.any(tuning.limited_outputs):
+            self._setup_zones(qp, constraints, unconstrained)
+        self._history = np.zeros((max(whole.settling_samples(HISTORY_TIME_CONSTANTS), Np), n_in + self.n_disturbances))
         self.reset()
+
+    def _setup_zones(self, qp: CondensedQp, constraints: np.ndarray, unconstrained: np.ndarray) -> None:
+        """The QP with the soft zones (:mod:`pmr_ros.core.mpc.zones`) and the zone-respecting input target."""
+        t, n_out, n_in = self.tuning, self.model.n_outputs, self.model.n_inputs
+        self._zones = zone_qp(
+            self._ss,
+            horizons=(t.prediction_horizon, t.control_horizon),
+            estimator=self.estimator,
+            plain=(qp.hessian, qp.gradient, qp.gradient_offset, constraints),
+            zones=(t.output_low, t.output_high, _vector(t.zone_weight, n_out)),
+            n_disturbances=self.n_disturbances,
+        )
+        self._zone_solver = QpSolver(self._zones.hessian, self._zones.constraints, self.statistics)
+        self._zone_target = ZoneTarget(
+            tracked_gain=self._tracked_gain(),
+            steady_gain=steady_state_gain(self.model),
+            integrating=self.model.integrating_outputs,
+            zones=(t.output_low, t.output_high),
+            weight=_vector(t.input_target_weight, n_in),
+            input_target=_vector(t.input_target, n_in),
+        )
+        self._target_gradient, self._target_gain = qp.target_gradient, unconstrained @ qp.target_gradient
 
     def _weights(self) -> QpWeights:
         t, n_out, n_in = self.tuning, self.model.n_outputs, self.model.n_inputs
-        penalty = input_target_penalty(steady_state_gain(self.model), _vector(t.input_target_weight, n_in))
-        return QpWeights(
-            _vector(t.output_weight, n_out), _vector(t.move_weight, n_in), _vector(t.input_target, n_in), penalty
-        )
+        penalty = input_target_penalty(self._tracked_gain(), _vector(t.input_target_weight, n_in))
+        output = _vector(t.output_weight, n_out)
+        if t.zones_active:  # a zone CV has no tracking penalty
+            output = np.where(self._zone_outputs(), 0.0, output)
+        return QpWeights(output, _vector(t.move_weight, n_in), _vector(t.input_target, n_in), penalty)
 
-    def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
-        """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
-        n_moves = self._hessian.shape[0]
-        solver = osqp.OSQP()
-        solver.setup(
-            sp.triu(sp.csc_matrix(self._hessian), format="csc"),
-            np.zeros(n_moves),
-            sp.csc_matrix(self._constraints),
-            lower,
-            upper,
-            verbose=False,
-            warm_starting=True,
-            eps_abs=1e-9,
-            eps_rel=1e-9,
-            max_iter=100000,
-            polishing=True,
-        )
-        return solver
+    def _tracked_gain(self) -> np.ndarray:
+        """The steady-state gain of what the setpoints fix: a stable zone CV's row is free (zero).
+
+        An integrating zone CV keeps its rate row: a steady state needs its level still, wherever in the zone.
+        """
+        gain = steady_state_gain(self.model)
+        if not self.tuning.zones_active:
+            return gain
+        free = self._zone_outputs() & ~self.model.integrating_outputs
+        return np.where(free[:, None], 0.0, gain)
+
+    def _zone_outputs(self) -> np.ndarray:
+        zone = self.tuning.zone_outputs
+        return zone if zone.size else np.zeros(self.model.n_outputs, dtype=bool)
 
     def reset(self) -> None:
         """Forget the model state, past input and disturbance estimates (plant at rest)."""
@@ -168,84 +207,6 @@ class LinearMpc:
         self._slope = np.zeros(self.estimator.n_ramps)
         self._history[:] = 0.0
         self._applied = 0  # inputs applied since the reset
-
-    @property
-    def applied_inputs(self) -> np.ndarray:
-        """The inputs applied so far, oldest first, at most the history kept [input unit].
-
-        Returns
-        -------
-        ndarray, shape (min(steps, kept), n_inputs)
-        """
-        kept = self._history.shape[0]
-        if self._applied <= kept:
-            return self._history[: self._applied].copy()
-        return np.roll(self._history, -(self._applied % kept), axis=0)
-
-    def switch_problem(self, model: TransferMatrix) -> str | None:
-        """Why this controller cannot switch to ``model`` (other channels or sample time), or None."""
-        old = self.model
-        if (model.output_names, model.input_names) != (old.output_names, old.input_names):
-            return (
-                f"the new model's channels ({', '.join(model.output_names)}; {', '.join(model.input_names)}) are not "
-                f"the controller's ({', '.join(old.output_names)}; {', '.join(old.input_names)})"
-            )
-        if model.sample_time != old.sample_time:
-            return f"the new model's sample time {model.sample_time:g} is not the controller's {old.sample_time:g}"
-        return None
-
-    def switched(self, model: TransferMatrix) -> LinearMpc:
-        """A controller on ``model``, same tuning, that takes over from this one without a bump.
-
-        Its QP is built for ``model``, then it :meth:`take_over` this one's
-        state.  Call it between two steps: the new controller computes the next
-        sample.
-
-        Parameters
-        ----------
-        model : TransferMatrix
-            The new model; same outputs, inputs and sample time.
-
-        Returns
-        -------
-        LinearMpc
-
-        Raises
-        ------
-        ValueError
-            Other channels or another sample time (:meth:`switch_problem`), or a
-            model the tuning cannot control (a singular QP).
-        """
-        problem = self.switch_problem(model)
-        if problem:
-            raise ValueError(problem)
-        new = LinearMpc(model, self.tuning, always_solve_qp=self.always_solve_qp)
-        new.take_over(self)
-        return new
-
-    def take_over(self, previous: LinearMpc) -> None:
-        """Continue where ``previous`` (same channels) stopped, without a bump.
-
-        The model state becomes this model driven by ``previous``'s
-        :attr:`applied_inputs` from rest; the last input, the slope estimates
-        of the integrating outputs both have, the statistics and the prediction
-        of the current output (model output plus step estimate) carry over, so
-        the innovation of the next measurement is the same for both.
-        """
-        inputs = previous.applied_inputs
-        x = np.zeros(self._A.shape[0])
-        for u in inputs:
-            x = self._ss.advance(x, u)
-        self._x = x
-        self._u_prev = previous._u_prev.copy()
-        held = inputs[-self._history.shape[0] :]
-        self._history[: held.shape[0]] = held
-        self._applied = held.shape[0]
-        step, slope = previous.disturbance
-        self._step = step + (previous.model_output - self.model_output)
-        slopes = dict(zip(previous.estimator.integrating.tolist(), slope, strict=True))
-        self._slope = np.array([slopes.get(int(i), 0.0) for i in self.estimator.integrating])
-        self.statistics = previous.statistics
 
     @property
     def matrices(self) -> MpcMatrices:
@@ -270,7 +231,15 @@ class LinearMpc:
         """Current estimates: the step on every output and the slope on each integrating one."""
         return self._step.copy(), self._slope.copy()
 
-    def step(self, y_measured: np.ndarray, setpoint: np.ndarray, *, dither: np.ndarray | None = None) -> np.ndarray:
+    def step(
+        self,
+        y_measured: np.ndarray,
+        setpoint: np.ndarray,
+        *,
+        dither: np.ndarray | None = None,
+        disturbance: np.ndarray | None = None,
+        manual_input: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Compute ``u(k)`` from ``y(k)`` and ``r(k)``; advance the internal model.
 
         Parameters
@@ -278,7 +247,7 @@ class LinearMpc:
         y_measured : array_like, shape (n_outputs,)
             Measured outputs [output unit].
         setpoint : array_like, shape (n_outputs,)
-            Setpoints [output unit], held over the horizon.
+            Setpoints [output unit], held over the horizon (a zone CV's is not tracked).
         dither : array_like, shape (n_inputs,), optional
             An external test signal added to the controller's output, as a
             step tester adds small moves to a running MPC [input unit].  The
@@ -286,6 +255,13 @@ class LinearMpc:
             the plant and into the controller's model, so the dither is not
             mistaken for a disturbance; the move limits apply to the
             controller's own moves.
+        disturbance : array_like, shape (n_disturbances,), optional
+            The measured DVs ``v(k)`` (held over the next sample) [DV unit];
+            needed with a DV model: its predicted effect enters the prediction
+            (feedforward) and ``v(k)`` advances the model with ``u(k)``.
+        manual_input : array_like, shape (n_inputs,), optional
+            The operator's value of each MV in manual (its controller off), NaN for the MVs in
+            automatic [input unit]: a given input, its moves fixed in the QP, its value applied (no dither).
 
         Returns
         -------
@@ -294,23 +270,70 @@ class LinearMpc:
         """
         residual = np.asarray(y_measured, dtype=float) - self._C @ self._x
         self._step, self._slope = self.estimator.update(residual, self._step, self._slope)
-        z = np.concatenate((self._x, self._u_prev, np.asarray(setpoint, dtype=float), self._step, self._slope))
+        measured = self._measured(disturbance)
+        parts = (self._x, self._u_prev, measured) if self.n_disturbances else (self._x, self._u_prev)
+        z = np.concatenate((*parts, np.asarray(setpoint, dtype=float), self._step, self._slope))
         self.statistics.steps += 1
-        moves = self._gain @ z + self._gain_offset
-        if self.always_solve_qp or not self.within_limits(moves, self._u_prev):
-            lower, upper = self.move_bounds(self._u_prev)
-            move = self.solve_constrained(self._gradient @ z + self._gradient_offset, lower=lower, upper=upper)
+        offsets = self._offsets(np.asarray(setpoint, dtype=float))
+        moves = self._gain @ z + offsets[0]
+        manual = self.manual_inputs(manual_input)
+        limits_ok = self.within_limits(moves, self._u_prev)
+        zones_ok = self._zones is None or self._zones.inside(z, moves)
+        if self.always_solve_qp or manual is not None or not (limits_ok and zones_ok):
+            move = self._constrained_move(z, offsets[1], manual, plain_first=not limits_ok)
         else:
             move = moves[: self.model.n_inputs]
         u, applied = self.apply_move(self._u_prev, move, dither)
-        self._x = self.advance_model(self._x, applied)
-        self._u_prev = u
-        self._history[self._applied % self._history.shape[0]] = applied
-        self._applied += 1
+        if manual is not None:  # the operator's value, without dither
+            u, applied = np.where(np.isfinite(manual), manual, u), np.where(np.isfinite(manual), manual, applied)
+        self._advance(u, applied, measured)
         return applied
 
+    def _advance(self, u: np.ndarray, applied: np.ndarray, measured: np.ndarray) -> None:
+        """Advance the model with the applied inputs and the measured DVs; keep them in the history."""
+        whole = np.concatenate((applied, measured)) if self.n_disturbances else applied
+        self._x = self._ss.advance(self._x, whole)
+        self._u_prev = u
+        self._history[self._applied % self._history.shape[0]] = whole
+        self._applied += 1
+
+    def _offsets(self, setpoint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The input target's terms of the unconstrained moves and of the QP's linear term, this step.
+
+        Fixed without zones; with zones from the target calculation (:class:`~pmr_ros.core.mpc.zones.ZoneTarget`).
+        """
+        if self._zone_target is None:
+            return self._gain_offset, self._gradient_offset
+        target = self._zone_target.input_target(setpoint, self._step, self._slope)
+        return self._target_gain @ target, self._target_gradient @ target
+
+    def _constrained_move(
+        self, z: np.ndarray, offset: np.ndarray, manual_input: np.ndarray | None, *, plain_first: bool = True
+    ) -> np.ndarray:
+        """The first move of the QP (with the zones, when there are any); a manual MV's moves fixed.
+
+        With zones, ``plain_first``: the plain QP first (an input limit binds), its answer taken when it keeps
+        every zone; else (or when the unconstrained moves already left a zone) the QP with the zones.
+        """
+        lower, upper = self.move_bounds(self._u_prev)
+        if manual_input is not None:
+            self._pin_manual(lower, upper, np.asarray(manual_input, dtype=float))
+        q = self._gradient @ z + offset
+        if self._zones is None or self._zone_solver is None:
+            return self.solve_constrained(q, lower=lower, upper=upper)
+        zones = self._zones
+        x = self._solver.solve(q, lower=lower, upper=upper) if plain_first else None
+        if x is not None and zones.inside(z, x):  # only an input limit binds: the plain QP's answer stands
+            return x[: self.model.n_inputs]
+        x = self._zone_solver.solve(
+            zones.gradient @ z + np.concatenate([offset, np.zeros(zones.low.size)]),
+            lower=np.concatenate([lower, zones.low]),
+            upper=np.concatenate([upper, zones.high]),
+        )
+        return np.zeros(self.model.n_inputs) if x is None else x[: self.model.n_inputs]
+
     def advance_model(self, x: np.ndarray, applied: np.ndarray) -> np.ndarray:
-        """The model's next state ``A x + B u`` after the applied input (rows of a batch alike)."""
+        """The model's next state ``A x + B u`` after the applied input (rows of a batch alike; no DV model)."""
         return self._ss.advance(x, applied)
 
     def within_limits(self, moves: np.ndarray, u_prev: np.ndarray) -> np.ndarray:
@@ -364,32 +387,11 @@ class LinearMpc:
 
         Solved exactly by the dual active-set method (:class:`~pmr_ros.core.mpc.qp.DenseQp`); should it
         break down, by OSQP; should that fail too, the input is held (a zero move), the safe fallback of
-        industrial MPC.  Counts the solve in :attr:`statistics`.
+        industrial MPC (:class:`~pmr_ros.core.mpc.solver.QpSolver`).  Counts the solve in :attr:`statistics`.
         """
-        t0 = time.perf_counter()
-        solution = self._qp.solve(q, lower=lower, upper=upper)
-        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
-        elapsed = time.perf_counter() - t0
-        stats = self.statistics
-        stats.solves += 1
-        if stats.solve_time_s is not None:
-            stats.solve_time_s.append(elapsed)
+        x = self._solver.solve(q, lower=lower, upper=upper)
         n_in = self.model.n_inputs
-        if x is not None:
-            return x[:n_in]
-        stats.failures += 1
-        return np.zeros(n_in)
-
-    def _solve_fallback(self, q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
-        """OSQP's solution, or None when it fails too."""
-        self.statistics.fallbacks += 1
-        if self._fallback is None:
-            self._fallback = self._setup_fallback(lower, upper)
-        self._fallback.update(q=q, l=lower, u=upper)
-        result = self._fallback.solve(raise_error=False)
-        if result.info.status_val in (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE):
-            return result.x
-        return None
+        return np.zeros(n_in) if x is None else x[:n_in]
 
 
 def _vector(values: np.ndarray, n: int) -> np.ndarray:

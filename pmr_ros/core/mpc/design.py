@@ -50,6 +50,7 @@ __all__ = [
     "null_space",
     "prediction_matrices",
     "setpoints_reachable",
+    "split_disturbances",
     "steady_state_gain",
     "target_map",
 ]
@@ -193,12 +194,28 @@ def target_map(steady_gain: np.ndarray, integrating: np.ndarray, output_weight: 
     return F
 
 
+def split_disturbances(
+    Psi: np.ndarray, Theta: np.ndarray, *, n_inputs: int, control_horizon: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inputs' ``Psi``, ``Theta`` and the disturbances' ``Psi_v`` of a model whose last columns are DVs.
+
+    A DV has no moves to decide: its columns leave ``Theta``, and its held
+    value acts through its column of ``Psi``.  Without DVs the arrays pass through.
+    """
+    n_total = Psi.shape[1]
+    if n_total == n_inputs:
+        return Psi, Psi[:, n_inputs:], Theta
+    columns = (np.arange(control_horizon)[:, None] * n_total + np.arange(n_inputs)).ravel()
+    return Psi[:, :n_inputs].copy(), Psi[:, n_inputs:].copy(), Theta[:, columns]
+
+
 @dataclass(frozen=True)
 class CondensedQp:
     """The MPC's QP over the moves ``dU`` of the control horizon, with its inputs stacked in ``z``.
 
-    ``z = [x; u_prev; r; d; p]``: model state, previous input, setpoints,
-    output-step and slope estimates.  The QP is
+    ``z = [x; u_prev; v; r; d; p]``: model state, previous input, measured
+    disturbances (DVs, held over the horizon; none without a DV model),
+    setpoints, output-step and slope estimates.  The QP is
     ``min dU' H dU / 2 + q' dU`` with ``q = gradient @ z + gradient_offset``.
 
     Attributes
@@ -209,12 +226,16 @@ class CondensedQp:
         From the input targets.
     cumulative : ndarray, shape (Nc*n_in, Nc*n_in)
         Moves to input path: ``u_path = tile(u_prev) + cumulative @ dU``.
+    target_gradient : ndarray, shape (Nc*n_in, n_in)
+        ``gradient_offset`` per unit of input target: ``gradient_offset = target_gradient @ input_target``
+        (a target computed each step, as with CV zones, enters through it).
     """
 
     hessian: np.ndarray
     gradient: np.ndarray
     gradient_offset: np.ndarray
     cumulative: np.ndarray
+    target_gradient: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -234,12 +255,14 @@ def condensed_qp(
     weights: QpWeights,
     targets: np.ndarray,
     estimator: DisturbanceEstimator,
+    n_disturbances: int = 0,
 ) -> CondensedQp:
     """Build the condensed QP of the tracking, move and input-target costs.
 
-    The predicted outputs are ``Phi x + Psi u_prev + Theta dU`` plus the
-    disturbance ``d + j p`` (``p`` on integrating outputs); they are held to
-    ``y_s`` (``y_s - d = targets @ [r; d; p]``).
+    The predicted outputs are ``Phi x + Psi u_prev + Psi_v v + Theta dU`` plus
+    the disturbance ``d + j p`` (``p`` on integrating outputs); they are held to
+    ``y_s`` (``y_s - d = targets @ [r; d; p]``).  ``v`` are the measured
+    disturbances, held at their current value over the horizon (feedforward).
 
     Parameters
     ----------
@@ -252,10 +275,13 @@ def condensed_qp(
         :func:`target_map`.
     estimator : DisturbanceEstimator
         Which outputs have a slope.
+    n_disturbances : int
+        The last columns of ``ss.B`` that are measured disturbances, not inputs.
     """
     Np, Nc = horizons
-    n_out, n_in = ss.C.shape[0], ss.B.shape[1]
+    n_out, n_in = ss.C.shape[0], ss.B.shape[1] - n_disturbances
     Phi, Psi, Theta = prediction_matrices(ss, prediction_horizon=Np, control_horizon=Nc)
+    Psi, Psi_v, Theta = split_disturbances(Psi, Theta, n_inputs=n_in, control_horizon=Nc)
     W = (Theta * np.tile(weights.output, Np)[:, None]).T  # Theta' Q
     cumulative = np.kron(np.tril(np.ones((Nc, Nc))), np.eye(n_in))
     penalty = np.kron(np.eye(Nc), weights.input_target_penalty)
@@ -264,5 +290,5 @@ def condensed_qp(
     ramp = np.kron(np.arange(1.0, Np + 1.0)[:, None], np.eye(n_out)[:, estimator.integrating])
     to_target = -W.reshape(-1, Np, n_out).sum(axis=1) @ targets
     to_target[:, 2 * n_out :] += W @ ramp
-    gradient = np.hstack([W @ Phi, W @ Psi + hold, to_target])
-    return CondensedQp(0.5 * (hessian + hessian.T), gradient, -hold @ weights.input_target, cumulative)
+    gradient = np.hstack([W @ Phi, W @ Psi + hold, *([W @ Psi_v] if n_disturbances else []), to_target])
+    return CondensedQp(0.5 * (hessian + hessian.T), gradient, -hold @ weights.input_target, cumulative, -hold)

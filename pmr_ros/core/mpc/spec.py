@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,6 +36,15 @@ class MpcTuning:
     ramp_filter_samples : float
         Time constant of the slope estimate of integrating outputs'
         disturbances [samples]; 0 is deadbeat.
+    output_mode : tuple of str
+        ``setpoint`` or ``zone`` per output; empty: every output a setpoint.
+        A zone output has no tracking penalty (``Q_i = 0``).
+    output_low, output_high : ndarray, shape (n_outputs,)
+        Soft limits per output [output unit, deviation from nominal],
+        ``-inf``/``inf`` where there is none; empty: none.
+    zone_weight : ndarray, shape (n_outputs,)
+        Penalty on the squared distance outside the limits, per checked point
+        of the horizon [1/output unit^2].
     """
 
     prediction_horizon: int
@@ -48,6 +57,28 @@ class MpcTuning:
     input_target: np.ndarray
     input_target_weight: np.ndarray
     ramp_filter_samples: float
+    output_mode: tuple[str, ...] = ()
+    output_low: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    output_high: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    zone_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def zone_outputs(self) -> np.ndarray:
+        """Which outputs are zone CVs (no tracking penalty), bool shape (n_outputs,) or (0,) when none is."""
+        return np.array([mode == "zone" for mode in self.output_mode], dtype=bool)
+
+    @property
+    def limited_outputs(self) -> np.ndarray:
+        """Which outputs have a finite soft limit, bool shape (n_outputs,) or (0,)."""
+        low, high = np.asarray(self.output_low, dtype=float), np.asarray(self.output_high, dtype=float)
+        if low.size == 0:
+            return np.zeros(0, dtype=bool)
+        return np.isfinite(low) | np.isfinite(high)
+
+    @property
+    def zones_active(self) -> bool:
+        """Whether any output is a zone CV or has a limit (else the controller is the plain tracking one)."""
+        return bool(np.any(self.zone_outputs) or np.any(self.limited_outputs))
 
 
 @dataclass(frozen=True)

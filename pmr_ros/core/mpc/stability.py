@@ -28,7 +28,7 @@ __all__ = ["closed_loop_matrix", "loop_spectral_radius", "neutral_modes"]
 
 
 def closed_loop_matrix(controller: LinearMpc, plant: TransferMatrix) -> np.ndarray:
-    """``M`` of the unconstrained loop ``s+ = M s`` (setpoints and input targets at zero).
+    """``M`` of the unconstrained loop ``s+ = M s`` (setpoints, input targets and measured disturbances at zero).
 
     Parameters
     ----------
@@ -44,7 +44,8 @@ def closed_loop_matrix(controller: LinearMpc, plant: TransferMatrix) -> np.ndarr
     """
     p, m = plant.state_space(), controller.matrices
     est = controller.estimator
-    npx, nmx, n_in, n_out, nr = p.A.shape[0], m.A.shape[0], m.B.shape[1], m.C.shape[0], est.n_ramps
+    npx, nmx, n_in, n_out, nr = p.A.shape[0], m.A.shape[0], controller.model.n_inputs, m.C.shape[0], est.n_ramps
+    held = nmx + n_in + controller.n_disturbances  # z's DVs (external, zero here) sit after u_prev
     n_s = npx + nmx + n_in + 2 * nr
     blocks = np.cumsum([0, npx, nmx, n_in, nr, nr])
     xp, xm, up, dr, pr = (slice(blocks[j], blocks[j + 1]) for j in range(5))
@@ -59,17 +60,17 @@ def closed_loop_matrix(controller: LinearMpc, plant: TransferMatrix) -> np.ndarr
     step[est.integrating, pr] += np.eye(nr)
     slope = est.beta * innovation
     slope[:, pr] += np.eye(nr)
-    z = np.zeros((m.gain.shape[1], n_s))  # z = [x_m; u_prev; r = 0; d; p]
+    z = np.zeros((m.gain.shape[1], n_s))  # z = [x_m; u_prev; v = 0; r = 0; d; p]
     z[:nmx, xm] = np.eye(nmx)
     z[nmx : nmx + n_in, up] = np.eye(n_in)
-    z[nmx + n_in + n_out : nmx + n_in + 2 * n_out] = step
-    z[nmx + n_in + 2 * n_out :] = slope
+    z[held + n_out : held + 2 * n_out] = step
+    z[held + 2 * n_out :] = slope
     u = m.gain[:n_in] @ z
     u[:, up] += np.eye(n_in)
     M = np.zeros((n_s, n_s))
     M[xp] = p.B @ u
     M[xp, xp] += p.A
-    M[xm] = m.B @ u
+    M[xm] = m.B[:, :n_in] @ u
     M[xm, xm] += m.A
     M[up] = u
     M[dr] = step[est.integrating]

@@ -13,6 +13,12 @@ together, one sample at a time, with batched numpy:
   each on its own :class:`~pmr_ros.core.mpc.controller.LinearMpc` (own warm-start state),
   exactly as :func:`~pmr_ros.core.sim.closed_loop.simulate` would.
 
+Routine operation (measured disturbances, CV zones, setpoint steps, manual
+stretches: :func:`~pmr_ros.core.sim.closed_loop.routine_features`) is not
+batched: a configuration with any of them runs run by run with
+:func:`~pmr_ros.core.sim.closed_loop.simulate` (the same numbers, one run at a
+time).
+
 Noise, output disturbance and setpoints come from the same streams as ``simulate``
 (:func:`~pmr_ros.core.sim.true_plant.noise_generator`, :class:`~pmr_ros.core.sim.true_plant.DisturbanceStream`,
 :class:`PrbsGenerator`), so a run
@@ -30,7 +36,7 @@ import numpy as np
 
 from ..mpc.controller import LinearMpc, MpcStatistics, MpcTuning
 from ..records import Record
-from .closed_loop import LoopConfig
+from .closed_loop import LoopConfig, routine_features, simulate_with_statistics
 from .excitation import PrbsGenerator, dither_generator
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .true_plant import DisturbanceStream, noise_generator
@@ -193,6 +199,7 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
     Returns
     -------
     LockstepResult
+        With routine-operation features (DVs, zones, setpoint steps, manual stretches): ``simulate``'s, run by run.
     """
     runs = _check_runs(runs)
     samples = config.run.samples if samples is None else int(samples)
@@ -200,6 +207,9 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
         raise ValueError(f"samples must be > 0, got {samples}")
     if not runs:
         return LockstepResult([], [])
+    if routine_features(config):  # not batched: run by run, as simulate() does
+        done = [simulate_with_statistics(config, samples, seed, scenario) for scenario, seed in runs]
+        return LockstepResult([record for record, _ in done], [statistics for _, statistics in done])
     n_out, n_runs = config.model.n_outputs, len(runs)
     # Plants grouped by state size (stacked, not padded: see _mv on why the arithmetic must match).
     groups = _plant_groups([config.plant(scenario).state_space() for scenario, _ in runs])

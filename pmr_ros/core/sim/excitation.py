@@ -128,12 +128,23 @@ class PrbsSettings:
         Half the peak-to-peak swing [output unit].
     nominal : ndarray, shape (n_channels,)
         Setpoint around which the PRBS switches [output unit].
+    mode : str
+        ``prbs`` (this PRBS) or ``steps``: operator-like setpoint changes
+        (:class:`~pmr_ros.core.sim.operation.RandomSignal`), each to
+        ``nominal + step_amplitude x uniform(-1, 1)`` after random exponential intervals.
+    step_interval_samples : float
+        ``steps``: the mean interval between changes [samples].
+    step_amplitude : ndarray, shape (n_channels,), optional
+        ``steps``: the largest distance from nominal [output unit]; None: ``amplitude``.
     """
 
     register_length: int
     clock_period: int
     amplitude: np.ndarray
     nominal: np.ndarray
+    mode: str = "prbs"
+    step_interval_samples: float = 480.0
+    step_amplitude: np.ndarray | None = None
 
 
 class PrbsGenerator:

@@ -1,0 +1,34 @@
+"""The node set in routine operation: the plant publishes the DVs, the MPC feeds them forward and keeps zones."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pmr_ros.config import load_config
+from pmr_ros.core.sim.closed_loop import routine_features, simulate
+from pmr_ros.node_set import NodeSetOptions, run_node_set
+
+pytestmark = pytest.mark.ros
+
+
+def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain):
+    config = load_config(
+        overrides={
+            "run": {"samples": 1200},
+            "system": {
+                "disturbance_names": ["feed_rate"],
+                "disturbance_gain": [3.8, 4.9],
+                "disturbance_time_constant": [14.9, 13.2],
+                "disturbance_delay": [8.0, 3.0],
+            },
+            "disturbance_signal": {"amplitude": 0.5, "mean_interval_samples": 150.0},
+            "prbs": {"mode": "steps", "step_interval_samples": 200.0},
+            "mpc": {"output_mode": ["setpoint", "zone"], "output_low": [-np.inf, -1.0], "output_high": [np.inf, 1.0]},
+        }
+    )
+    assert routine_features(config) == ["measured disturbances", "CV zones or limits", "setpoint steps"]
+    result = run_node_set(config, NodeSetOptions(domain_id=ros_domain, record=True))
+    batch = simulate(config)
+    np.testing.assert_array_equal(result.record.r, batch.r)  # steps on x_D only, x_B's r at nominal
+    assert np.array_equal(result.record.u, batch.u) and np.array_equal(result.record.y, batch.y)
