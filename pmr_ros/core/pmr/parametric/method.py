@@ -81,7 +81,7 @@ def _fit(
     settings: ParametricSettings,
 ) -> _FittedRow:
     """Row ``i``'s layout, implicit estimate (from its spectra ``row``), guard and, when the guard passes it, fit."""
-    layout = row_layout(model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
+    layout = row_layout(model, i, **spectra.layout_inputs)
     estimate = implicit_row(row, spectra.rr, factor, layout.columns)
     quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
     if quality.reasons:
@@ -126,8 +126,10 @@ def _element(
     position = np.flatnonzero(row.layout.columns == k)
     c = int(position[0]) if position.size else -1
     figures = quality.quality(c, omega=spectra.omega, welch=spectra.settings)
+    still = row.layout.missing(k)
     if c < 0:
-        return _without_numbers(kind, quality.reasons or (row.layout.untested,), quality.warnings, figures)
+        why = (still,) if still else quality.reasons or (row.layout.untested,)
+        return _without_numbers(kind, why, quality.warnings, figures)
     reasons = quality.element_reasons(
         c,
         settings,
@@ -174,7 +176,7 @@ def _results(
         row_spectra = spectra.row(i)
         if shared is not None:
             layout = row_layout(
-                model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=False
+                model, i, **spectra.layout_inputs, test_empty=False
             )
             shared.add(layout, implicit_row(row_spectra, spectra.rr, factor, layout.columns))
         row = _fit(i, row_spectra, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
