@@ -106,7 +106,11 @@ def _manual_moves(stretches: Sequence[Record]) -> np.ndarray:
     n_in = np.shape(stretches[0].u)[1] if stretches else 0
     moving = np.zeros(n_in, dtype=bool)
     for k in range(n_in):
-        held = [np.asarray(s.u, dtype=float)[np.asarray(s.manual, dtype=bool)[:, k], k] for s in stretches if s.manual is not None]
+        held = [
+            np.asarray(s.u, dtype=float)[np.asarray(s.manual, dtype=bool)[:, k], k]
+            for s in stretches
+            if s.manual is not None
+        ]
         values = np.concatenate(held) if held else np.empty(0)
         moving[k] = values.size > 1 and bool(moving_columns(values[:, None])[0])
     return moving
@@ -141,14 +145,22 @@ class InstrumentSet:
         """Inputs moved by an instrument of their own (their dither, or their moves in manual), shape (n_inputs,)."""
         return np.asarray(self.dither | self.manual)
 
-    def labels(self, output_names: Sequence[str], input_names: Sequence[str]) -> tuple[str, ...]:
-        """Each instrument's name, in column order: ``setpoint_y1``, ``dither_u2``, ``manual_u2``.
+    def labels(
+        self, output_names: Sequence[str], input_names: Sequence[str], *, n_disturbances: int = 0
+    ) -> tuple[str, ...]:
+        """Each instrument's name, in column order: ``setpoint_y1``, ``dither_u2``, ``manual_u2``, ``dv_feed``.
 
+        The last ``n_disturbances`` inputs are measured disturbances (``dv_``).
         Dots become underscores: the names are keys of the flat result forms, whose paths are dotted.
         """
+        first_dv = len(input_names) - n_disturbances
         names = [f"setpoint_{n}" for n, on in zip(output_names, self.setpoints, strict=True) if on]
         names += [f"dither_{n}" for n, on in zip(input_names, self.dither, strict=True) if on]
-        names += [f"manual_{n}" for n, on in zip(input_names, self.manual, strict=True) if on]
+        names += [
+            f"{'dv' if k >= first_dv else 'manual'}_{n}"
+            for k, (n, on) in enumerate(zip(input_names, self.manual, strict=True))
+            if on
+        ]
         return tuple(name.replace(".", "_") for name in names)
 
     def columns(self, stretch: Record) -> np.ndarray:

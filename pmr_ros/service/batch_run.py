@@ -29,5 +29,6 @@ def simulate_and_diagnose(config: PmrConfig, *, model_path: str | None = None) -
         pmr=config.pmr,
         parametric=config.parametric,
         quality=config.quality,
+        disturbance_model=config.disturbance_model,
     )
     return close_and_write(config, diagnosis, model_path=model_path)

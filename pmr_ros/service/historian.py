@@ -16,6 +16,7 @@ from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose_stretches
 from ..core.records import Record
 from ..core.results import Diagnosis
+from ..core.sim.augment import missing_disturbances
 from ..data import DataError, PlantData, load_plant_data
 from .closing import close_and_write
 from .refusal import ServiceError
@@ -77,6 +78,7 @@ def diagnose_table(
     ------
     ServiceError
         Bad input (one line naming the file, column, row and value); a
+        configuration with measured disturbances whose data lack them; a
         ``model_path`` the diagnosis cannot give a model for.
     """
     try:
@@ -84,6 +86,9 @@ def diagnose_table(
     except DataError as exc:
         raise ServiceError(str(exc)) from None
     stretches = data.stretches()
+    problem = missing_disturbances(stretches, config.disturbance_model)
+    if problem:
+        raise ServiceError(f"{path}: {problem}")
     quality = config.quality if limits_given(config) else config.quality.without_limits()
     diagnosis = diagnose_stretches(
         stretches,
@@ -92,6 +97,7 @@ def diagnose_table(
         parametric=config.parametric,
         quality=quality,
         as_read=data.stretches(deviations=False),
+        disturbance_model=config.disturbance_model,
     )
     if diagnosis.status == "ok":
         diagnosis = close_and_write(config, diagnosis, model_path=model_path)

@@ -34,7 +34,9 @@ def _check_shapes(stretch: Record, model: TransferMatrix, where: str) -> None:
         if not np.all(np.isfinite(data)):
             raise InsufficientData(f"{name}{where} holds NaN or inf samples")
         if data.shape[0] != stretch.samples:
-            raise InsufficientData(f"r, u, y and {name}{where} have different lengths ({data.shape[0]}, not {stretch.samples})")
+            raise InsufficientData(
+                f"r, u, y and {name}{where} have different lengths ({data.shape[0]}, not {stretch.samples})"
+            )
 
 
 def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings) -> None:
@@ -77,6 +79,7 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
             f"window too short: {samples} samples{where}, less {warmup} of model settling each, give {segments} Welch "
             f"segments of {welch.segment_length}, need {need} ({shortest} unbroken samples)"
         )
+
 
 def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:
     """:func:`check_stretches` of one gap-free record ``r, u, y``.

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..records import Record
 from ..results import DataQuality, Diagnosis
+from ..sim.augment import missing_disturbances, with_disturbances
 from ..sim.model import TransferMatrix
 from .classic import PmrSettings, diagnose_classic
 from .data_quality import QualitySettings, RecordQuality, assess, element_warnings
@@ -144,8 +145,16 @@ def diagnose_stretches(
     method: str | None = None,
     quality: QualitySettings | None = None,
     as_read: Sequence[Record] | None = None,
+    disturbance_model: TransferMatrix | None = None,
 ) -> Diagnosis:
     """Diagnose unbroken stretches of data (one estimate from all of them) with ``method`` (default ``pmr.method``).
+
+    With ``disturbance_model`` (the configuration's DVs) and data that carry
+    them (``Record.dv``), the diagnosis runs on ``[G, Gd]`` and the augmented
+    records (:func:`~pmr_ros.core.sim.augment.with_disturbances`): every D
+    element gets its verdict as a G element does.  Data without them are
+    diagnosed on ``G`` alone (the DVs' effect then counts as noise), and every
+    parametric result says so in one warning.
 
     Parameters
     ----------
@@ -167,6 +176,8 @@ def diagnose_stretches(
         The data as read, where ``stretches`` are deviations from their means
         (a historian export): the inputs' limits are judged on these, in the
         limits' own units.  Default: ``stretches``.
+    disturbance_model : TransferMatrix, optional
+        ``Gd``, the measured disturbances' model (``PmrConfig.disturbance_model``).
 
     Raises
     ------
@@ -177,7 +188,16 @@ def diagnose_stretches(
     if method not in METHODS:
         raise ValueError(f"unknown diagnosis method {method!r}; choose one of {', '.join(METHODS)}")
     stretches = list(stretches)
+    note = missing_disturbances(stretches, disturbance_model)
+    if note is None and disturbance_model is not None:
+        if as_read is not None:
+            as_read = None if missing_disturbances(as_read, disturbance_model) else list(as_read)
+        as_read = None if as_read is None else with_disturbances(as_read, model, disturbance_model)[0]
+        stretches, model = with_disturbances(stretches, model, disturbance_model)
+        quality = None if quality is None else _without_dv_limits(quality, model.n_disturbances)
     diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
+    if note is not None:
+        diagnosis = _with_warning(diagnosis, f"D elements not diagnosed: {note}")
     if quality is None or diagnosis.status != "ok":
         return diagnosis
     used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
@@ -185,6 +205,27 @@ def diagnose_stretches(
         return diagnosis
     figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
     return with_data_quality(diagnosis, figures, model=model, settings=quality)
+
+
+def _without_dv_limits(quality: QualitySettings, n_disturbances: int) -> QualitySettings:
+    """``quality`` for an augmented model: the DV columns have no limits (their saturation is not judged)."""
+    none = np.full(n_disturbances, np.inf)
+    return replace(
+        quality,
+        u_min=np.concatenate([np.asarray(quality.u_min, dtype=float), -none]),
+        u_max=np.concatenate([np.asarray(quality.u_max, dtype=float), none]),
+    )
+
+
+def _with_warning(diagnosis: Diagnosis, warning: str) -> Diagnosis:
+    """``diagnosis`` with ``warning`` on every parametric result (verdicts unchanged)."""
+    elements = {
+        name: e
+        if e.parametric is None
+        else replace(e, parametric=replace(e.parametric, warnings=(*e.parametric.warnings, warning)))
+        for name, e in diagnosis.elements.items()
+    }
+    return replace(diagnosis, elements=elements)
 
 
 def diagnose(

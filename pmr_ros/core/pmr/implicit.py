@@ -173,8 +173,10 @@ def row_layout(
         )
         return RowLayout(i, present, untested=untested, still=gone)
     need = present.size - n_instruments
-    tail = _missing_excitation(model, present, dithered, need) if moving is None else _unmoved(
-        model, i, present, moving, need
+    tail = (
+        _missing_excitation(model, present, dithered, need)
+        if moving is None
+        else _unmoved(model, i, present, moving, need)
     )
     reason = f"row {name} not identifiable: {present.size} modeled inputs but {count}; " + tail
     return RowLayout(i, np.empty(0, dtype=int), reasons=(reason,), still=gone)
@@ -376,9 +378,7 @@ def implicit_estimate(spectra: RecordSpectra, *, test_empty: bool) -> PmrEstimat
     factor = instrument_factor(spectra.rr)
     builder = EstimateBuilder(spectra)
     for i in range(model.n_outputs):
-        layout = row_layout(
-            model, i, **spectra.layout_inputs, test_empty=test_empty
-        )
+        layout = row_layout(model, i, **spectra.layout_inputs, test_empty=test_empty)
         builder.add(layout, implicit_row(spectra.row(i), spectra.rr, factor, layout.columns))
     return builder.build()
 

@@ -315,6 +315,8 @@ class RecordSpectra:
         Which setpoints, dither columns and manual MVs are the instruments.
     still : ndarray of bool, shape (n_in,)
         Inputs that do not move at all in the data (their regressors are constant).
+    samples : int
+        Samples of every stretch together.
     """
 
     def __init__(self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> None:
@@ -322,6 +324,7 @@ class RecordSpectra:
         self.moving: InstrumentSet = moving_instruments(stretches)
         self.dithered = self.moving.dither
         u = np.vstack([np.asarray(s.u, dtype=float) for s in stretches])
+        self.samples = int(u.shape[0])
         self.still = ~moving_columns(u)
         self.differenced = model.integrating_outputs
         warmup = model.settling_samples()

@@ -10,12 +10,21 @@ augmented model again (the MPC acts on ``G`` only).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..records import Record
 from .model import TransferMatrix
 
-__all__ = ["augmented_model", "augmented_record", "disturbance_part", "process_part"]
+__all__ = [
+    "augmented_model",
+    "augmented_record",
+    "disturbance_part",
+    "missing_disturbances",
+    "process_part",
+    "with_disturbances",
+]
 
 
 def augmented_model(model: TransferMatrix, disturbance_model: TransferMatrix | None) -> TransferMatrix:
@@ -131,3 +140,48 @@ def augmented_record(record: Record, n_disturbances: int) -> Record:
         dither=dither,
         manual=np.hstack([manual, np.ones(dv.shape, dtype=bool)]),
     )
+
+
+def missing_disturbances(stretches: Sequence[Record], disturbance_model: TransferMatrix | None) -> str | None:
+    """Why the data cannot be diagnosed with the measured disturbances of ``disturbance_model``, or None.
+
+    One line: the configuration names DVs and a stretch carries no ``dv`` of
+    that many columns.
+
+    Examples
+    --------
+    >>> gd = TransferMatrix([[0.5]], [[4.0]], [[2.0]], 1.0, input_names=("feed",))
+    >>> missing_disturbances([Record(np.zeros((3, 1)), np.zeros((3, 1)), np.zeros((3, 1)))], gd)[:52]
+    'the configuration has 1 measured disturbance (feed) '
+    """
+    if disturbance_model is None:
+        return None
+    n_dv = disturbance_model.n_inputs
+    for s in stretches:
+        if s.dv is None or np.ndim(s.dv) != 2 or np.shape(s.dv)[1] != n_dv:
+            found = "none" if s.dv is None else f"dv of shape {np.shape(s.dv)}"
+            return (
+                f"the configuration has {n_dv} measured disturbance{'s' if n_dv > 1 else ''} "
+                f"({', '.join(disturbance_model.input_names)}) but the data carry {found}: "
+                "give their columns (data.disturbance_columns) or remove system.disturbance_names"
+            )
+    return None
+
+
+def with_disturbances(
+    stretches: Sequence[Record], model: TransferMatrix, disturbance_model: TransferMatrix | None
+) -> tuple[list[Record], TransferMatrix]:
+    """The stretches and the model a diagnosis runs on: augmented when the configuration has DVs.
+
+    Raises
+    ------
+    ValueError
+        The data lack the DVs (:func:`missing_disturbances`' line).
+    """
+    problem = missing_disturbances(stretches, disturbance_model)
+    if problem:
+        raise ValueError(problem)
+    if disturbance_model is None:
+        return list(stretches), model
+    n_dv = disturbance_model.n_inputs
+    return [augmented_record(s, n_dv) for s in stretches], augmented_model(model, disturbance_model)

@@ -380,4 +380,3 @@ class TransferMatrix:
                 zi = np.zeros(len(b) - 1) if self.integrating[i, k] else lfilter_zi(b, a) * u[0, k]
                 out[:, i, k] = lfilter(b, a, u[:, k], zi=zi)[0]
         return out
-
