@@ -92,7 +92,9 @@ def input_label(model: TransferMatrix, k: int) -> str:
 def _missing_excitation(model: TransferMatrix, candidates: np.ndarray, dithered: np.ndarray, need: int) -> str:
     """``add MV dither (excitation.mv_dither_amplitude) on at least 2 of u2, u4, u5``."""
     free = [model.input_names[k] for k in candidates if not dithered[k]]
-    where = f"at least {need} of {', '.join(free)}" if free else "more inputs"
+    where = (
+        ", ".join(free) if 0 < len(free) <= need else f"at least {need} of {', '.join(free)}" if free else "more inputs"
+    )
     return f"add MV dither (excitation.mv_dither_amplitude) on {where}"
 
 

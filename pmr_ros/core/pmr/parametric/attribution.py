@@ -111,9 +111,10 @@ def more_data_reason(factor: float, *, samples: int, sample_time: float) -> str:
             "more excitation (larger dither or setpoint changes) would"
         )
     extra = (factor - 1.0) * samples
+    span = extra * sample_time
     return (
-        f"~{factor:.1f}x the data ({extra:.0f} more samples, {extra * sample_time:.4g} time units) at today's "
-        "excitation would decide, assuming the interval shrinks as 1/sqrt(N)"
+        f"~{factor:.1f}x the data ({extra:.0f} more samples, {span:.0f} time units) at today's excitation would "
+        "decide, assuming the interval shrinks as 1/sqrt(N)"
     )
 
 
