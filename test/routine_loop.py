@@ -80,7 +80,11 @@ def routine_run(
     n_dv = 0 if disturbances is None else disturbances.n_inputs
     dv = routine.dv_amplitude * _held_steps(rng, samples, n_dv, 60.0)
     d = routine.dither * _binary(rng, samples, n_in, 8)
-    r = routine.setpoint_steps * _held_steps(rng, samples, n_out, 500.0) if routine.setpoint_steps else np.zeros((samples, n_out))
+    r = (
+        routine.setpoint_steps * _held_steps(rng, samples, n_out, 500.0)
+        if routine.setpoint_steps
+        else np.zeros((samples, n_out))
+    )
     manual = np.zeros((samples, n_in), dtype=bool)
     operator = np.zeros((samples, n_in))
     for start, length, mv in routine.manual:
