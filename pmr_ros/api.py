@@ -108,8 +108,6 @@ def diagnose(
     dv : ndarray, shape (N, n_disturbances), optional
         The measured disturbances of the configuration's ``disturbance_model``:
         its D elements (``D11`` ...) are diagnosed beside the G elements.
-        (Manual stretches: ``pmr_ros.core.pmr.diagnosis.diagnose_stretches`` of a
-        ``Record`` with ``manual``.)
 
     Returns
     -------
@@ -122,13 +120,8 @@ def diagnose(
         The configuration has measured disturbances and ``dv`` does not carry them (one line).
     """
     config = _config(config)
-    record = Record(
-        np.asarray(r),
-        np.asarray(u),
-        np.asarray(y),
-        None if dither is None else np.asarray(dither),
-        dv=None if dv is None else np.asarray(dv, dtype=float),
-    )
+    applied_dither = None if dither is None else np.asarray(dither)
+    record = Record(np.asarray(r), np.asarray(u), np.asarray(y), applied_dither, None if dv is None else np.asarray(dv))
     problem = missing_disturbances([record], config.disturbance_model)
     if problem:
         raise ValueError(problem)

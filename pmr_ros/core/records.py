@@ -129,11 +129,15 @@ class InstrumentSet:
     manual : ndarray of bool, shape (n_inputs,)
         Inputs that move while their controller is off (a DV column of an
         augmented record is always off: its own instrument).
+    still : ndarray of bool, shape (n_inputs,)
+        Inputs that do not move at all (held, saturated, a DV that stays put):
+        not instruments, and their regressors carry nothing.
     """
 
     setpoints: np.ndarray
     dither: np.ndarray
     manual: np.ndarray
+    still: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -203,7 +207,8 @@ def _manual_columns(stretch: Record, which: np.ndarray) -> np.ndarray:
 def moving_instruments(stretches: Sequence[Record]) -> InstrumentSet:
     """The instruments of the data: the setpoints, dither columns and manual MVs that move somewhere."""
     r = np.vstack([np.asarray(s.r, dtype=float) for s in stretches]) if stretches else np.zeros((0, 0))
-    return InstrumentSet(moving_columns(r), active_dither(stretches), _manual_moves(stretches))
+    u = np.vstack([np.asarray(s.u, dtype=float) for s in stretches]) if stretches else np.zeros((0, 0))
+    return InstrumentSet(moving_columns(r), active_dither(stretches), _manual_moves(stretches), ~moving_columns(u))
 
 
 def instruments(stretch: Record, moving: InstrumentSet) -> np.ndarray:

@@ -149,13 +149,6 @@ def diagnose_stretches(
 ) -> Diagnosis:
     """Diagnose unbroken stretches of data (one estimate from all of them) with ``method`` (default ``pmr.method``).
 
-    With ``disturbance_model`` (the configuration's DVs) and data that carry
-    them (``Record.dv``), the diagnosis runs on ``[G, Gd]`` and the augmented
-    records (:func:`~pmr_ros.core.sim.augment.with_disturbances`): every D
-    element gets its verdict as a G element does.  Data without them are
-    diagnosed on ``G`` alone (the DVs' effect then counts as noise), and every
-    parametric result says so in one warning.
-
     Parameters
     ----------
     stretches : sequence of Record
@@ -177,7 +170,8 @@ def diagnose_stretches(
         (a historian export): the inputs' limits are judged on these, in the
         limits' own units.  Default: ``stretches``.
     disturbance_model : TransferMatrix, optional
-        ``Gd``, the measured disturbances' model (``PmrConfig.disturbance_model``).
+        ``Gd``: with data that carry the DVs (``Record.dv``) the D elements are diagnosed too
+        (:func:`~pmr_ros.core.sim.augment.with_disturbances`); without, ``G`` alone with one warning.
 
     Raises
     ------
@@ -190,11 +184,7 @@ def diagnose_stretches(
     stretches = list(stretches)
     note = missing_disturbances(stretches, disturbance_model)
     if note is None and disturbance_model is not None:
-        if as_read is not None:
-            as_read = None if missing_disturbances(as_read, disturbance_model) else list(as_read)
-        as_read = None if as_read is None else with_disturbances(as_read, model, disturbance_model)[0]
-        stretches, model = with_disturbances(stretches, model, disturbance_model)
-        quality = None if quality is None else _without_dv_limits(quality, model.n_disturbances)
+        stretches, model, quality, as_read = _augmented(stretches, model, quality, as_read, disturbance_model)
     diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
     if note is not None:
         diagnosis = _with_warning(diagnosis, f"D elements not diagnosed: {note}")
@@ -205,6 +195,23 @@ def diagnose_stretches(
         return diagnosis
     figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
     return with_data_quality(diagnosis, figures, model=model, settings=quality)
+
+
+def _augmented(
+    stretches: Sequence[Record],
+    model: TransferMatrix,
+    quality: QualitySettings | None,
+    as_read: Sequence[Record] | None,
+    disturbance_model: TransferMatrix,
+) -> tuple[list[Record], TransferMatrix, QualitySettings | None, list[Record] | None]:
+    """The data, model, quality settings and data as read with the DVs as inputs (:mod:`~..sim.augment`)."""
+    if as_read is not None and not missing_disturbances(as_read, disturbance_model):
+        read = with_disturbances(as_read, model, disturbance_model)[0]
+    else:
+        read = None
+    stretches, model = with_disturbances(stretches, model, disturbance_model)
+    quality = None if quality is None else _without_dv_limits(quality, model.n_disturbances)
+    return stretches, model, quality, read
 
 
 def _without_dv_limits(quality: QualitySettings, n_disturbances: int) -> QualitySettings:

@@ -11,8 +11,7 @@ The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
 
 **The regression of one output row** (:class:`RowSpectra`) relates the row's
 output ``y_i`` to one regressor ``x_ik`` per input, through the instruments
-z (the external signals that move: setpoints, MV dither, MVs in manual,
-measured disturbances; :class:`~pmr_ros.core.records.InstrumentSet`):
+z (the external signals that move, :class:`~pmr_ros.core.records.InstrumentSet`):
 
 * a modeled element (``foptd`` or ``integrating``): ``x_ik = Ghat_ik u_k``,
   so that ``y_i = sum_k G_PMR_ik x_ik + v_i`` with ``G_PMR = G / Ghat``;
@@ -54,7 +53,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
-from ..records import InstrumentSet, Record, moving_columns, moving_instruments
+from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .products import hermitian_product
 
@@ -300,8 +299,7 @@ class RecordSpectra:
         Frequencies 0 .. pi [rad/sample].
     rr : ndarray, shape (F, n_z, n_z)
         Instrument spectra ``S_{z z}`` (the "r" of the names is the instrument
-        vector z: the setpoints that move, the MV dither columns that move,
-        then the MVs that move in manual).
+        vector z: the setpoints, dither columns and manual MVs that move).
     segments : int
         Welch segments averaged (over every stretch).
     equivalent_segments : float
@@ -312,9 +310,7 @@ class RecordSpectra:
     dithered : ndarray of bool, shape (n_in,)
         Inputs whose dither is an instrument.
     moving : InstrumentSet
-        Which setpoints, dither columns and manual MVs are the instruments.
-    still : ndarray of bool, shape (n_in,)
-        Inputs that do not move at all in the data (their regressors are constant).
+        Which setpoints, dither columns and manual MVs are the instruments; which inputs never move.
     samples : int
         Samples of every stretch together.
     """
@@ -322,10 +318,7 @@ class RecordSpectra:
     def __init__(self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> None:
         self.model, self.settings = model, welch
         self.moving: InstrumentSet = moving_instruments(stretches)
-        self.dithered = self.moving.dither
-        u = np.vstack([np.asarray(s.u, dtype=float) for s in stretches])
-        self.samples = int(u.shape[0])
-        self.still = ~moving_columns(u)
+        self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
         warmup = model.settling_samples()
         self._data = [
@@ -342,12 +335,7 @@ class RecordSpectra:
     @property
     def layout_inputs(self) -> dict:
         """What :func:`~pmr_ros.core.pmr.implicit.row_layout` reads of the data: instruments, dither, what moves."""
-        return {
-            "n_instruments": self.n_instruments,
-            "dithered": self.dithered,
-            "moving": self.moving,
-            "still": self.still,
-        }
+        return {"n_instruments": self.n_instruments, "dithered": self.dithered, "moving": self.moving}
 
     @property
     def n_instruments(self) -> int:
