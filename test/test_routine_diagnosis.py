@@ -198,3 +198,19 @@ def test_the_more_data_estimate_against_a_longer_run(config, plant):
             )
     assert checked == 4
     assert any(e.parametric.more_data_factor is not None for e in short), [e.summary() for e in short]
+
+
+def test_an_mv_held_still_is_left_out_and_the_rest_of_its_rows_decided(config, plant):
+    routine = Routine(dither=np.array([0.2, 0.0]), manual=((0, 16384, 1),), manual_amplitude=0.0)
+    record = routine_run(config, plant, routine, samples=16384, seed=10)
+    assert np.ptp(record.u[:, 1]) == 0.0  # steam held by the operator all along
+    d = _parametric(record, config)
+    for name in ("G12", "G22"):
+        assert d.elements[name].verdict == "inconclusive"
+        assert any(r.startswith("u2 (steam) does not move at all in this record") for r in d.elements[name].all_reasons)
+    g11, g21 = d.elements["G11"].parametric, d.elements["G21"].parametric
+    assert g11.verdict == "mismatch" and abs(g11.gain_mismatch_pct - 10.0) <= GAIN_PP
+    assert g21.gain_verdict == "ok" and abs(g21.gain_mismatch_pct) <= GAIN_PP
+    classic = diagnose_stretches([record], model=config.model, pmr=config.pmr, parametric=config.parametric)
+    assert classic.elements["G12"].verdict == "inconclusive"
+    assert classic.elements["G11"].classic.gain_mismatch
