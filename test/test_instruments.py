@@ -19,7 +19,7 @@ from pmr_ros.core.pmr.parametric.attribution import (
     with_attribution,
 )
 from pmr_ros.core.records import InstrumentSet, Record, instruments, moving_columns, moving_instruments
-from pmr_ros.core.results import ParametricResult
+from pmr_ros.core.results import ParametricResult, compare_diagnoses
 from pmr_ros.core.sim.augment import (
     augmented_model,
     augmented_record,
@@ -162,3 +162,14 @@ def test_the_more_data_factor_is_the_squared_ratio_of_half_widths():
         gain_mismatch_pct_interval=(-7.0, 9.0), gain_verdict="inconclusive", reasons=("cannot be told apart",)
     )
     assert with_attribution(apart, {}, samples=1, sample_time=1.0, settings=settings).more_data_factor is None
+
+
+def test_a_recording_without_instrument_shares_still_agrees():
+    def element(shares):
+        return {"G11": {"parametric": {"gain_mismatch_pct": 1.0, "instrument_shares": shares}}}
+
+    assert compare_diagnoses(element({}), element({"setpoint_y1": 1.0})) == []
+    assert compare_diagnoses(element(None), element({"setpoint_y1": 1.0})) == []
+    assert compare_diagnoses(element({"setpoint_y1": 0.4}), element({"setpoint_y1": 1.0})) == [
+        "G11.parametric.instrument_shares.setpoint_y1: 0.4 != 1.0"
+    ]
