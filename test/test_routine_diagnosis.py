@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from plant_export import DATA_BLOCK, clean_frame
 from routine_loop import Routine, routine_run
 
 from pmr_ros.api import diagnose
@@ -27,6 +28,8 @@ from pmr_ros.core.results.codec import (
     status_key_values,
 )
 from pmr_ros.core.sim.model import Mismatch, TransferMatrix
+from pmr_ros.service.historian import diagnose_table
+from pmr_ros.service.refusal import ServiceError
 
 GAIN_PP = 3.0
 """The gain specification: within 3 percentage points of the injected change."""
@@ -214,3 +217,12 @@ def test_an_mv_held_still_is_left_out_and_the_rest_of_its_rows_decided(config, p
     classic = diagnose_stretches([record], model=config.model, pmr=config.pmr, parametric=config.parametric)
     assert classic.elements["G12"].verdict == "inconclusive"
     assert classic.elements["G11"].classic.gain_mismatch
+
+
+def test_a_historian_export_without_the_configured_dvs_is_one_clear_line(tmp_path, config, plant):
+    record = routine_run(config, plant, Routine(dither=np.array([0.2, 0.2])), samples=300, seed=11)
+    path = tmp_path / "export.csv"
+    clean_frame(record).to_csv(path, index=False)
+    with_dvs = replace(load_config(overrides={"data": DATA_BLOCK}), disturbance_model=DV_MODEL)
+    with pytest.raises(ServiceError, match=r"export\.csv: the configuration has 2 measured disturbances \(feed"):
+        diagnose_table(path, with_dvs)
