@@ -13,7 +13,7 @@ were dithered, the dither d.  The instruments of the PMR regression are the
 external signals that move (:class:`InstrumentSet`): every setpoint that
 changes (however rarely), every MV dither column that moves, and every MV
 while its controller was off (``manual``) -- a measured disturbance enters as
-such an MV, always in manual (:func:`pmr_ros.core.sim.model.augmented_record`).
+such an MV, always in manual (:func:`pmr_ros.core.sim.augment.augmented_record`).
 A constant setpoint is simply not an instrument.
 """
 
