@@ -17,6 +17,7 @@ from .config import PmrConfig, load_config
 from .core.pmr.diagnosis import diagnose_stretches
 from .core.records import Record
 from .core.results import Diagnosis
+from .core.sim.augment import missing_disturbances
 from .core.sim.closed_loop import simulate as simulate_loop
 from .core.sim.model import Mismatch, TransferMatrix
 
@@ -87,6 +88,7 @@ def diagnose(
     model: TransferMatrix | None = None,
     method: str | None = None,
     dither: np.ndarray | None = None,
+    dv: np.ndarray | None = None,
 ) -> Diagnosis:
     """Diagnose one gap-free record of closed-loop data: a verdict per element of the model.
 
@@ -103,14 +105,26 @@ def diagnose(
         ``classic`` or ``parametric`` (default ``pmr.method`` of the configuration).
     dither : ndarray, shape (N, n_inputs), optional
         The MV dither added to the controller's outputs, if any.
+    dv : ndarray, shape (N, n_disturbances), optional
+        The measured disturbances of the configuration's ``disturbance_model``:
+        its D elements (``D11`` ...) are diagnosed beside the G elements.
 
     Returns
     -------
     Diagnosis
         With the data-quality figures of the configuration's ``quality`` block.
+
+    Raises
+    ------
+    ValueError
+        The configuration has measured disturbances and ``dv`` does not carry them (one line).
     """
     config = _config(config)
-    record = Record(np.asarray(r), np.asarray(u), np.asarray(y), None if dither is None else np.asarray(dither))
+    applied_dither = None if dither is None else np.asarray(dither)
+    record = Record(np.asarray(r), np.asarray(u), np.asarray(y), applied_dither, None if dv is None else np.asarray(dv))
+    problem = missing_disturbances([record], config.disturbance_model)
+    if problem:
+        raise ValueError(problem)
     return diagnose_stretches(
         [record],
         model=model or config.model,
@@ -118,6 +132,7 @@ def diagnose(
         parametric=config.parametric,
         method=method,
         quality=config.quality,
+        disturbance_model=config.disturbance_model,
     )
 
 

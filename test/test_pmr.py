@@ -129,11 +129,13 @@ def test_constant_setpoints_are_insufficient_data(wood_berry):
     assert diagnosis_to_json(d)["elements"]["G11"]["reasons"] == [d.reason]
 
 
-def test_one_constant_setpoint_is_insufficient_data():
+def test_one_constant_setpoint_is_no_instrument_and_the_reason_says_what_to_add():
     config = load_config(overrides={"prbs": {"amplitude": [1.0, 0.0]}})
     rec = simulate(config, samples=4096)
     d = diagnose(rec.r, rec.u, rec.y, config.model, config.pmr)
-    assert d.status == "insufficient_data" and "r2" in d.reason
+    # one instrument for two inputs: the classic method reads no row, and says what would add one
+    assert d.status == "insufficient_data" and "is constant" not in d.reason
+    assert "2 modeled inputs but 1 instrument" in d.reason and "a setpoint change on y2 (x_B)" in d.reason
 
 
 def test_too_short_a_record_is_insufficient_data(wood_berry):

@@ -290,12 +290,21 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0
         return _without_verdict(INSUFFICIENT, reason, config, window_info(aligner, window_samples, since=since), stamp)
     if not data.stretches:  # one stretch, too short for a Welch segment: the core says why
         diagnosis = diagnose_stretches(
-            data.all_stretches, model=config.model, pmr=config.pmr, parametric=config.parametric
+            data.all_stretches,
+            model=config.model,
+            pmr=config.pmr,
+            parametric=config.parametric,
+            disturbance_model=config.disturbance_model,
         )
         window = window_info(aligner, window_samples, since=since)
         return WindowOutcome(INSUFFICIENT, diagnosis, diagnosis.reason, window, stamp)
     diagnosis = diagnose_stretches(
-        data.stretches, model=config.model, pmr=config.pmr, parametric=config.parametric, quality=config.quality
+        data.stretches,
+        model=config.model,
+        pmr=config.pmr,
+        parametric=config.parametric,
+        quality=config.quality,
+        disturbance_model=config.disturbance_model,
     )
     window = window_info(aligner, window_samples, data.samples, data.pieces[0].first)
     if diagnosis.status != "ok":

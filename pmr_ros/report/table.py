@@ -29,7 +29,9 @@ def _interval(value: float | None, interval: tuple[float, float] | None) -> str:
 
 
 def _injected(injected: Injected, name: str) -> str:
-    t = injected[name]
+    t = injected.get(name)
+    if t is None:  # an element the truth does not name (a D element of a run without a DV mismatch)
+        return " -"
     return f" {t['gain_pct']:+.0f}, {t['time_constant_pct']:+.0f}, {t['delay_samples']:+d}"
 
 

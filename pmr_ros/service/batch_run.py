@@ -32,5 +32,6 @@ def simulate_and_diagnose(
         pmr=config.pmr,
         parametric=config.parametric,
         quality=config.quality,
+        disturbance_model=config.disturbance_model,
     )
     return close_and_write(config, diagnosis, model_path=model_path, notes=notes)

@@ -73,7 +73,7 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
         the estimated plant would not fit in memory (checked before allocating).
     """
     try:
-        update = corrected_model(config.model, diagnosis)
+        update = corrected_model(config.model, diagnosis, disturbance_model=config.disturbance_model)
     except NotCorrectable as exc:
         return Closed(diagnosis, None, str(exc))
     if config.impact.active and update.changes and diagnosis.impact is None:  # (read from /diagnostics: has it)
@@ -115,6 +115,11 @@ def model_file_text(
         f"diagnosis of {diagnosis.samples} samples{span} (configuration {config.source}).",
         "Elements with a mismatch verdict take their estimates; ok and inconclusive elements are the model's own.",
         *(f"changed {change.comment()}" for change in update.changes),
+        *(
+            ("the D elements' corrections above are not written below: change system.disturbance_* by hand",)
+            if update.disturbance_changes
+            else ()
+        ),
         *(() if update.changes else ("no element has a mismatch verdict: the model is unchanged",)),
         *_verdict_lines(diagnosis),
     ]

@@ -16,6 +16,7 @@ from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose_stretches
 from ..core.records import Record
 from ..core.results import Diagnosis
+from ..core.sim.augment import missing_disturbances
 from ..data import DataError, PlantData, load_plant_data
 from .closing import close_and_write
 from .outlier_notes import outlier_cost, with_outlier_reasons
@@ -97,10 +98,14 @@ def diagnose_table(
     ------
     ServiceError
         Bad input (one line naming the file, column, row and value); a
+        configuration with measured disturbances whose data lack them; a
         ``model_path`` the diagnosis cannot give a model for.
     """
     data = read_export(path, config, progress=progress)
     stretches = data.stretches()
+    problem = missing_disturbances(stretches, config.disturbance_model)
+    if problem:
+        raise ServiceError(f"{path}: {problem}")
     quality = config.quality if limits_given(config) else config.quality.without_limits()
     diagnosis = diagnose_stretches(
         stretches,
@@ -109,6 +114,7 @@ def diagnose_table(
         parametric=config.parametric,
         quality=quality,
         as_read=data.stretches(deviations=False),
+        disturbance_model=config.disturbance_model,
     )
     diagnosis = with_outlier_reasons(diagnosis, outlier_cost(data, config, method=diagnosis.method))
     notes: list[str] = []

@@ -171,16 +171,17 @@ def control_impact(diagnosis: Diagnosis, *, loop: LoopConfig, update: ModelUpdat
     Returns
     -------
     Diagnosis
-        A new diagnosis: ``ElementDiagnosis.impact`` set on the changed
-        elements (ranked by ISE ratio, 1 = matters most), ``Diagnosis.impact``
+        A new diagnosis: ``ElementDiagnosis.impact`` set on the changed G
+        elements (a D element's, the measured disturbances' model, is not
+        simulated: these loops run without DVs) (ranked by ISE ratio, 1 = matters most), ``Diagnosis.impact``
         for all together; the input diagnosis is left as it is.
     """
-    if not update.changes:
+    # the MPC acts on G: a D element (a measured disturbance's model) has no place in these loops
+    acting = [c for c in update.changes if c.name in loop.model.element_names()]
+    if not acting:
         return diagnosis
     base = loop_figures(loop, loop.model, samples=samples)
-    alone = {
-        c.name: loop_figures(loop, _with_element(loop.model, update, c.name), samples=samples) for c in update.changes
-    }
+    alone = {c.name: loop_figures(loop, _with_element(loop.model, update, c.name), samples=samples) for c in acting}
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
     elements = dict(diagnosis.elements)
     for name, figures in alone.items():

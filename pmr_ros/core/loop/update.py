@@ -6,7 +6,10 @@ reasons to leave a model alone).  A changed element takes the parametric
 estimate of all its parameters: ``K = Khat (1 + dK/100)``, ``tau = tauhat (1 +
 dtau/100)`` (FOPTD only) and ``D = Dhat + dD``.  The classic method gives no
 time-constant estimate (its index is a slope, not a ratio), so a corrected
-model needs the parametric method.
+model needs the parametric method.  A diagnosis with measured disturbances
+(D elements, columns past the model's inputs) corrects the disturbance model
+``Gd`` the same way when it is given (:attr:`ModelUpdate.disturbance_model`);
+the controller's model ``G`` is what the MPC acts on.
 """
 
 from __future__ import annotations
@@ -85,11 +88,20 @@ class ModelUpdate:
     model : TransferMatrix
         The corrected model (the controller's where nothing changed).
     changes : tuple of ElementChange
-        Row-major, only the elements that changed.
+        Row-major, only the elements that changed (G elements, then D elements).
+    disturbance_model : TransferMatrix or None
+        The corrected disturbance model ``Gd`` (the given one where no D
+        element changed); None when none was given.
     """
 
     model: TransferMatrix
     changes: tuple[ElementChange, ...]
+    disturbance_model: TransferMatrix | None = None
+
+    @property
+    def disturbance_changes(self) -> tuple[ElementChange, ...]:
+        """The changes of D elements (the measured disturbances' model)."""
+        return tuple(c for c in self.changes if c.name.startswith("D"))
 
 
 def _estimated_element(element: ElementDiagnosis) -> ElementModel:
@@ -104,15 +116,32 @@ def _estimated_element(element: ElementDiagnosis) -> ElementModel:
     return ElementModel(before.kind, gain, tau, before.delay_samples + int(p.delay_mismatch_samples))
 
 
-def corrected_model(model: TransferMatrix, diagnosis: Diagnosis) -> ModelUpdate:
+def _replaced(model: TransferMatrix, changed: list[tuple[int, int, ElementModel]]) -> TransferMatrix:
+    """``model`` with the elements ``(row, column, estimate)`` replaced."""
+    gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
+    for i, k, after in changed:
+        gain[i, k] = after.gain
+        if after.time_constant is not None:
+            tau[i, k] = after.time_constant
+        delay[i, k] = after.delay_samples * model.sample_time
+    return replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
+
+
+def corrected_model(
+    model: TransferMatrix, diagnosis: Diagnosis, *, disturbance_model: TransferMatrix | None = None
+) -> ModelUpdate:
     """The controller's model with every ``mismatch`` element replaced by its parametric estimate.
 
     Parameters
     ----------
     model : TransferMatrix
-        The controller's model the diagnosis compared the plant with.
+        The controller's model the diagnosis compared the plant with (``G``, without DVs).
     diagnosis : Diagnosis
         A parametric diagnosis with verdicts.
+    disturbance_model : TransferMatrix, optional
+        ``Gd``: its D elements (columns ``model.n_inputs ..`` of the
+        diagnosis) are corrected too; without it a D element's mismatch is
+        left out of the update.
 
     Returns
     -------
@@ -134,17 +163,22 @@ def corrected_model(model: TransferMatrix, diagnosis: Diagnosis) -> ModelUpdate:
         raise NotCorrectable(
             "a corrected model needs the parametric method (the classic tau index is a slope, not a time constant)"
         )
-    gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
-    changes = []
+    process: list[tuple[int, int, ElementModel]] = []
+    disturbance: list[tuple[int, int, ElementModel]] = []
+    changes, later = [], []
     for element in diagnosis:
         if element.verdict != "mismatch" or element.parametric is None:
             continue
+        k = element.column
+        if k >= model.n_inputs and disturbance_model is None:
+            continue  # a D element without the disturbance model to correct
         after = _estimated_element(element)
-        i, k = element.row, element.column
-        gain[i, k] = after.gain
-        if after.time_constant is not None:
-            tau[i, k] = after.time_constant
-        delay[i, k] = after.delay_samples * model.sample_time
-        changes.append(ElementChange(element.name, element.model, after, element.parametric))
-    corrected = replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
-    return ModelUpdate(corrected, tuple(changes))
+        change = ElementChange(element.name, element.model, after, element.parametric)
+        if k < model.n_inputs:
+            process.append((element.row, k, after))
+            changes.append(change)
+        else:
+            disturbance.append((element.row, k - model.n_inputs, after))
+            later.append(change)
+    corrected_disturbances = None if disturbance_model is None else _replaced(disturbance_model, disturbance)
+    return ModelUpdate(_replaced(model, process), tuple(changes + later), corrected_disturbances)

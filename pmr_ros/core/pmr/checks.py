@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..records import Record, active_dither
+from ..records import Record, moving_instruments
 from ..sim.model import TransferMatrix
 from .spectra import WelchSettings
 
@@ -33,6 +33,8 @@ def _check_shapes(stretch: Record, model: TransferMatrix, where: str) -> None:
     arrays = [("r", stretch.r, n_out), ("u", stretch.u, n_in), ("y", stretch.y, n_out)]
     if stretch.dither is not None:
         arrays.append(("dither", stretch.dither, n_in))
+    if stretch.manual is not None:
+        arrays.append(("manual", stretch.manual, n_in))
     for name, data, width in arrays:
         data = np.asarray(data)
         if data.ndim != 2 or data.shape[1] != width:
@@ -41,7 +43,7 @@ def _check_shapes(stretch: Record, model: TransferMatrix, where: str) -> None:
             raise InsufficientData(f"{name}{where} holds NaN or inf samples")
         if data.shape[0] != stretch.samples:
             raise InsufficientData(
-                f"r, u, y{' and dither' if stretch.dither is not None else ''}{where} have different lengths"
+                f"r, u, y and {name}{where} have different lengths ({data.shape[0]}, not {stretch.samples})"
             )
 
 
@@ -96,15 +98,23 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
     Raises
     ------
     InsufficientData
-        Wrong shapes, non-finite samples, too few Welch segments in all, a constant setpoint.
+        Wrong shapes, non-finite samples, too few Welch segments in all, nothing external that moves.
     """
     if not stretches:
         raise InsufficientData("no data")
     for j, stretch in enumerate(stretches):
         _check_shapes(stretch, model, "" if len(stretches) == 1 else f" of stretch {j + 1}")
+    moving = moving_instruments(stretches)
+    if moving.count == 0:
+        raise InsufficientData(
+            "no excitation: nothing external moves in this record (every setpoint constant, no MV dither, no MV "
+            "moved in manual, no measured disturbance that moves): add MV dither (excitation.mv_dither_amplitude), "
+            "a setpoint change or manual moves of an MV"
+        )
     warmup = model.settling_samples()
     segments = welch_segments([s.samples for s in stretches], model=model, welch=welch)
-    n_z = model.n_outputs + int(active_dither(stretches).sum())
+    # every instrument that moves counts (a constant setpoint is none): the instrument spectra need 2 n_z segments
+    n_z = moving.count
     need = segments_needed(n_z)
     if segments < need:
         shortest = unbroken_samples_needed(model, welch, instruments=n_z)
@@ -114,10 +124,6 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
             f"window too short: {samples} samples{where}, less {warmup} of model settling each, give {segments} Welch "
             f"segments of {welch.segment_length}, need {need} ({shortest} unbroken samples)"
         )
-    r = np.vstack([np.asarray(s.r, dtype=float) for s in stretches])
-    for j, spread in enumerate(r.std(axis=0)):
-        if spread <= 1e-9 * (1.0 + abs(r[:, j].mean())):
-            raise InsufficientData(f"no excitation: setpoint r{j + 1} ({model.output_names[j]}) is constant")
 
 
 def check_record(r: np.ndarray, u: np.ndarray, y: np.ndarray, *, model: TransferMatrix, welch: WelchSettings) -> None:

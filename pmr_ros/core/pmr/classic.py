@@ -201,7 +201,7 @@ def classic_results(
     """
     out: dict[str, ClassicResult | tuple[str, ...]] = {}
     for name, (i, k, element) in model.element_models().items():
-        refusal = row_refusal(estimate, i, settings)
+        refusal = row_refusal(estimate, i, settings) or estimate.layouts[i].missing(k)
         if element.kind == "none":
             out[name] = (NOT_TESTED,)
         elif refusal is not None:

@@ -180,7 +180,7 @@ def residual_spectra(
     omega = spectra.omega
     out = np.full((omega.size, model.n_outputs), np.nan)
     for i in range(model.n_outputs):
-        layout = row_layout(model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
+        layout = row_layout(model, i, **spectra.layout_inputs)
         if layout.columns.size == 0:
             continue
         row = spectra.row(i)

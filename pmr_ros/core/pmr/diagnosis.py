@@ -9,6 +9,7 @@ import numpy as np
 
 from ..records import Record
 from ..results import DataQuality, Diagnosis
+from ..sim.augment import missing_disturbances, with_disturbances
 from ..sim.model import TransferMatrix
 from .classic import PmrSettings, diagnose_classic
 from .data_quality import QualitySettings, RecordQuality, assess, element_warnings
@@ -172,6 +173,7 @@ def diagnose_stretches(
     method: str | None = None,
     quality: QualitySettings | None = None,
     as_read: Sequence[Record] | None = None,
+    disturbance_model: TransferMatrix | None = None,
 ) -> Diagnosis:
     """Diagnose unbroken stretches of data (one estimate from all of them) with ``method`` (default ``pmr.method``).
 
@@ -195,6 +197,9 @@ def diagnose_stretches(
         The data as read, where ``stretches`` are deviations from their means
         (a historian export): the inputs' limits are judged on these, in the
         limits' own units.  Default: ``stretches``.
+    disturbance_model : TransferMatrix, optional
+        ``Gd``: with data that carry the DVs (``Record.dv``) the D elements are diagnosed too
+        (:func:`~pmr_ros.core.sim.augment.with_disturbances`); without, ``G`` alone with one warning.
 
     Raises
     ------
@@ -205,7 +210,12 @@ def diagnose_stretches(
     if method not in METHODS:
         raise ValueError(f"unknown diagnosis method {method!r}; choose one of {', '.join(METHODS)}")
     stretches = list(stretches)
+    note = missing_disturbances(stretches, disturbance_model)
+    if note is None and disturbance_model is not None:
+        stretches, model, quality, as_read = _augmented(stretches, model, quality, as_read, disturbance_model)
     diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
+    if note is not None:
+        diagnosis = _with_warning(diagnosis, f"D elements not diagnosed: {note}")
     if quality is None or diagnosis.status != "ok":
         return diagnosis
     used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
@@ -213,6 +223,44 @@ def diagnose_stretches(
         return diagnosis
     figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
     return with_data_quality(diagnosis, figures, model=model, settings=quality)
+
+
+def _augmented(
+    stretches: Sequence[Record],
+    model: TransferMatrix,
+    quality: QualitySettings | None,
+    as_read: Sequence[Record] | None,
+    disturbance_model: TransferMatrix,
+) -> tuple[list[Record], TransferMatrix, QualitySettings | None, list[Record] | None]:
+    """The data, model, quality settings and data as read with the DVs as inputs (:mod:`~..sim.augment`)."""
+    if as_read is not None and not missing_disturbances(as_read, disturbance_model):
+        read = with_disturbances(as_read, model, disturbance_model)[0]
+    else:
+        read = None
+    stretches, model = with_disturbances(stretches, model, disturbance_model)
+    quality = None if quality is None else _without_dv_limits(quality, model.n_disturbances)
+    return stretches, model, quality, read
+
+
+def _without_dv_limits(quality: QualitySettings, n_disturbances: int) -> QualitySettings:
+    """``quality`` for an augmented model: the DV columns have no limits (their saturation is not judged)."""
+    none = np.full(n_disturbances, np.inf)
+    return replace(
+        quality,
+        u_min=np.concatenate([np.asarray(quality.u_min, dtype=float), -none]),
+        u_max=np.concatenate([np.asarray(quality.u_max, dtype=float), none]),
+    )
+
+
+def _with_warning(diagnosis: Diagnosis, warning: str) -> Diagnosis:
+    """``diagnosis`` with ``warning`` on every parametric result (verdicts unchanged)."""
+    elements = {
+        name: e
+        if e.parametric is None
+        else replace(e, parametric=replace(e.parametric, warnings=(*e.parametric.warnings, warning)))
+        for name, e in diagnosis.elements.items()
+    }
+    return replace(diagnosis, elements=elements)
 
 
 def diagnose(

@@ -14,11 +14,8 @@ regressors the equations are solved in the least-squares sense after
 whitening the instruments (``S_zz^-1/2``), the frequency-domain two-stage
 least squares; with as many, that is the paper's exact solution.
 
-:func:`row_layout` decides which regressors a row's data can carry: every
-input when there are at least as many instruments as inputs; else only the
-modeled elements (the empty cells then cannot be tested for an unmodeled
-interaction); else none -- the row is not identifiable and says which
-excitation is missing.
+:func:`~pmr_ros.core.pmr.identifiable.row_layout` decides which regressors a
+row's data can carry.
 """
 
 from __future__ import annotations
@@ -31,6 +28,7 @@ import numpy as np
 from ..records import Record
 from ..sim.model import TransferMatrix
 from .checks import check_stretches
+from .identifiable import RowLayout, input_label, row_layout
 from .products import hermitian_product
 from .spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 
@@ -42,76 +40,13 @@ __all__ = [
     "estimate_pmr",
     "implicit_estimate",
     "implicit_row",
+    "input_label",
     "instrument_factor",
     "row_layout",
 ]
 
 RIDGE = 1e-12
 """Relative ridge added to the instrument spectra before their Cholesky factor."""
-
-
-@dataclass(frozen=True)
-class RowLayout:
-    """Which inputs enter one output row's regression, and what the data cannot tell.
-
-    Attributes
-    ----------
-    row : int
-        Output row i.
-    columns : ndarray of int
-        Inputs whose regressors enter the regression, in input order.
-    reasons : tuple of str
-        Why the row cannot be diagnosed at all (then ``columns`` is empty).
-    untested : str
-        Why the row's empty cells outside ``columns`` cannot be tested ('' when all are).
-    """
-
-    row: int
-    columns: np.ndarray
-    reasons: tuple[str, ...] = ()
-    untested: str = ""
-
-
-def _missing_excitation(model: TransferMatrix, candidates: np.ndarray, dithered: np.ndarray, need: int) -> str:
-    """``add MV dither (excitation.mv_dither_amplitude) on at least 2 of u2, u4, u5``."""
-    free = [model.input_names[k] for k in candidates if not dithered[k]]
-    where = f"at least {need} of {', '.join(free)}" if free else "more inputs"
-    return f"add MV dither (excitation.mv_dither_amplitude) on {where}"
-
-
-def row_layout(
-    model: TransferMatrix, i: int, *, n_instruments: int, dithered: np.ndarray, test_empty: bool = True
-) -> RowLayout:
-    """The regressors row ``i`` can carry with ``n_instruments`` instruments.
-
-    Parameters
-    ----------
-    model : TransferMatrix
-    i : int
-        Output row.
-    n_instruments : int
-        Setpoints plus moving dither columns.
-    dithered : ndarray of bool, shape (n_in,)
-        Inputs whose dither is an instrument.
-    test_empty : bool
-        Whether the empty cells are to be tested (given regressors) when the instruments allow.
-    """
-    n_in = model.n_inputs
-    present = np.flatnonzero(model.present[i])
-    name = model.output_names[i]
-    count = f"{n_instruments} instrument{'s' if n_instruments != 1 else ''}"
-    if n_instruments >= n_in and test_empty:
-        return RowLayout(i, np.arange(n_in))
-    everything = np.arange(n_in)
-    if n_instruments >= present.size:
-        untested = f"not tested: row {name} has {count} for {n_in} inputs; " + _missing_excitation(
-            model, everything, dithered, n_in - n_instruments
-        )
-        return RowLayout(i, present, untested=untested)
-    reason = f"row {name} not identifiable: {present.size} modeled inputs but {count}; " + _missing_excitation(
-        model, present, dithered, present.size - n_instruments
-    )
-    return RowLayout(i, np.empty(0, dtype=int), reasons=(reason,))
 
 
 @dataclass(frozen=True)
@@ -310,9 +245,7 @@ def implicit_estimate(spectra: RecordSpectra, *, test_empty: bool) -> PmrEstimat
     factor = instrument_factor(spectra.rr)
     builder = EstimateBuilder(spectra)
     for i in range(model.n_outputs):
-        layout = row_layout(
-            model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=test_empty
-        )
+        layout = row_layout(model, i, **spectra.layout_inputs, test_empty=test_empty)
         builder.add(layout, implicit_row(spectra.row(i), spectra.rr, factor, layout.columns))
     return builder.build()
 

@@ -11,7 +11,7 @@ The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
 
 **The regression of one output row** (:class:`RowSpectra`) relates the row's
 output ``y_i`` to one regressor ``x_ik`` per input, through the instruments
-z (setpoints and moving MV dither):
+z (the external signals that move, :class:`~pmr_ros.core.records.InstrumentSet`):
 
 * a modeled element (``foptd`` or ``integrating``): ``x_ik = Ghat_ik u_k``,
   so that ``y_i = sum_k G_PMR_ik x_ik + v_i`` with ``G_PMR = G / Ghat``;
@@ -53,7 +53,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import get_window
 
-from ..records import Record, active_dither, instruments
+from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .products import hermitian_product
 
@@ -299,7 +299,7 @@ class RecordSpectra:
         Frequencies 0 .. pi [rad/sample].
     rr : ndarray, shape (F, n_z, n_z)
         Instrument spectra ``S_{z z}`` (the "r" of the names is the instrument
-        vector z: the setpoints, then the MV dither columns that move).
+        vector z: the setpoints, dither columns and manual MVs that move).
     segments : int
         Welch segments averaged (over every stretch).
     equivalent_segments : float
@@ -309,11 +309,16 @@ class RecordSpectra:
         Rows whose signals are differenced (integrating outputs).
     dithered : ndarray of bool, shape (n_in,)
         Inputs whose dither is an instrument.
+    moving : InstrumentSet
+        Which setpoints, dither columns and manual MVs are the instruments; which inputs never move.
+    samples : int
+        Samples of every stretch together.
     """
 
     def __init__(self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> None:
         self.model, self.settings = model, welch
-        self.dithered = active_dither(stretches)
+        self.moving: InstrumentSet = moving_instruments(stretches)
+        self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
         warmup = model.settling_samples()
         self._data = [
@@ -321,15 +326,20 @@ class RecordSpectra:
             for s in stretches
             if welch.segments(s.samples - warmup) > 0
         ]
-        blocks = [instruments(s, self.dithered)[warmup:] for s in stretches]
+        blocks = [self.moving.columns(s)[warmup:] for s in stretches]
         self._z, self.equivalent_segments = stretch_segments(blocks, welch)
         self.omega = self._z.omega
         self.segments = self._z.segments
         self.rr = self._z.cross(slice(None), slice(None))
 
     @property
+    def layout_inputs(self) -> dict:
+        """What :func:`~pmr_ros.core.pmr.implicit.row_layout` reads of the data: instruments, dither, what moves."""
+        return {"n_instruments": self.n_instruments, "dithered": self.dithered, "moving": self.moving}
+
+    @property
     def n_instruments(self) -> int:
-        """Instruments: setpoints and moving dither columns."""
+        """Instruments: the setpoints, dither columns and manual MVs that move."""
         return int(self._z.ffts.shape[2])
 
     def _row_segments(self, i: int, transform: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:

@@ -33,8 +33,8 @@ ABSOLUTE_TOLERANCE = 1e-9
 DERIVED_KEYS = ("summary",)
 """Serialised keys that are derived text of numbers already compared (never compared themselves)."""
 
-LATER_KEYS = ("data_quality",)
-"""Parts that a diagnosis recorded by an earlier pmr_ros lacks (absent or None): compared only when both have them.
+LATER_KEYS = ("data_quality", "instrument_shares")
+"""Parts an earlier pmr_ros recording lacks (absent, None or empty): compared only when both have them.
 
 They never change a verdict, so a recording from before they existed still agrees on everything it holds."""
 
@@ -97,13 +97,18 @@ def _compare_mappings(
     a: Mapping[str, Any], b: Mapping[str, Any], path: str, tolerance: _Tolerance, out: list[str]
 ) -> None:
     for key in sorted(set(a) | set(b)):
-        if key in DERIVED_KEYS or (key in LATER_KEYS and (a.get(key) is None or b.get(key) is None)):
+        if key in DERIVED_KEYS or (key in LATER_KEYS and (_absent(a.get(key)) or _absent(b.get(key)))):
             continue
         where = f"{path}.{key}" if path else str(key)
         if key not in a or key not in b:
             out.append(f"{where}: only in {'the first' if key in a else 'the second'}")
         else:
             _compare(a[key], b[key], where, tolerance, out)
+
+
+def _absent(value: Any) -> bool:
+    """A :data:`LATER_KEYS` part an earlier recording lacks: None, or an empty mapping."""
+    return value is None or (isinstance(value, Mapping) and not value)
 
 
 def _numbers_agree(a: Any, b: Any, rtol: float, atol: float) -> bool:

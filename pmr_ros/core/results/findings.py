@@ -178,6 +178,16 @@ class ParametricResult:
         Quality remarks that do not change a verdict.
     quality : Mapping
         Data-quality figures (coherence, excitation, condition, ...).
+    instrument_shares : Mapping
+        Which external signals carried the element's information: each
+        instrument's share of the instrument-driven power of the element's
+        regressor over the fitted band (``setpoint_<output>``,
+        ``dither_<input>``, ``manual_<input>``, ``dv_<disturbance>``), summing
+        to 1; empty where the row has no regression.
+    more_data_factor : float or None
+        For an inconclusive gain or time constant: how many times today's data
+        at today's excitation would decide it, assuming the interval shrinks as
+        ``1/sqrt(N)`` (``inf``: no amount at today's estimate); None otherwise.
     """
 
     gain_mismatch_pct: float | None = None
@@ -196,6 +206,8 @@ class ParametricResult:
     reasons: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     quality: Mapping[str, float] = field(default_factory=dict)
+    instrument_shares: Mapping[str, float] = field(default_factory=dict)
+    more_data_factor: float | None = None
 
     NUMBERS: ClassVar[tuple[str, ...]] = (
         "gain_mismatch_pct",

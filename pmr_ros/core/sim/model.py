@@ -12,6 +12,11 @@ Each element is one of :data:`ELEMENT_TYPES`:
 * ``none``: an empty cell, no model (``b = 0``).
 
 Frequencies are in rad/sample.
+
+A model may carry its measured disturbances (DVs) as its last input columns
+(:func:`~pmr_ros.core.sim.augment.augmented_model`: ``[G, Gd]``,
+:attr:`TransferMatrix.n_disturbances` of them): their elements are named
+``D11``, ``D12`` ...
 """
 
 from __future__ import annotations
@@ -32,11 +37,17 @@ SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
 
 
-def element_name(i: int, k: int, n: int) -> str:
-    """Name of element (i, k), zero-based: ``G11`` style, ``G1_10`` when n > 9."""
+def element_name(i: int, k: int, n: int, *, prefix: str = "G") -> str:
+    """Name of element (i, k), zero-based: ``G11`` style, ``G1_10`` when n > 9; ``D11`` with ``prefix="D"`` (a DV's).
+
+    Examples
+    --------
+    >>> element_name(0, 1, 2), element_name(9, 2, 10, prefix="D")
+    ('G12', 'D10_3')
+    """
     if n > 9:
-        return f"G{i + 1}_{k + 1}"
-    return f"G{i + 1}{k + 1}"
+        return f"{prefix}{i + 1}_{k + 1}"
+    return f"{prefix}{i + 1}{k + 1}"
 
 
 @dataclass(frozen=True)
@@ -178,6 +189,9 @@ class TransferMatrix:
         Name of the system.
     element_type : ndarray of str
         One of :data:`ELEMENT_TYPES` per element; default (empty): all ``foptd``.
+    n_disturbances : int
+        How many of the last input columns are measured disturbances (DVs),
+        the feedforward model ``Gd`` beside ``G`` (:func:`~pmr_ros.core.sim.augment.augmented_model`); 0: none.
     """
 
     gain: np.ndarray
@@ -188,6 +202,7 @@ class TransferMatrix:
     input_names: tuple[str, ...] = field(default=())
     name: str = ""
     element_type: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
+    n_disturbances: int = 0
 
     def __post_init__(self) -> None:
         for attr in ("gain", "time_constant", "delay"):
@@ -247,9 +262,18 @@ class TransferMatrix:
         return float(tau.max()) if tau.size else 0.0
 
     def element_names(self) -> list[str]:
-        """Row-major element names ``G11, G12, ...`` (``G1_10`` style beyond 9 channels)."""
-        n = max(self.n_outputs, self.n_inputs)
-        return [element_name(i, k, n) for i in range(self.n_outputs) for k in range(self.n_inputs)]
+        """Row-major element names ``G11, G12, ...`` (``G1_10`` style beyond 9 channels); ``D11 ...`` for DV columns.
+
+        The G names are those of the model without its DVs; a DV column's
+        element is ``D<row><dv>`` (``D10_3`` style beyond 9 outputs or DVs).
+        """
+        mvs = self.n_inputs - self.n_disturbances
+        n, n_dv = max(self.n_outputs, mvs), max(self.n_outputs, self.n_disturbances)
+        return [
+            element_name(i, k, n) if k < mvs else element_name(i, k - mvs, n_dv, prefix="D")
+            for i in range(self.n_outputs)
+            for k in range(self.n_inputs)
+        ]
 
     def element_models(self) -> dict[str, tuple[int, int, ElementModel]]:
         """Row-major element name to ``(row, column, ElementModel)``, as diagnoses report them."""

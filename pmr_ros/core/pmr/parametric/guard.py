@@ -99,7 +99,7 @@ class RowQuality:
         if modeled and share < settings.excitation_min:
             return (
                 *self.reasons,
-                f"element barely excited ({100 * share:.1f} % of the row's setpoint-driven output < "
+                f"element barely excited ({100 * share:.1f} % of the row's instrument-driven output < "
                 f"parametric.excitation_min {100 * settings.excitation_min:g} %): move {input_name} more (MV dither)",
             )
         return self.reasons
@@ -141,11 +141,11 @@ def _reasons(
         return reasons
     if bins.size < min_bins:
         reasons.append(
-            f"informative band too narrow: {bins.size} bins before the coherence with the setpoints drops below "
+            f"informative band too narrow: {bins.size} bins before the coherence with the instruments drops below "
             f"{coherence_min:g}"
         )
     if coherence < settings.coherence_min:
-        reasons.append(f"coherence with the setpoints too low ({coherence:.2f} < {settings.coherence_min:g})")
+        reasons.append(f"coherence with the instruments too low ({coherence:.2f} < {settings.coherence_min:g})")
     if not np.isfinite(condition) or condition > settings.max_condition:
         reasons.append(collinear_inputs_reason(condition, max_condition=settings.max_condition, inputs=inputs))
     return reasons

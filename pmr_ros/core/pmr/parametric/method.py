@@ -29,6 +29,7 @@ from ..implicit import (
     row_layout,
 )
 from ..spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
+from .attribution import instrument_shares, with_attribution
 from .fit import RowData, RowFit, column_models, fit_row
 from .guard import RowQuality, row_quality
 from .interaction import interaction_result
@@ -64,6 +65,8 @@ class _FittedRow:
     fit: RowFit | None
     fitted: np.ndarray
     """The layout's columns (input indices) the fit has: all but those whose model gain is ~0."""
+    shares: np.ndarray
+    """Each instrument's share of each layout column's instrument-driven power, shape (n_z, n_columns)."""
 
     def fit_column(self, k: int) -> int:
         """The fit's column of input ``k``."""
@@ -81,11 +84,12 @@ def _fit(
     settings: ParametricSettings,
 ) -> _FittedRow:
     """Row ``i``'s layout, implicit estimate (from its spectra ``row``), guard and, when the guard passes it, fit."""
-    layout = row_layout(model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered)
+    layout = row_layout(model, i, **spectra.layout_inputs)
     estimate = implicit_row(row, spectra.rr, factor, layout.columns)
     quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
+    shares = instrument_shares(row.zx[:, :, layout.columns], spectra.rr, quality.bins)
     if quality.reasons:
-        return _FittedRow(layout, estimate, quality, None, layout.columns)
+        return _FittedRow(layout, estimate, quality, None, layout.columns, shares)
     kept = ~quality.negligible
     fitted = RowLayout(i, layout.columns[kept])
     data = RowData(
@@ -103,7 +107,7 @@ def _fit(
     fit = fit_row(
         data, columns, theta_start=estimate.ratio[:, kept], joint_correlation=settings.joint_delay_correlation
     )
-    return _FittedRow(layout, estimate, quality, fit, fitted.columns)
+    return _FittedRow(layout, estimate, quality, fit, fitted.columns, shares)
 
 
 def _share_per_gain(row: _FittedRow, c: int, f: int, omega: np.ndarray) -> float:
@@ -121,13 +125,29 @@ def _share_per_gain(row: _FittedRow, c: int, f: int, omega: np.ndarray) -> float
 def _element(
     row: _FittedRow, k: int, kind: str, *, spectra: RecordSpectra, settings: ParametricSettings
 ) -> ParametricResult:
+    """The result of input ``k`` of a fitted row, with the instruments that carried it (:mod:`.attribution`)."""
+    result = _judged(row, k, kind, spectra=spectra, settings=settings)
+    position = np.flatnonzero(row.layout.columns == k)
+    if not position.size or not row.quality.bins.size:
+        return result
+    model = spectra.model
+    labels = spectra.moving.labels(model.output_names, model.input_names, n_disturbances=model.n_disturbances)
+    shares = {label: float(row.shares[j, position[0]]) for j, label in enumerate(labels)}
+    return with_attribution(result, shares, samples=spectra.samples, sample_time=model.sample_time, settings=settings)
+
+
+def _judged(
+    row: _FittedRow, k: int, kind: str, *, spectra: RecordSpectra, settings: ParametricSettings
+) -> ParametricResult:
     """The result of input ``k`` of a fitted row."""
     quality = row.quality
     position = np.flatnonzero(row.layout.columns == k)
     c = int(position[0]) if position.size else -1
     figures = quality.quality(c, omega=spectra.omega, welch=spectra.settings)
+    still = row.layout.missing(k)
     if c < 0:
-        return _without_numbers(kind, quality.reasons or (row.layout.untested,), quality.warnings, figures)
+        why = (still,) if still else quality.reasons or (row.layout.untested,)
+        return _without_numbers(kind, why, quality.warnings, figures)
     reasons = quality.element_reasons(
         c,
         settings,
@@ -173,9 +193,7 @@ def _results(
     for i in range(model.n_outputs):
         row_spectra = spectra.row(i)
         if shared is not None:
-            layout = row_layout(
-                model, i, n_instruments=spectra.n_instruments, dithered=spectra.dithered, test_empty=False
-            )
+            layout = row_layout(model, i, **spectra.layout_inputs, test_empty=False)
             shared.add(layout, implicit_row(row_spectra, spectra.rr, factor, layout.columns))
         row = _fit(i, row_spectra, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
         kinds = [str(kind) for kind in model.element_type[i]]
