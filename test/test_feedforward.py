@@ -8,6 +8,7 @@ import scipy.signal
 
 from pmr_ros.config import load_config
 from pmr_ros.core.mpc.controller import LinearMpc
+from pmr_ros.core.sim.augment import augmented_model
 from pmr_ros.core.sim.batch import run_lockstep
 from pmr_ros.core.sim.closed_loop import routine_features, simulate
 from pmr_ros.core.sim.model import TransferMatrix
@@ -33,7 +34,7 @@ def with_dvs():
 
 def _ise_after_dv_step(config, *, feedforward: bool) -> float:
     """Squared output error of the loop at constant setpoints after a unit step of the first DV (noise-free)."""
-    plant = FoptdPlant(config.plant("none").beside(config.disturbance_plant("none")), 0.0, 1)
+    plant = FoptdPlant(augmented_model(config.plant("none"), config.disturbance_plant("none")), 0.0, 1)
     mpc = LinearMpc(config.model, config.mpc, disturbance_model=config.disturbance_model if feedforward else None)
     ise = 0.0
     for k in range(400):
@@ -80,7 +81,7 @@ def test_the_prediction_with_measured_disturbances_is_scipys_simulation_of_g_and
     horizon = with_dvs.mpc.prediction_horizon
     held = np.tile(np.concatenate((applied[-1], v_now)), (horizon, 1))  # the input held, the DV at its value now
     history = np.hstack([np.array(applied), np.array(dvs)])
-    whole = with_dvs.model.beside(with_dvs.disturbance_model)
+    whole = augmented_model(with_dvs.model, with_dvs.disturbance_model)
     expected = _scipy_outputs(whole, np.vstack([history, held, np.zeros((1, 4))]))[31 : 31 + horizon]
     np.testing.assert_allclose(predicted, expected, rtol=0, atol=1e-9)
     dv_only = mpc.prediction(v_now) - mpc.prediction(np.zeros(2))

@@ -224,5 +224,8 @@ def test_a_historian_export_without_the_configured_dvs_is_one_clear_line(tmp_pat
     path = tmp_path / "export.csv"
     clean_frame(record).to_csv(path, index=False)
     with_dvs = replace(load_config(overrides={"data": DATA_BLOCK}), disturbance_model=DV_MODEL)
-    with pytest.raises(ServiceError, match=r"export\.csv: the configuration has 2 measured disturbances \(feed"):
+    with pytest.raises(
+        ServiceError,
+        match=r"export\.csv: data\.disturbance_columns: .* declares 2 measured disturbance\(s\) \(feed, feed_comp\)",
+    ):
         diagnose_table(path, with_dvs)

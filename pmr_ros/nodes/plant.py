@@ -30,6 +30,7 @@ from rclpy.clock import Clock, ClockType
 from ..contract.layout import read_signal
 from ..contract.samples import check_signal, sample_index
 from ..contract.topics import topic
+from ..core.sim.augment import augmented_model
 from ..core.sim.true_plant import FoptdPlant
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import clock_message, signal_message, stamp_from_seconds
@@ -83,7 +84,7 @@ class PlantNode(ConfiguredNode):
         cfg = self.config
         self.model = cfg.plant()
         dv_plant = cfg.disturbance_plant() if cfg.disturbance_model is not None else None
-        whole = self.model if dv_plant is None else self.model.beside(dv_plant)
+        whole = self.model if dv_plant is None else augmented_model(self.model, dv_plant)
         self.plant = FoptdPlant(whole, cfg.noise_std, cfg.run.seed, disturbance=cfg.disturbance)
         # the measured disturbances: a pure function of the sample and the seed, as in the batch core
         self.dv = None if dv_plant is None else cfg.disturbance_signal.generator(cfg.run.seed)

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..sim.augment import augmented_model
 from ..sim.model import TransferMatrix
 from .design import (
     CondensedQp,
@@ -124,7 +125,7 @@ class LinearMpc(GivenInputs, ModelSwitch):
         Np, Nc = tuning.prediction_horizon, tuning.control_horizon
         if Nc > Np:
             raise ValueError("control_horizon must not exceed prediction_horizon")
-        whole = model if disturbance_model is None else model.beside(disturbance_model)
+        whole = model if disturbance_model is None else augmented_model(model, disturbance_model)
         self._ss = ss = whole.state_space()
         self._A, self._B, self._C = ss.A, ss.B, ss.C
         self.estimator = DisturbanceEstimator.for_model(model, filter_samples=tuning.ramp_filter_samples)

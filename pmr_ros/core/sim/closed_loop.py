@@ -13,6 +13,7 @@ import numpy as np
 
 from ..mpc.controller import LinearMpc, MpcStatistics, MpcTuning
 from ..records import Record
+from .augment import augmented_model
 from .excitation import ExcitationSettings, PrbsSettings, dither_generator
 from .model import TransferMatrix
 from .operation import DisturbanceSignalSettings, ManualSettings, manual_plan, setpoint_generator
@@ -161,7 +162,10 @@ def simulate_with_statistics(
     dv_model = config.disturbance_model
     truth, dv_truth = config.plant(scenario), config.disturbance_plant(scenario) if dv_model is not None else None
     plant = FoptdPlant(
-        truth if dv_truth is None else truth.beside(dv_truth), config.noise_std, seed, disturbance=config.disturbance
+        truth if dv_truth is None else augmented_model(truth, dv_truth),
+        config.noise_std,
+        seed,
+        disturbance=config.disturbance,
     )
     controller = LinearMpc(config.model, config.mpc, disturbance_model=dv_model)
     moving = ~config.mpc.zone_outputs if config.mpc.zone_outputs.size else None

@@ -314,25 +314,6 @@ class TransferMatrix:
             delay=self.delay + mismatch.delay_samples * self.sample_time,
         )
 
-    def beside(self, other: TransferMatrix) -> TransferMatrix:
-        """The matrix with ``other``'s columns appended (same outputs and sample time): ``[G, Gd]``.
-
-        The plant driven by inputs and measured disturbances together, ``[u; v]``.
-        """
-        if other.n_outputs != self.n_outputs or other.sample_time != self.sample_time:
-            raise ValueError("beside needs the same outputs and sample time")
-        tau = np.nan_to_num(np.hstack([self.time_constant, other.time_constant]), nan=0.0)
-        return TransferMatrix(
-            np.hstack([self.gain, other.gain]),
-            tau,
-            np.hstack([self.delay, other.delay]),
-            self.sample_time,
-            self.output_names,
-            self.input_names + other.input_names,
-            self.name,
-            element_type=np.hstack([self.element_type, other.element_type]),
-        )
-
     def with_time_constant(self, i: int, k: int, time_constant: float) -> TransferMatrix:
         """A copy with element (i, k)'s time constant replaced [time unit]."""
         tau = self.time_constant.copy()
