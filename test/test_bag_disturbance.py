@@ -131,8 +131,7 @@ def test_the_aligner_needs_the_dvs_it_was_given_and_names_them_when_they_stop():
 
 def test_a_routine_runs_bag_is_diagnosed_with_its_d_elements_as_the_record(tmp_path, wood_berry):
     """The offline replay of a bag with DVs gives the record's verdicts, D elements included (with the D diagnosis)."""
-    pytest.importorskip("pmr_ros.core.sim.augment", reason="the D-element diagnosis is not on this branch")
-    routine_loop = pytest.importorskip("routine_loop")
+    import routine_loop
     from test_data_routine_diagnosis import DV_MODEL, DV_PLANT
 
     from pmr_ros.contract.windowing import evaluate_window

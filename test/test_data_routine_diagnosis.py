@@ -5,7 +5,7 @@ The run (the configured Wood-Berry MPC on a plant with G11's gain +10 %, D11's
 is exported with DV columns, dither columns and a mode tag per MV
 (:func:`plant_export.export_frame`), read back and diagnosed by the historian
 service: the same verdicts as the record itself, every number within a tenth
-of its interval.  Needs the D-element diagnosis (:mod:`pmr_ros.core.sim.augment`).
+of its interval.
 """
 
 from __future__ import annotations
@@ -14,15 +14,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import routine_loop
 from plant_export import export_frame, export_tags
 
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
 from pmr_ros.core.sim.model import Mismatch, TransferMatrix
 from pmr_ros.service.historian import diagnose_table
-
-pytest.importorskip("pmr_ros.core.sim.augment", reason="the D-element diagnosis is not on this branch")
-routine_loop = pytest.importorskip("routine_loop")
 
 SAMPLES = 16384
 MANUAL = ((3000, 1500, 0), (9000, 1500, 1))

@@ -71,6 +71,9 @@ from ..ros.worker import SerialWorker
 from ..service.closing import ClosedWindow, close_window
 from ..service.memory_checks import check_impact_memory
 
+_SIGNAL_TOPIC = {**SIGNAL_TOPICS, "dv": "disturbance"}
+"""The contract topic of each aligned signal: r, u, y and the measured disturbances."""
+
 NODE_NAME = "pmr_diagnostician"
 
 MAX_QUEUED_JOBS = 1
@@ -107,13 +110,15 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
         self.messages_received = 0
-        self.lost_samples = dict.fromkeys(SIGNALS, 0)
-        self._heard: dict[str, int | None] = dict.fromkeys(SIGNALS)
-        self._topics = {s: topic(SIGNAL_TOPICS[s]).name for s in SIGNALS}
-        self._labels = {s: f"{s} on {self.resolve_topic_name(self._topics[s])}" for s in SIGNALS}
+        # with measured disturbances the window also needs v(k) of every sample (its D elements)
+        self._signals = (*SIGNALS, "dv") if self.config.disturbance_model is not None else SIGNALS
+        self.lost_samples = dict.fromkeys(self._signals, 0)
+        self._heard: dict[str, int | None] = dict.fromkeys(self._signals)
+        self._topics = {s: topic(_SIGNAL_TOPIC[s]).name for s in self._signals}
+        self._labels = {s: f"{s} on {self.resolve_topic_name(self._topics[s])}" for s in self._signals}
         self.aligner = self._new_aligner()
         self._conflict: tuple[str, float] | None = None
-        self._last_arrival: dict[str, float | None] = {s: None for s in SIGNALS}
+        self._last_arrival: dict[str, float | None] = {s: None for s in self._signals}
         self._created = time.monotonic()
         self._busy_at = 0.0  # when the worker was last seen diagnosing [s of monotonic time]
         self._stale_reported: float | None = None
@@ -126,7 +131,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._proposal_pub = self.contract_publisher("proposed_model")
         self._model_sub = self.contract_subscription("active_model", self._on_active_model)
         self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
-        self._subs = [self.contract_subscription(SIGNAL_TOPICS[s], self._callback(s)) for s in SIGNALS]
+        self._subs = [self.contract_subscription(_SIGNAL_TOPIC[s], self._callback(s)) for s in self._signals]
         self._own_timers: list[Any] = []
         self._start_timers()
 
@@ -138,14 +143,20 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _new_aligner(self) -> SampleAligner:
         model = self.config.model
-        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
         return SampleAligner(
             model.sample_time,
-            names,
+            self._channel_names(),
             self._labels,
             self.config.diagnostician.window_samples,
             self.config.diagnostician.max_lag_samples,
         )
+
+    def _channel_names(self) -> dict[str, tuple[str, ...]]:
+        model, dv = self.config.model, self.config.disturbance_model
+        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        if "dv" in self._signals and dv is not None:
+            names["dv"] = dv.input_names
+        return names
 
     def _start_timers(self) -> None:
         for timer in self._own_timers:
@@ -162,11 +173,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         """A new model or window applies from the next update; a new system restarts the window."""
         model = self.config.model
         al = self.aligner
-        if al.sample_time_s != model.sample_time or al.channel_names != {
-            "r": model.output_names,
-            "u": model.input_names,
-            "y": model.output_names,
-        }:
+        if al.sample_time_s != model.sample_time or al.channel_names != self._channel_names():
             self.aligner = self._new_aligner()
             self._warn("system channels or sample time changed: the window restarts")
         else:
@@ -291,7 +298,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
             self._busy_at = now
             return
         limit = self.config.diagnostician.stale_timeout_s
-        silent = [s for s in SIGNALS if (now - max(self._last_arrival[s] or self._created, self._busy_at)) > limit]
+        silent = [
+            s for s in self._signals if (now - max(self._last_arrival[s] or self._created, self._busy_at)) > limit
+        ]
         if not silent:
             self._stale_reported = None
             return
@@ -300,8 +309,10 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._stale_reported = now
         never = [s for s in silent if self._last_arrival[s] is None]
         parts = [f"no {self._labels[s]} for {now - (self._last_arrival[s] or self._created):.1f} s" for s in silent]
-        reason = "; ".join(parts) if len(never) < len(SIGNALS) else f"no data received in {now - self._created:.1f} s"
-        if len(never) < len(SIGNALS):
+        reason = (
+            "; ".join(parts) if len(never) < len(self._signals) else f"no data received in {now - self._created:.1f} s"
+        )
+        if len(never) < len(self._signals):
             self._warn(reason)
         self._submit_without_verdict(reason, STALE_STATUS)
 
