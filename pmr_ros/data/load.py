@@ -133,9 +133,10 @@ def _split(on_grid: np.ndarray, columns: ColumnMap) -> dict[str, np.ndarray]:
     for signal, names in columns.signals.items():
         parts = []
         for name in names:
-            parts.append(on_grid[:, first] if name else np.zeros(on_grid.shape[0]))
+            # zeros of the grid's dtype: a bool grid (the outlier mask) stays bool
+            parts.append(on_grid[:, first] if name else np.zeros(on_grid.shape[0], dtype=on_grid.dtype))
             first += bool(name)
-        out[signal] = np.column_stack(parts) if parts else np.empty((on_grid.shape[0], 0))
+        out[signal] = np.column_stack(parts) if parts else np.empty((on_grid.shape[0], 0), dtype=on_grid.dtype)
     return out
 
 
