@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from ..config import PmrConfig
 from ..config.data import configured_disturbances
-from ..contract.topics import topic
+from ..contract.topics import DISTURBANCE_TOPIC, topic
 from .reader import Bag
 
 __all__ = ["DISTURBANCE_KEY", "config_disturbances", "disturbance_topic"]
 
-DISTURBANCE_KEY = "disturbance"
+DISTURBANCE_KEY = DISTURBANCE_TOPIC
 """Contract key of the measured disturbances (DVs)."""
 
 

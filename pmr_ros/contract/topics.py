@@ -21,6 +21,7 @@ __all__ = [
     "CONTRACT_FILE",
     "PROGRESS_KEY",
     "SIGNAL_TOPICS",
+    "DISTURBANCE_TOPIC",
     "ContractError",
     "Topic",
     "TopicQos",
@@ -40,6 +41,9 @@ HISTORIES = ("keep_last", "keep_all")
 
 SIGNAL_TOPICS = {"r": "setpoint", "u": "manipulated_input", "y": "measured_output"}
 """Contract keys of the signals the diagnostician aligns: setpoints r, inputs u, outputs y."""
+
+DISTURBANCE_TOPIC = "disturbance"
+"""Contract key of the measured disturbances v(k), aligned as ``dv`` beside r, u, y when the system has DVs."""
 
 PROGRESS_KEY = "progress"
 """Contract key of the lockstep consumers' progress reports (flow control; never recorded in bags)."""

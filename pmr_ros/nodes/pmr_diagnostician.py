@@ -52,7 +52,7 @@ from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
 from ..contract.samples import sample_index
-from ..contract.topics import SIGNAL_TOPICS, topic
+from ..contract.topics import DISTURBANCE_TOPIC, SIGNAL_TOPICS, topic
 from ..contract.windowing import (
     STALE,
     VERDICT,
@@ -71,9 +71,7 @@ from ..ros.worker import SerialWorker
 from ..service.closing import ClosedWindow, close_window
 from ..service.memory_checks import check_impact_memory
 
-_SIGNAL_TOPIC = {**SIGNAL_TOPICS, "dv": "disturbance"}
-"""The contract topic of each aligned signal: r, u, y and the measured disturbances."""
-
+_SIGNAL_TOPIC = {**SIGNAL_TOPICS, "dv": DISTURBANCE_TOPIC}
 NODE_NAME = "pmr_diagnostician"
 
 MAX_QUEUED_JOBS = 1
@@ -154,9 +152,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
     def _channel_names(self) -> dict[str, tuple[str, ...]]:
         model, dv = self.config.model, self.config.disturbance_model
         names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-        if "dv" in self._signals and dv is not None:
-            names["dv"] = dv.input_names
-        return names
+        return names if "dv" not in self._signals or dv is None else {**names, "dv": dv.input_names}
 
     def _start_timers(self) -> None:
         for timer in self._own_timers:

@@ -10,7 +10,7 @@ output plus step estimate) carry over.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -19,11 +19,12 @@ from .estimator import DisturbanceEstimator
 from .spec import MpcStatistics, MpcTuning
 
 if TYPE_CHECKING:
-    from typing_extensions import Self
-
     from .solver import QpSolver
 
 __all__ = ["ModelSwitch"]
+
+_Controller = TypeVar("_Controller", bound="ModelSwitch")
+"""The controller class a switch builds (a subclass: :class:`~pmr_ros.core.mpc.controller.LinearMpc`)."""
 
 
 class ModelSwitch:
@@ -88,7 +89,7 @@ class ModelSwitch:
             return f"the new model's sample time {model.sample_time:g} is not the controller's {old.sample_time:g}"
         return None
 
-    def switched(self, model: TransferMatrix) -> Self:
+    def switched(self: _Controller, model: TransferMatrix) -> _Controller:
         """A controller on ``model``, same tuning, that takes over from this one without a bump.
 
         Its QP is built for ``model``, then it :meth:`take_over` this one's
