@@ -17,7 +17,7 @@ from pmr_ros.node_set import NodeSetOptions, run_node_set
 pytestmark = pytest.mark.ros
 
 
-def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain):
+def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain, capfd):
     config = load_config(
         overrides={
             "run": {"samples": 4096},
@@ -36,6 +36,7 @@ def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain)
     )
     assert routine_features(config) == ["measured disturbances", "CV zones or limits", "setpoint steps"]
     result = run_node_set(config, NodeSetOptions(domain_id=ros_domain, record=True))
+    assert "was rejected" not in capfd.readouterr().err  # every node took every DV message
     batch = simulate(config)
     np.testing.assert_array_equal(result.record.r, batch.r)  # steps on x_D only, x_B's r at nominal
     assert np.array_equal(result.record.u, batch.u) and np.array_equal(result.record.y, batch.y)

@@ -128,7 +128,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._estimates_pub = self.contract_publisher("estimates")
         self._proposal_pub = self.contract_publisher("proposed_model")
         self._model_sub = self.contract_subscription("active_model", self._on_active_model)
-        self.progress = ProgressReporter(self, SIGNALS, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
+        self.progress = ProgressReporter(self, self._signals, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
         self._subs = [self.contract_subscription(_SIGNAL_TOPIC[s], self._callback(s)) for s in self._signals]
         self._own_timers: list[Any] = []
         self._start_timers()
