@@ -15,8 +15,8 @@ Two plants at Ts = 1 min -- Wood-Berry (``config/wood_berry.yaml``) and the debu
 One long run per setting and seed is simulated and growing prefixes of it (1, 2, 4, 7, 14, 28, 56
 days) are diagnosed.  A prefix *decides* when G11's verdict is ``mismatch`` with its dK within 3
 percentage points of +10 and no other element is ``mismatch``.  Printed per plant and setting: the
-first deciding length (``> N d`` when none does), and per length the fraction of elements whose
-verdict is not ``inconclusive``.
+first deciding length (``> N d`` when none does), and per length the fraction of the G elements
+whose verdict is not ``inconclusive``.
 
 Run: nice -n 10 .venv/bin/python benchmarks/bench_routine.py [--days 56] [--seeds 1,2]
      [--plants wood_berry,debutanizer] [--figure docs/figures/routine_days.png]
@@ -120,8 +120,12 @@ def decided(elements: Mapping[str, Any]) -> bool:
 
 
 def decided_fraction(elements: Mapping[str, Any]) -> float:
-    """The fraction of elements whose verdict is not ``inconclusive``."""
-    verdicts = [e.verdict for e in elements.values()]
+    """The fraction of the plant's G elements whose verdict is not ``inconclusive``.
+
+    The DV elements (D11, ...) are left out: in the settings where the DVs stand still nothing
+    can decide them, and counting them would make the settings incomparable.
+    """
+    verdicts = [e.verdict for name, e in elements.items() if name.startswith("G")]
     return sum(v != "inconclusive" for v in verdicts) / max(1, len(verdicts))
 
 
@@ -161,7 +165,7 @@ def _plot(results: Mapping[tuple[str, str], list[list[tuple[int, bool, float]]]]
             ax.semilogx(days, frac, marker="o", label=label)
         ax.set(title=plant, xlabel="days of routine data", xticks=LENGTHS_DAYS, xticklabels=LENGTHS_DAYS)
         ax.legend(fontsize=7)
-    np.atleast_1d(axes)[0].set_ylabel("fraction of elements decided")
+    np.atleast_1d(axes)[0].set_ylabel("fraction of G elements decided")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
 
@@ -190,8 +194,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                 cells = " ".join(f"{f:6.2f}" for _, _, f in rows)
                 took = time.perf_counter() - start
                 print(f"{plant:12s} {setting:7s} {seed:4d}  {first:>6s} {cells}   ({took:.0f} s)", flush=True)
-    if args.figure:
-        _plot(results, args.figure)
+                if args.figure:  # after every case: a long run cut short still leaves its figure
+                    _plot(results, args.figure)
 
 
 if __name__ == "__main__":
