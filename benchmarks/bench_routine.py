@@ -164,7 +164,8 @@ def _plot(results: Mapping[tuple[str, str], list[list[tuple[int, bool, float]]]]
             label = f"{setting} (decides: {', '.join(f'{d} d' if d else '-' for d in first)})"
             ax.semilogx(days, frac, marker="o", label=label)
         ax.set(title=plant, xlabel="days of routine data", xticks=LENGTHS_DAYS, xticklabels=LENGTHS_DAYS)
-        ax.legend(fontsize=7)
+        if ax.get_lines():  # a plant not run yet has no curve to name
+            ax.legend(fontsize=7)
     np.atleast_1d(axes)[0].set_ylabel("fraction of G elements decided")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
