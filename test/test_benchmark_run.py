@@ -97,3 +97,43 @@ def test_a_bad_selection_is_one_line(argv, words, tmp_path, capsys):
     assert main(["benchmark", *argv, "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0] and "Traceback" not in err[0]
+
+
+def test_an_unreachable_scheduler_is_one_clear_line(tmp_path, capsys, monkeypatch):
+    from pmr_ros.sweep import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1.0)
+    argv = ["benchmark", *TINY, "--out", str(tmp_path / "o"), "--scheduler", "tcp://127.0.0.1:9"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler tcp://127.0.0.1:9: cannot connect" in err[0]
+
+
+def test_on_a_dask_cluster_the_results_are_the_local_ones(quick, tmp_path):
+    import logging
+
+    from distributed import LocalCluster
+
+    methods = "parametric,classic,partial_correlation"
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster:  # fmt: skip
+        argv = [
+            "benchmark",
+            *TINY,
+            "--methods",
+            methods,
+            "--out",
+            str(tmp_path),
+            "--scheduler",
+            cluster.scheduler_address,
+        ]
+        assert main(argv) == 0
+    remote = pd.read_parquet(tmp_path / "results.parquet").drop(columns="cpu_s")
+    local = pd.read_parquet(quick / "results.parquet")
+    local = local[local["method"].isin(methods.split(","))].drop(columns="cpu_s").reset_index(drop=True)
+    assert (remote[["run", "method", "element", "verdict", "detected"]] == local[
+        ["run", "method", "element", "verdict", "detected"]]).all().all()  # fmt: skip
+    numbers = ["evidence", "gain_pct", "gain_lo", "gain_hi", "tau_pct", "delay_samples"]
+    assert_allclose(remote[numbers].to_numpy(float), local[numbers].to_numpy(float), rtol=1e-9, atol=1e-12)

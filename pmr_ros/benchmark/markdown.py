@@ -90,6 +90,26 @@ def peer_wins(scores: pd.DataFrame, column: str = "detection_at_1", margin: floa
     return out
 
 
+SETUP = """## How the runs were made
+
+- **Scenarios**: `config/benchmark_scenarios.csv`, 1,040 labelled runs drawn once by the rule in
+  `pmr_ros/benchmark/scenarios.py` (`python -m pmr_ros.benchmark.scenarios FILE` draws it again; a test
+  checks the committed file against the rule): Wood-Berry, the 3x3 (`config/three_by_three.yaml`), the
+  debutanizer 4x8 (`config/industrial_column.yaml`) and a 16x16 sparse unit (`config/sparse_sixteen.yaml`);
+  per modelled element no mismatch with probability 0.5, else dK +/-U[5, 30] %, dtau +/-U[5, 40] % and
+  dD +/-{1, 2, 3} samples together; lengths 2,048 .. 32,768 samples; with and without a coloured output
+  disturbance (3 x the measurement noise's standard deviation, pole 0.97); the units' PRBS setpoints
+  (and MV dither where the unit has it); a run's seed is its number.
+- **Simulation**: the MPC closed loop of each unit's shipped configuration, on the lockstep batch core.
+- **Methods** see r, u, y (and the known dither) and the controller's model, nothing else; each
+  element's evidence (for the fixed false-alarm rates and the ROC) is the method's own score:
+  ours the largest standardized dK or dtau, the classic |M(0) - 1|, the partial correlation
+  -log10 of its Bonferroni p, the PEM fits the same standardized change as ours.
+- **Dataset**: `pmr-ros benchmark --export DIR` writes every run's r, u, y as Parquet, the models
+  and the labels, with a schema (`SCHEMA.md`); pandas alone reads it.
+"""
+
+
 def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], wall_s: float) -> str:
     """The whole page: the subset run, the headline, peers that win, a full table per case, the figures."""
     parts = [
@@ -101,6 +121,7 @@ def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], w
         " (Badwe et al. 2009), `pem_oe` and `pem_bj` (prediction-error fits of each row, output"
         " error and Box-Jenkins ARMA(1,1)). Scoring: pmr_ros/benchmark/scoring.py's docstring.",
         "",
+        SETUP,
         "## Headline",
         "",
         headline(scores),
