@@ -137,3 +137,12 @@ def test_on_a_dask_cluster_the_results_are_the_local_ones(quick, tmp_path):
         ["run", "method", "element", "verdict", "detected"]]).all().all()  # fmt: skip
     numbers = ["evidence", "gain_pct", "gain_lo", "gain_hi", "tau_pct", "delay_samples"]
     assert_allclose(remote[numbers].to_numpy(float), local[numbers].to_numpy(float), rtol=1e-9, atol=1e-12)
+
+
+def test_report_only_scores_the_results_again_to_the_same_numbers(quick, tmp_path):
+    before = pd.read_csv(quick / "scores.csv")
+    report = tmp_path / "again.md"
+    assert main(["benchmark", "--report-only", "--out", str(quick), "--report", str(report), "--quiet"]) == 0
+    after = pd.read_csv(quick / "scores.csv")
+    pd.testing.assert_frame_equal(before, after, rtol=1e-12)
+    assert "## Headline" in report.read_text() and (tmp_path / "figures" / "benchmark_roc.png").is_file()

@@ -116,7 +116,9 @@ def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], w
         "# Benchmark: our parametric PMR beside its peers",
         "",
         "Written by `pmr-ros benchmark` (docs/benchmark.md of the repository is the committed output of a run).",
-        f"Subset run: {subset}. Wall time {wall_s / 60:.1f} min.",
+        f"Subset run: {subset}. Wall time {wall_s / 60:.1f} min."
+        if math.isfinite(wall_s)
+        else f"Subset run: {subset}.",
         "Methods: `parametric` (ours), `classic` (the seed paper's PMR), `partial_correlation`"
         " (Badwe et al. 2009), `pem_oe` and `pem_bj` (prediction-error fits of each row, output"
         " error and Box-Jenkins ARMA(1,1)). Scoring: pmr_ros/benchmark/scoring.py's docstring.",

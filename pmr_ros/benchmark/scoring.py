@@ -39,7 +39,7 @@ TRUTH = ["gain_pct", "tau_pct", "delay_samples"]
 
 
 def label_results(results: pd.DataFrame, labels: pd.DataFrame) -> pd.DataFrame:
-    """Every (method, labelled element) with the method's result and the truth (``true_`` columns).
+    """Every (method, labelled element of a run the method ran on) with its result and the truth (``true_`` columns).
 
     Parameters
     ----------
@@ -51,8 +51,8 @@ def label_results(results: pd.DataFrame, labels: pd.DataFrame) -> pd.DataFrame:
     truth = labels[["run", "unit", "samples", "disturbance", "element", *TRUTH]].rename(
         columns={c: f"true_{c}" for c in TRUTH}
     )
-    methods = pd.DataFrame({"method": pd.unique(results["method"])})
-    grid = truth.merge(methods, how="cross")
+    ran = results[["run", "method"]].drop_duplicates()  # a method is scored on the runs it ran on only
+    grid = truth.merge(ran, on="run")
     out = grid.merge(results, on=["run", "method", "element"], how="left")
     out["detected"] = out["detected"].eq(True)  # a missing result is not a detection
     out["verdict"] = out["verdict"].fillna("inconclusive")

@@ -54,7 +54,7 @@ def _methods(text: str | None) -> tuple[str, ...]:
 
 def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros benchmark``; the exit code."""
-    from ..service.benchmark_run import BenchmarkRequest, run_benchmark
+    from ..service.benchmark_run import BenchmarkRequest, rescore, run_benchmark
 
     check_outputs(args, inputs=(args.scenarios,), files=("report",), folders=("out", "export"))
     out = Path(args.out)
@@ -75,6 +75,10 @@ def handle(args: argparse.Namespace) -> int:
         pem_runs_per_cell=args.pem_runs_per_cell,
         progress=not args.quiet,
     )
+    if args.report_only:
+        summary = rescore(request)
+        print(f"pmr-ros benchmark: {summary.runs} runs scored again; report {request.report}")
+        return 0
     summary = run_benchmark(request)
     print(f"pmr-ros benchmark: {summary.runs} runs in {summary.wall_s / 60:.1f} min; report {request.report}")
     return 0

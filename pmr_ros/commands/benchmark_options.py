@@ -32,6 +32,8 @@ OPTIONS = (
            "(default: DIR/benchmark.md)"),
     option("--export", metavar="DIR", help="also write the dataset: every run's r, u, y as Parquet, the models, "
            "labels.csv with the injected truth, SCHEMA.md"),
+    option("--report-only", action="store_true", help="do not run: score DIR/results.parquet again and rewrite "
+           "scores.csv and the report"),
     option("--jobs", type=positive_int, default=1, metavar="N", help="worker processes (default: 1)"),
     option("--scheduler", metavar="ADDRESS", help="run the runs on the Dask distributed cluster of this scheduler "
            "(e.g. tcp://10.0.0.5:8786) instead of --jobs local processes"),

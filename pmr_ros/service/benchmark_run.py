@@ -3,12 +3,14 @@
 What is written to ``out``: ``results.parquet`` (one row per run, method and
 element: :func:`pmr_ros.benchmark.runner.method_rows` and the run's cell),
 ``scores.csv`` (:func:`pmr_ros.benchmark.scoring.score`) and the markdown
-report with its figures; with ``export`` the dataset of
+report with its figures, ``benchmark.json`` (wall time); with ``export`` the dataset of
 :mod:`pmr_ros.benchmark.dataset`.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -27,7 +29,10 @@ from ..outputs import write_bytes, write_text
 from ..progress import ProgressBar
 from .refusal import ServiceError
 
-__all__ = ["BenchmarkRequest", "BenchmarkSummary", "run_benchmark", "select_runs"]
+__all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
+
+MANIFEST = "benchmark.json"
+"""Beside results.parquet: the run's wall time [s] and number of runs, for ``--report-only``."""
 
 
 @dataclass(frozen=True)
@@ -205,6 +210,36 @@ def _subset_text(labelled: pd.DataFrame) -> str:
     )
 
 
+def _score_and_write(
+    request: BenchmarkRequest, results: pd.DataFrame, lines: pd.DataFrame, wall_s: float
+) -> pd.DataFrame:
+    labelled = scoring.label_results(results.drop(columns=["unit", "samples", "disturbance", "seed"]), lines)
+    scores = scoring.score(labelled)
+    write_text(request.out / "scores.csv", scores.to_csv(index=False))
+    _write_report(request, scores, labelled, wall_s)
+    return scores
+
+
+def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
+    """Score ``request.out``'s results.parquet again and write scores.csv and the report (no run).
+
+    Raises
+    ------
+    ServiceError
+        No results.parquet in ``request.out``.
+    """
+    path = request.out / "results.parquet"
+    if not path.is_file():
+        raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
+    results = pd.read_parquet(path)
+    scenarios = read_scenarios(request.scenarios)
+    lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
+    manifest = request.out / MANIFEST
+    wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
+    scores = _score_and_write(request, results, lines, wall_s)
+    return BenchmarkSummary(int(results["run"].nunique()), scores, wall_s)
+
+
 def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     """Run, score and write what ``request`` asks for (see the module docstring)."""
     lines = select_runs(read_scenarios(request.scenarios), request)
@@ -231,8 +266,6 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     wall_s = time.perf_counter() - start
     results = _cell_columns(pd.DataFrame(rows), lines).sort_values(["run", "method", "element"])
     results.to_parquet(request.out / "results.parquet", index=False)
-    labelled = scoring.label_results(results.drop(columns=["unit", "samples", "disturbance", "seed"]), lines)
-    scores = scoring.score(labelled)
-    write_text(request.out / "scores.csv", scores.to_csv(index=False))
-    _write_report(request, scores, labelled, wall_s)
+    write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(tasks)}) + "\n")
+    scores = _score_and_write(request, results, lines, wall_s)
     return BenchmarkSummary(len(tasks), scores, wall_s)
