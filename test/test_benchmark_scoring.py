@@ -96,6 +96,16 @@ def test_score_of_hand_made_outcomes_gives_the_exact_rates():
     assert peer["detection_at_1"] == 0.0 and peer["inconclusive"] == 0.125 and math.isnan(peer["gain_error"])
 
 
+def test_without_a_clean_element_there_is_no_rate_at_a_fixed_false_alarm_rate():
+    results, labels = _hand_made()
+    run1 = labels["run"] == 1
+    labels.loc[run1, "gain_pct"] = 7.0  # every element of run 1 mismatched
+    table = score(label_results(results[(results["run"] == 1) & (results["method"] == "parametric")], labels))
+    line = table.iloc[0]
+    assert line["detection"] == 0.5 and math.isnan(line["false_alarm"])  # G11, G22 of the four
+    assert math.isnan(line["detection_at_1"]) and math.isnan(line["detection_at_5"])
+
+
 def test_the_report_says_where_a_peer_beats_ours():
     scores = pd.DataFrame(
         {

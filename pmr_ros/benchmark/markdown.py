@@ -105,8 +105,12 @@ SETUP = """## How the runs were made
   element's evidence (for the fixed false-alarm rates and the ROC) is the method's own score:
   ours the largest standardized dK or dtau, the classic |M(0) - 1|, the partial correlation
   -log10 of its Bonferroni p, the PEM fits the same standardized change as ours.
+- **Fixed false-alarm rates**: the threshold is set on each group's clean elements; with
+  n of them a rate below 1/n means "above every clean element's evidence" (a group of
+  8 Wood-Berry runs has about 16 clean elements, so there 1 % and 5 % are both that).
+  A `-` is a number that does not apply (no clean element, no interval, no estimate).
 - **Dataset**: `pmr-ros benchmark --export DIR` writes every run's r, u, y as Parquet, the models
-  and the labels, with a schema (`SCHEMA.md`); pandas alone reads it.
+  and the labels, with a schema (SCHEMA.md in DIR); pandas alone reads it.
 """
 
 

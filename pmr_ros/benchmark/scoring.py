@@ -10,7 +10,8 @@ a method returned nothing for counts as not detected and inconclusive):
   elements of the group so that at most 1 % (5 %) of them exceed it
   (:func:`threshold_at`); ``detection_at_1_big``: the same on the elements
   with |dK| >= 10 %.  A method without a score has NaN evidence: never
-  detected this way;
+  detected this way.  With ``n`` clean elements a rate below ``1 / n`` means
+  "above every clean element"; with none the three are NaN;
 * ``localisation``: the share of runs whose set of detected elements is exactly the set of mismatched ones;
 * ``gain_error``, ``tau_error``: median |estimate - truth| [percentage points]
   where the method quantifies; ``delay_exact``: the share of delay estimates
@@ -93,6 +94,11 @@ def _rate(mask: pd.Series) -> float:
     return float(mask.mean()) if mask.size else math.nan
 
 
+def _exceed(evidence: pd.Series, threshold: float) -> float:
+    """The share of ``evidence`` above ``threshold`` (NaN with no threshold or no element)."""
+    return math.nan if math.isnan(threshold) else _rate(evidence > threshold)
+
+
 def _median(values: pd.Series) -> float:
     values = values.dropna()
     return float(values.median()) if values.size else math.nan
@@ -103,11 +109,12 @@ def _detection(group: pd.DataFrame) -> dict[str, float]:
     evidence = group["evidence"].fillna(-np.inf)
     out = {"detection": _rate(bad["detected"]), "false_alarm": _rate(clean["detected"])}
     for rate, name in ((0.01, "detection_at_1"), (0.05, "detection_at_5")):
-        threshold = threshold_at(clean["evidence"].to_numpy(), rate)
-        out[name] = _rate(evidence[bad.index] > threshold)
+        # no clean element: no false-alarm rate to hold, so no threshold (NaN, not 0)
+        threshold = threshold_at(clean["evidence"].to_numpy(), rate) if len(clean) else math.nan
+        out[name] = _exceed(evidence[bad.index], threshold)
         if rate == 0.01:
             big = bad.index[bad["true_gain_pct"].abs() >= BIG_GAIN_PCT]
-            out["detection_at_1_big"] = _rate(evidence[big] > threshold)
+            out["detection_at_1_big"] = _exceed(evidence[big], threshold)
     return out
 
 
