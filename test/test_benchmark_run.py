@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
+from pmr_ros.benchmark.dataset import read_run
 from pmr_ros.benchmark.runner import METHODS
 from pmr_ros.benchmark.scoring import label_results, score
 from pmr_ros.benchmark.units import unit_config
@@ -64,6 +65,8 @@ def test_scoring_ours_from_the_export_gives_the_run_s_numbers(quick):
     rows = []
     for run in runs["run"]:
         table = pd.read_parquet(export / "runs" / f"run_{run:05d}.parquet")
+        frames = read_run(export, run)  # the package's reader returns the same columns
+        assert_allclose(frames["y"].to_numpy(), table[[f"y_{n}" for n in model.output_names]].to_numpy(), rtol=0)
         r, u, y = (table[[f"{p}_{n}" for n in names]].to_numpy() for p, names in (
             ("r", model.output_names), ("u", model.input_names), ("y", model.output_names)))  # fmt: skip
         d = diagnose(r, u, y, model=model, pmr=config.pmr, parametric=config.parametric, method="parametric")
@@ -97,6 +100,14 @@ def test_a_bad_selection_is_one_line(argv, words, tmp_path, capsys):
     assert main(["benchmark", *argv, "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0] and "Traceback" not in err[0]
+
+
+def test_a_scenario_file_without_a_column_is_one_line(tmp_path, capsys):
+    broken = tmp_path / "scenarios.csv"
+    broken.write_text("run,unit,samples\n1,wood_berry,2048\n")
+    assert main(["benchmark", "--scenarios", str(broken), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(broken) in err[0] and "no column 'disturbance'" in err[0]
 
 
 def test_an_unreachable_scheduler_is_one_clear_line(tmp_path, capsys, monkeypatch):

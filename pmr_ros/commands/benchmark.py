@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Simulate the labelled runs of the scenario file (Wood-Berry, the 3x3, the debutanizer 4x8, a 16x16 "
             "sparse unit; random per-element mismatch; 2,048 .. 32,768 samples; with and without a coloured "
             "output disturbance), diagnose each with our parametric PMR, the classic PMR, the partial correlation "
-            "and the two prediction-error fits, and score them: detection at 1 %% and 5 %% false alarms, "
+            "and the two prediction-error fits, and score them: detection at 1 % and 5 % false alarms, "
             "localisation, quantification error, interval coverage, inconclusive rate, CPU time.  "
             "See docs/benchmark.md."
         ),

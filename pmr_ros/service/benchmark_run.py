@@ -117,6 +117,14 @@ SLOW_METHODS = ("pem_oe", "pem_bj")
 """The methods ``pem_runs_per_cell`` limits."""
 
 
+def _scenarios(request: BenchmarkRequest) -> pd.DataFrame:
+    """The scenario file of ``request``; a file that is none is one line naming it."""
+    try:
+        return read_scenarios(request.scenarios)
+    except (ValueError, OSError) as exc:  # pandas' parse errors are ValueErrors
+        raise ServiceError(f"--scenarios {request.scenarios}: {' '.join(str(exc).split())}") from None
+
+
 def _tasks(lines: pd.DataFrame, request: BenchmarkRequest) -> list[RunTask]:
     tasks = []
     index = run_table(lines).groupby(["unit", "disturbance", "samples"]).cumcount()
@@ -232,7 +240,7 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     if not path.is_file():
         raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
     results = pd.read_parquet(path)
-    scenarios = read_scenarios(request.scenarios)
+    scenarios = _scenarios(request)
     lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
     manifest = request.out / MANIFEST
     wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
@@ -242,7 +250,7 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
 
 def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     """Run, score and write what ``request`` asks for (see the module docstring)."""
-    lines = select_runs(read_scenarios(request.scenarios), request)
+    lines = select_runs(_scenarios(request), request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
     if request.export is not None:
