@@ -32,6 +32,9 @@ def test_quick_runs_every_method_on_every_element_and_writes_the_report(quick):
     results = pd.read_parquet(quick / "results.parquet")
     assert set(results["method"]) == set(METHODS)
     assert len(results) == 2 * len(METHODS) * 4 and not results["reasons"].str.startswith("failed").any()
+    roc = pd.read_csv(quick / "roc.csv")
+    assert {"parametric", "pem_bj", "partial_correlation"} <= set(roc["method"])
+    assert roc["false_alarm"].between(0, 1).all() and roc["detection"].between(0, 1).all()
     report = (quick / "benchmark.md").read_text()
     for heading in ("## Headline", "## Where a peer beats ours", "wood_berry, coloured output disturbance"):
         assert heading in report

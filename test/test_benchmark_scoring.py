@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose
 
 from pmr_ros.benchmark import markdown
 from pmr_ros.benchmark.scenarios import COLUMNS, LENGTHS, RUNS_PER_CELL, draw_scenarios, read_scenarios
-from pmr_ros.benchmark.scoring import label_results, roc_points, score, threshold_at
+from pmr_ros.benchmark.scoring import label_results, roc_points, roc_table, score, threshold_at
 from pmr_ros.benchmark.units import UNITS, unit_config
 from pmr_ros.service.benchmark_run import BenchmarkRequest, select_runs
 
@@ -94,6 +94,15 @@ def test_score_of_hand_made_outcomes_gives_the_exact_rates():
     # G22 of run 2 missing: not flagged
     assert peer["detection"] == pytest.approx(1.0) and peer["false_alarm"] == pytest.approx(4 / 5)
     assert peer["detection_at_1"] == 0.0 and peer["inconclusive"] == 0.125 and math.isnan(peer["gain_error"])
+
+
+def test_the_roc_table_has_the_points_of_each_method_with_a_score():
+    results, labels = _hand_made()
+    table = roc_table(label_results(results, labels))
+    assert set(table["method"]) == {"parametric"}  # the peer has no score
+    # ranking 9 8 4 3 2 1 0.5 NaN: bad, bad, clean, bad, clean, clean, clean, clean
+    assert_allclose(table["false_alarm"], [0, 0, 0, 0.2, 0.2, 0.4, 0.6, 0.8])
+    assert_allclose(table["detection"], [0, 1 / 3, 2 / 3, 2 / 3, 1, 1, 1, 1])
 
 
 def test_without_a_clean_element_there_is_no_rate_at_a_fixed_false_alarm_rate():

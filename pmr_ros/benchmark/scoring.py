@@ -28,7 +28,7 @@ import math
 import numpy as np
 import pandas as pd
 
-__all__ = ["BIG_GAIN_PCT", "GROUP", "label_results", "roc_points", "score", "threshold_at"]
+__all__ = ["BIG_GAIN_PCT", "GROUP", "label_results", "roc_points", "roc_table", "score", "threshold_at"]
 
 GROUP = ["method", "unit", "disturbance", "samples"]
 """What a line of the score table is per."""
@@ -172,3 +172,17 @@ def score(labelled: pd.DataFrame, by: list[str] | None = None) -> pd.DataFrame:
         if column in table:
             table[column] = table[column].astype(int)
     return table
+
+
+def roc_table(labelled: pd.DataFrame) -> pd.DataFrame:
+    """The ROC points (:func:`roc_points`) of every group of :data:`GROUP` whose method has a score.
+
+    Columns: the group's, then ``false_alarm`` and ``detection``, one line per point, from (0, 0).
+    """
+    parts = []
+    for key, group in labelled.groupby(GROUP, sort=True):
+        if not np.isfinite(group["evidence"].to_numpy(dtype=float)).any():
+            continue
+        fa, det = roc_points(group["evidence"].to_numpy(), group["mismatched"].to_numpy())
+        parts.append(pd.DataFrame({**dict(zip(GROUP, key, strict=True)), "false_alarm": fa, "detection": det}))
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=[*GROUP, "false_alarm", "detection"])

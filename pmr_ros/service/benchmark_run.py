@@ -2,7 +2,8 @@
 
 What is written to ``out``: ``results.parquet`` (one row per run, method and
 element: :func:`pmr_ros.benchmark.runner.method_rows` and the run's cell),
-``scores.csv`` (:func:`pmr_ros.benchmark.scoring.score`) and the markdown
+``scores.csv`` (:func:`pmr_ros.benchmark.scoring.score`), ``roc.csv``
+(:func:`pmr_ros.benchmark.scoring.roc_table`) and the markdown
 report with its figures, ``benchmark.json`` (wall time); with ``export`` the dataset of
 :mod:`pmr_ros.benchmark.dataset`.
 """
@@ -224,6 +225,7 @@ def _score_and_write(
     labelled = scoring.label_results(results.drop(columns=["unit", "samples", "disturbance", "seed"]), lines)
     scores = scoring.score(labelled)
     write_text(request.out / "scores.csv", scores.to_csv(index=False))
+    write_text(request.out / "roc.csv", scoring.roc_table(labelled).to_csv(index=False))
     _write_report(request, scores, labelled, wall_s)
     return scores
 
