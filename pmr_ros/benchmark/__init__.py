@@ -7,7 +7,7 @@
 * :mod:`.scoring`: detection at a fixed false-alarm rate, ROC, localisation,
   quantification error, coverage, inconclusive rate, CPU time;
 * :mod:`.dataset`: the exported runs (r, u, y as Parquet, the models, the labels), read with pandas alone;
-* :mod:`.page`: the markdown report and its figures.
+* :mod:`.markdown`, :mod:`.plots`: the markdown report and its figures.
 
 Numpy, scipy, pandas and matplotlib; nothing here imports ROS or the command layer.
 """
