@@ -24,7 +24,7 @@ from .outputs import OutputError
 from .ros.signals import RosInitError
 from .service.refusal import ServiceError
 
-COMMANDS = ["run", "sweep", "record", "replay", "diagnose", "reindex", "model_files"]
+COMMANDS = ["run", "sweep", "benchmark", "record", "replay", "diagnose", "reindex", "model_files"]
 """Modules of :mod:`pmr_ros.commands`, in the order ``--help`` lists them."""
 
 

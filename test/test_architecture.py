@@ -26,13 +26,15 @@ LAYERS: dict[str, set[str]] = {
     "outputs": set(),  # safe output writing: used by every writer
     "config": {"core", "resources", "outputs"},
     "peers": {"core"},  # peer methods of the benchmark: numpy/scipy on the core's model, no ROS, no commands
+    "benchmark": {"core", "config", "peers", "resources", "outputs"},  # scenarios, runs, scoring, dataset, report
     "report": {"core", "config", "data", "sweep", "outputs"},
     "contract": {"core", "config", "resources"},
     "data": {"core", "config"},
     "models": {"core", "config"},
     "sweep": {"core", "config", "progress", "outputs"},
     "bag": {"core", "config", "contract"},
-    "service": {"core", "config", "contract", "data", "report", "bag", "sweep"},  # sweep: its Dask cluster
+    # sweep: its Dask cluster (monitor, fleet, benchmark)
+    "service": {"core", "config", "contract", "data", "report", "bag", "benchmark", "sweep", "progress", "outputs"},
     "ros": {"core", "config", "contract", "resources"},
     "nodes": {"core", "config", "contract", "ros", "bag", "service"},
     "node_set": {"core", "config", "contract", "ros", "nodes"},
@@ -52,6 +54,7 @@ LAYERS: dict[str, set[str]] = {
         "service",
         "models",
         "outputs",
+        "benchmark",
     },
     "cli": {"commands", "config", "ros", "service", "outputs"},
     "entry": set(),  # imports its commands by name (importlib) once the signals are taken

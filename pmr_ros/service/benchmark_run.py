@@ -1,0 +1,281 @@
+"""``pmr-ros benchmark``: pick the scenario runs, run every method on each (here, a pool or Dask), score, write.
+
+What is written to ``out``: ``results.parquet`` (one row per run, method and
+element: :func:`pmr_ros.benchmark.runner.method_rows` and the run's cell),
+``scores.csv`` (:func:`pmr_ros.benchmark.scoring.score`), ``roc.csv``
+(:func:`pmr_ros.benchmark.scoring.roc_table`) and the markdown
+report with its figures, ``benchmark.json`` (wall time); with ``export`` the dataset of
+:mod:`pmr_ros.benchmark.dataset`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import pandas as pd
+
+from ..benchmark import dataset, markdown, plots, scoring
+from ..benchmark.runner import METHODS, RunTask, run_one
+from ..benchmark.scenarios import read_scenarios, run_table
+from ..benchmark.units import UNITS, unit_config
+from ..config import PmrConfig
+from ..core.records import Record
+from ..outputs import write_bytes, write_text
+from ..progress import ProgressBar
+from .refusal import ServiceError
+
+__all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
+
+MANIFEST = "benchmark.json"
+"""Beside results.parquet: the run's wall time [s] and number of runs, for ``--report-only``."""
+
+
+@dataclass(frozen=True)
+class BenchmarkRequest:
+    """What to run and where to write.
+
+    Attributes
+    ----------
+    out : Path
+        Folder of results.parquet and scores.csv.
+    report : Path
+        The markdown report; its figures go to ``figures/`` beside it.
+    quick : bool
+        Only the scenario file's ``quick`` runs.
+    units, lengths : tuple or None
+        Only these units / record lengths [samples] (None: all).
+    runs_per_cell : int or None
+        At most this many runs of each (unit, disturbance, length), the first by number.
+    methods : tuple of str
+        Of :data:`~pmr_ros.benchmark.runner.METHODS`.
+    jobs : int
+        Local processes (1: this one).
+    scheduler : str or None
+        A Dask scheduler's address: the runs go to its workers instead.
+    export : Path or None
+        Folder of the dataset export.
+    scenarios : Path or None
+        Another scenario file (default: the shipped one).
+    pem_runs_per_cell : int or None
+        The prediction-error peers (``pem_oe``, ``pem_bj``: 10-100x the others' time) on
+        only the first this many runs of each cell (None: on every run).
+    progress : bool
+        A progress bar on stderr.
+    """
+
+    out: Path
+    report: Path
+    quick: bool = False
+    units: tuple[str, ...] | None = None
+    lengths: tuple[int, ...] | None = None
+    runs_per_cell: int | None = None
+    methods: tuple[str, ...] = tuple(METHODS)
+    jobs: int = 1
+    scheduler: str | None = None
+    export: Path | None = None
+    scenarios: Path | None = None
+    pem_runs_per_cell: int | None = None
+    progress: bool = False
+
+
+@dataclass(frozen=True)
+class BenchmarkSummary:
+    """What a benchmark did: the runs, the scores, its wall time [s]."""
+
+    runs: int
+    scores: pd.DataFrame
+    wall_s: float
+
+
+def select_runs(scenarios: pd.DataFrame, request: BenchmarkRequest) -> pd.DataFrame:
+    """The scenario lines of the runs ``request`` asks for (its quick, units, lengths and runs-per-cell rules)."""
+    runs = run_table(scenarios)
+    if request.quick:
+        runs = runs[runs["quick"] == 1]
+    if request.units is not None:
+        unknown = [u for u in request.units if u not in UNITS]
+        if unknown:
+            raise ServiceError(f"--units: unknown unit {unknown[0]!r}; choose of {', '.join(UNITS)}")
+        runs = runs[runs["unit"].isin(request.units)]
+    if request.lengths is not None:
+        runs = runs[runs["samples"].isin(request.lengths)]
+    if request.runs_per_cell is not None:
+        runs = runs.groupby(["unit", "disturbance", "samples"], sort=False).head(request.runs_per_cell)
+    if runs.empty:
+        raise ServiceError(
+            "the selection (--quick, --units, --samples, --runs-per-cell) leaves no run of the scenarios"
+        )
+    return scenarios[scenarios["run"].isin(runs["run"])].reset_index(drop=True)
+
+
+SLOW_METHODS = ("pem_oe", "pem_bj")
+"""The methods ``pem_runs_per_cell`` limits."""
+
+
+def _scenarios(request: BenchmarkRequest) -> pd.DataFrame:
+    """The scenario file of ``request``; a file that is none is one line naming it."""
+    try:
+        return read_scenarios(request.scenarios)
+    except (ValueError, OSError) as exc:  # pandas' parse errors are ValueErrors
+        raise ServiceError(f"--scenarios {request.scenarios}: {' '.join(str(exc).split())}") from None
+
+
+def _tasks(lines: pd.DataFrame, request: BenchmarkRequest) -> list[RunTask]:
+    tasks = []
+    index = run_table(lines).groupby(["unit", "disturbance", "samples"]).cumcount()
+    place = dict(zip(run_table(lines)["run"], index, strict=True))
+    for run, truth in lines.groupby("run", sort=True):
+        first = truth.iloc[0]
+        methods = request.methods
+        if request.pem_runs_per_cell is not None and place[run] >= request.pem_runs_per_cell:
+            methods = tuple(m for m in methods if m not in SLOW_METHODS)
+        tasks.append(
+            RunTask(
+                run=int(run), unit=str(first["unit"]), samples=int(first["samples"]),
+                disturbance=bool(first["disturbance"]), seed=int(first["seed"]),
+                truth=truth.reset_index(drop=True), methods=methods,
+            )
+        )  # fmt: skip
+    # the longest records of the largest units first, so no worker idles at the end
+    return sorted(tasks, key=lambda t: (-t.samples * unit_config(t.unit).model.present.sum(), t.run))
+
+
+Recorder = Callable[[RunTask, list[dict], Record], None]
+
+
+def _worker(task: RunTask) -> tuple[RunTask, list[dict], Record]:
+    return run_one(task)
+
+
+def cluster_work(_config: PmrConfig, task: RunTask) -> tuple[RunTask, list[dict], float]:
+    """What a Dask worker runs: one run; its record rides back on the task (``RunTask.record``)."""
+    start = time.process_time()
+    done, rows, record = run_one(task)
+    return replace(done, record=record), rows, time.process_time() - start
+
+
+def _execute(tasks: list[RunTask], request: BenchmarkRequest, record: Recorder) -> None:
+    if request.scheduler is not None:
+        from ..sweep.cluster import ClusterError, check_scheduler, run_on_cluster
+
+        try:
+            check_scheduler(request.scheduler)
+            run_on_cluster(
+                unit_config(tasks[0].unit), tasks, request.scheduler, work=cluster_work,
+                record=lambda task, rows, _cpu: record(task, rows, task.record),
+            )  # fmt: skip
+        except ClusterError as exc:
+            raise ServiceError(str(exc)) from None
+    elif request.jobs <= 1 or len(tasks) == 1:
+        for task in tasks:
+            record(*run_one(task))
+    else:
+        from ..core.sim.batch import worker_context
+
+        with worker_context().Pool(min(request.jobs, len(tasks))) as pool:
+            for result in pool.imap_unordered(_worker, tasks):
+                record(*result)
+
+
+def _cell_columns(results: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
+    cells = run_table(lines)[["run", "unit", "samples", "disturbance", "seed"]]
+    return cells.merge(results, on="run", how="right")
+
+
+def _write_report(request: BenchmarkRequest, scores: pd.DataFrame, labelled: pd.DataFrame, wall_s: float) -> None:
+    folder = request.report.parent / "figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    figures = {}
+    drawn = {
+        "benchmark_detection.png": ("detection at 1 % false alarms", plots.length_figure,
+                                    ("detection_at_1", "detection at 1 % FA")),
+        "benchmark_coverage.png": ("dK interval coverage", plots.length_figure, ("gain_coverage", "dK coverage")),
+        "benchmark_time.png": ("CPU time per diagnosis", plots.length_figure, ("cpu_s", "CPU s / diagnosis")),
+    }  # fmt: skip
+    for name, (title, draw, args) in drawn.items():
+        write_bytes(folder / name, draw(scores, *args, log=name == "benchmark_time.png"))
+        figures[title] = f"figures/{name}"
+    longest = int(labelled["samples"].max())
+    write_bytes(folder / "benchmark_roc.png", plots.roc_figure(labelled, samples=longest))
+    figures[f"ROC at {longest} samples"] = "figures/benchmark_roc.png"
+    subset = _subset_text(labelled)
+    write_text(request.report, markdown.report_text(scores, subset=subset, figures=figures, wall_s=wall_s))
+
+
+def _subset_text(labelled: pd.DataFrame) -> str:
+    runs = labelled.drop_duplicates("run")
+    cells = runs.groupby(["unit", "disturbance", "samples"]).size()
+    units = ", ".join(sorted(set(runs["unit"])))
+    lengths = ", ".join(f"{n:,}" for n in sorted(set(runs["samples"])))
+    return (
+        f"{len(runs)} runs of the scenario file (units {units}; lengths {lengths} samples; "
+        f"{cells.min()}-{cells.max()} runs per unit, disturbance and length)"
+    )
+
+
+def _score_and_write(
+    request: BenchmarkRequest, results: pd.DataFrame, lines: pd.DataFrame, wall_s: float
+) -> pd.DataFrame:
+    labelled = scoring.label_results(results.drop(columns=["unit", "samples", "disturbance", "seed"]), lines)
+    scores = scoring.score(labelled)
+    write_text(request.out / "scores.csv", scores.to_csv(index=False))
+    write_text(request.out / "roc.csv", scoring.roc_table(labelled).to_csv(index=False))
+    _write_report(request, scores, labelled, wall_s)
+    return scores
+
+
+def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
+    """Score ``request.out``'s results.parquet again and write scores.csv and the report (no run).
+
+    Raises
+    ------
+    ServiceError
+        No results.parquet in ``request.out``.
+    """
+    path = request.out / "results.parquet"
+    if not path.is_file():
+        raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
+    results = pd.read_parquet(path)
+    scenarios = _scenarios(request)
+    lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
+    manifest = request.out / MANIFEST
+    wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
+    scores = _score_and_write(request, results, lines, wall_s)
+    return BenchmarkSummary(int(results["run"].nunique()), scores, wall_s)
+
+
+def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
+    """Run, score and write what ``request`` asks for (see the module docstring)."""
+    lines = select_runs(_scenarios(request), request)
+    tasks = _tasks(lines, request)
+    request.out.mkdir(parents=True, exist_ok=True)
+    if request.export is not None:
+        for unit in sorted(set(lines["unit"])):
+            dataset.write_model(request.export, unit, unit_config(unit).model)
+        dataset.write_labels(request.export, lines, run_table(lines))
+    bar = ProgressBar(len(tasks), label="benchmark", stream=sys.stderr) if request.progress else None
+    rows: list[dict] = []
+    start = time.perf_counter()
+
+    def record(task: RunTask, task_rows: list[dict], data: Record | None) -> None:
+        rows.extend(task_rows)
+        if request.export is not None and data is not None:
+            dataset.write_run(request.export, task.run, data, unit_config(task.unit).model)
+        if bar:
+            bar.update(1)
+
+    _execute(tasks, request, record)
+    if bar:
+        bar.close()
+    wall_s = time.perf_counter() - start
+    results = _cell_columns(pd.DataFrame(rows), lines).sort_values(["run", "method", "element"])
+    results.to_parquet(request.out / "results.parquet", index=False)
+    write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(tasks)}) + "\n")
+    scores = _score_and_write(request, results, lines, wall_s)
+    return BenchmarkSummary(len(tasks), scores, wall_s)
