@@ -122,17 +122,32 @@ def configs(tmp_path_factory):
     }
 
 
+class _Diagnoses:
+    """Both methods' diagnoses of ``[label, scenario, seed, method]``, each system and scenario simulated on first use.
+
+    One piece per system and scenario, so that the parallel test workers share the work out.
+    """
+
+    def __init__(self, configs) -> None:
+        self.configs, self.done = configs, {}
+
+    def __getitem__(self, key):
+        label, scenario, seed, method = key
+        if (label, scenario) not in self.done:
+            config = self.configs[label]
+            records = simulate_many(config, [(scenario, s) for s in SEEDS])
+            self.done[label, scenario] = {
+                (s, m): diagnose_record(record, config, method=m, with_dither=True)
+                for s, record in zip(SEEDS, records, strict=True)
+                for m in ("classic", "parametric")
+            }
+        return self.done[label, scenario][seed, method]
+
+
 @pytest.fixture(scope="module")
 def diagnoses(configs):
-    """Both methods' diagnoses of every system and scenario, over :data:`SEEDS`."""
-    out = {}
-    for label, config in configs.items():
-        scenarios = ("full",) if config.explicit_plant is not None else ("full", "none")
-        runs = [(scenario, seed) for scenario in scenarios for seed in SEEDS]
-        for (scenario, seed), record in zip(runs, simulate_many(config, runs), strict=True):
-            for method in ("classic", "parametric"):
-                out[label, scenario, seed, method] = diagnose_record(record, config, method=method, with_dither=True)
-    return out
+    """Both methods' diagnoses of every system and scenario, over :data:`SEEDS` (computed as the tests ask)."""
+    return _Diagnoses(configs)
 
 
 def _truth(config, scenario: str):

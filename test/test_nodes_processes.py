@@ -153,7 +153,7 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
 
 
 def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
-    samples = 5000
+    samples = 3000  # killed at 1500 or later: 1500 samples still to run after the restart
     pmr = {"method": "classic", "segment_length": 128}
     run_file = _params_file(
         tmp_path, samples, pmr=pmr, diagnostician={"update_period_samples": 1000, "min_samples": 1500}

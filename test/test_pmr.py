@@ -1,7 +1,7 @@
 """The PMR engine: exactness without noise, insufficient data, and the paper's baseline."""
 
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 import pytest
@@ -12,7 +12,7 @@ from pmr_ros.core.pmr.classic import diagnose_classic
 from pmr_ros.core.pmr.implicit import estimate_pmr
 from pmr_ros.core.records import Record
 from pmr_ros.core.results.codec import diagnosis_to_json
-from pmr_ros.core.sim.batch import worker_context
+from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
 
 
@@ -46,37 +46,26 @@ def test_noise_free_pmr_equals_the_true_ratio_under_mismatch():
     np.testing.assert_allclose(estimate.ratio[: w.size], np.moveaxis(truth, -1, 0), rtol=0.02, atol=0.02)
 
 
-def _run(args):
-    path, scenario, seed = args
+@cache
+def _baseline_runs(path, scenario):
+    """``scenario`` x 5 seeds on the configuration at ``path``, diagnosed (simulated in lockstep, once per process).
+
+    One small piece per system and scenario, so that the parallel test workers share the work out.
+    """
     config = load_config(path)
-    rec = simulate(config, seed=seed, scenario=scenario)
-    return scenario, seed, diagnosis_to_json(diagnose(rec.r, rec.u, rec.y, config.model, config.pmr))
-
-
-@pytest.fixture(scope="module")
-def baseline_runs():
-    """Every scenario x 5 seeds on Wood-Berry and on the 3x3, two processes at a time."""
-    jobs = [
-        (path, s, seed)
-        for path in (None, "config/three_by_three.yaml")
-        for s in ("none", "gain", "time_constant", "delay", "full")
-        for seed in SEEDS
-    ]
-    with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
-        results = list(pool.map(_run, jobs))
-    out = {}
-    for (path, _, _), (scenario, seed, d) in zip(jobs, results, strict=True):
-        out[(path, scenario, seed)] = d
-    return out
+    records = simulate_many(config, [(scenario, seed) for seed in SEEDS])
+    return {
+        seed: diagnosis_to_json(diagnose(rec.r, rec.u, rec.y, config.model, config.pmr))
+        for seed, rec in zip(SEEDS, records, strict=True)
+    }
 
 
 def _matrix(d, key, n):
     return np.array([d["elements"][name]["classic"][key] for name in d["elements"]], dtype=float).reshape(n, n)
 
 
-def test_full_mismatch_reproduces_section_3_3_on_wood_berry(baseline_runs, wood_berry):
-    for seed in SEEDS:
-        d = baseline_runs[(None, "full", seed)]
+def test_full_mismatch_reproduces_section_3_3_on_wood_berry(wood_berry):
+    for d in _baseline_runs(None, "full").values():
         assert d["status"] == "ok"
         np.testing.assert_allclose(_matrix(d, "gain_ratio", 2), [[1.10, 1.15], [0.85, 0.90]], atol=0.03)
         np.testing.assert_array_equal(np.sign(_matrix(d, "tau_index", 2)), [[1, 1], [-1, -1]])
@@ -86,12 +75,11 @@ def test_full_mismatch_reproduces_section_3_3_on_wood_berry(baseline_runs, wood_
 
 @pytest.mark.parametrize("path", [None, "config/three_by_three.yaml"], ids=["wood_berry", "3x3"])
 @pytest.mark.parametrize("scenario", ["none", "gain", "time_constant", "delay", "full"])
-def test_each_scenario_flags_exactly_its_own_parameters(baseline_runs, path, scenario):
+def test_each_scenario_flags_exactly_its_own_parameters(path, scenario):
     config = load_config(path)
     n = config.model.n_outputs
     injected = config.mismatch.for_scenario(scenario)
-    for seed in SEEDS:
-        d = baseline_runs[(path, scenario, seed)]
+    for seed, d in _baseline_runs(path, scenario).items():
         assert d["status"] == "ok"
         np.testing.assert_array_equal(
             _matrix(d, "gain_mismatch", n).astype(bool), injected.gain_pct != 0, err_msg=f"gain flags, seed {seed}"

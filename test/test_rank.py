@@ -1,9 +1,8 @@
 """Singular and nearly singular models: never a confident ``mismatch`` (pmr_ros.core.pmr.parametric.rank)."""
 
-from concurrent.futures import ProcessPoolExecutor
+from functools import cache
 
 import numpy as np
-import pytest
 
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.parametric import diagnose_parametric
@@ -11,7 +10,7 @@ from pmr_ros.core.pmr.parametric.lsq import RowParameters
 from pmr_ros.core.pmr.parametric.rank import collinear_inputs_reason, nominal_start
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel
 from pmr_ros.core.records import Record
-from pmr_ros.core.sim.batch import simulate_many, worker_context
+from pmr_ros.core.sim.batch import simulate_many
 
 SEEDS = range(1, 11)
 SINGULAR = [1.0, 1.0, 1.0, 1.0]
@@ -20,24 +19,19 @@ NEARLY_SINGULAR = [1.0, 1.0, 1.0, 1.0005]
 """Condition number of the gain matrix 8000 (> 1e3)."""
 
 
-def _verdicts(args):
-    gain, seeds = args
-    config = load_config(overrides={"system": {"gain": gain}})
+@cache
+def _verdicts(gain: tuple[float, ...]):
+    """Per seed, each element's parametric verdict and reasons on a no-mismatch run of the model with ``gain``.
+
+    Computed once per process and gain matrix, so that the parallel test workers share the two campaigns out.
+    """
+    config = load_config(overrides={"system": {"gain": list(gain)}})
     out = []
-    for record in simulate_many(config, [("none", s) for s in seeds], samples=8192):
+    for record in simulate_many(config, [("none", s) for s in SEEDS], samples=8192):
         stretch = Record(record.r, record.u, record.y, record.dither)
         diagnosis = diagnose_parametric([stretch], model=config.model, classic=config.pmr, settings=config.parametric)
         out.append({name: (e.verdict, e.parametric.reasons) for name, e in diagnosis.elements.items()})
     return out
-
-
-@pytest.fixture(scope="module")
-def campaigns():
-    seeds = list(SEEDS)
-    jobs = [(gain, seeds[h::2]) for gain in (SINGULAR, NEARLY_SINGULAR) for h in range(2)]
-    with ProcessPoolExecutor(2, mp_context=worker_context()) as pool:
-        parts = list(pool.map(_verdicts, jobs))
-    return {"singular": parts[0] + parts[1], "nearly": parts[2] + parts[3]}
 
 
 def test_gain_matrices_are_as_named():
@@ -45,15 +39,15 @@ def test_gain_matrices_are_as_named():
     assert np.linalg.cond(np.reshape(NEARLY_SINGULAR, (2, 2))) > 1e3
 
 
-def test_a_rank_one_model_without_mismatch_is_inconclusive_with_the_reason_on_every_seed(campaigns):
-    for run in campaigns["singular"]:
+def test_a_rank_one_model_without_mismatch_is_inconclusive_with_the_reason_on_every_seed():
+    for run in _verdicts(tuple(SINGULAR)):
         for name, (verdict, reasons) in run.items():
             assert verdict == "inconclusive", (name, verdict)
             assert any("fewer independent directions than the row has elements" in r for r in reasons), reasons
 
 
-def test_a_nearly_singular_model_without_mismatch_never_gives_a_mismatch(campaigns):
-    verdicts = [verdict for run in campaigns["nearly"] for verdict, _ in run.values()]
+def test_a_nearly_singular_model_without_mismatch_never_gives_a_mismatch():
+    verdicts = [verdict for run in _verdicts(tuple(NEARLY_SINGULAR)) for verdict, _ in run.values()]
     assert len(verdicts) == 4 * len(SEEDS)
     assert "mismatch" not in verdicts
 
