@@ -11,13 +11,16 @@ Layout of an export folder (:data:`SCHEMA` is written beside it as ``SCHEMA.md``
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..core.records import Record
 from ..core.sim.model import TransferMatrix
 from ..outputs import replacing, write_text
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["SCHEMA", "model_table", "read_run", "run_file", "write_labels", "write_model", "write_run"]
 
@@ -72,6 +75,8 @@ def run_file(folder: str | Path, run: int) -> Path:
 
 def write_run(folder: str | Path, run: int, record: Record, model: TransferMatrix) -> Path:
     """Write one run's record as Parquet (columns of :data:`SCHEMA`); the path written."""
+    import pandas as pd
+
     columns: dict[str, np.ndarray] = {"k": np.arange(record.y.shape[0])}
     for prefix, data, names in (
         ("r", record.r, model.output_names),
@@ -90,6 +95,8 @@ def write_run(folder: str | Path, run: int, record: Record, model: TransferMatri
 
 def read_run(folder: str | Path, run: int) -> dict[str, pd.DataFrame]:
     """One exported run as ``{"r": ..., "u": ..., "y": ...}`` frames (columns: the names), pandas alone."""
+    import pandas as pd
+
     table = pd.read_parquet(run_file(folder, run))
     out = {}
     for prefix in ("r", "u", "y"):
@@ -100,6 +107,8 @@ def read_run(folder: str | Path, run: int) -> dict[str, pd.DataFrame]:
 
 def model_table(model: TransferMatrix) -> pd.DataFrame:
     """The model's modelled elements, one row each (columns of :data:`SCHEMA`)."""
+    import pandas as pd
+
     names = model.element_names()
     rows = []
     for i, k in zip(*np.nonzero(model.present), strict=True):

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["HEADLINE_LENGTHS", "OURS", "report_text"]
 

@@ -6,12 +6,14 @@ matplotlib is imported here only (Agg backend), when a figure is drawn.
 from __future__ import annotations
 
 import io
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from .scoring import roc_points
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["length_figure", "roc_figure"]
 

@@ -13,9 +13,9 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose
@@ -24,6 +24,9 @@ from ..core.sim.batch import run_lockstep
 from ..peers import PeerOutcome, Tolerances, classic_pmr, from_diagnosis, partial_correlation_test, pem_diagnosis
 from .scenarios import truth_arrays
 from .units import run_config
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["METHODS", "RunTask", "diagnose_all", "method_rows", "run_one", "simulate_run"]
 

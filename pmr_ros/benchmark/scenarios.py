@@ -22,12 +22,15 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from ..resources import share_dir
 from .units import UNITS, unit_config
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = [
     "COLUMNS",
@@ -103,6 +106,8 @@ def _unit_rows(unit: str, run: int, cell: dict) -> list[dict]:
 
 def draw_scenarios() -> pd.DataFrame:
     """Every labelled run by the rule of this module, :data:`COLUMNS`, one line per (run, modelled element)."""
+    import pandas as pd
+
     rows: list[dict] = []
     run = 0
     for unit in UNITS:
@@ -124,6 +129,8 @@ def read_scenarios(path: str | Path | None = None) -> pd.DataFrame:
     ValueError
         A column of :data:`COLUMNS` is missing, naming the file and the column.
     """
+    import pandas as pd
+
     path = Path(path) if path is not None else share_dir("config", SCENARIO_FILE) / SCENARIO_FILE
     table = pd.read_csv(path)
     missing = [c for c in COLUMNS if c not in table.columns]

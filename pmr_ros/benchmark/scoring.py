@@ -24,9 +24,12 @@ a method returned nothing for counts as not detected and inconclusive):
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["BIG_GAIN_PCT", "GROUP", "label_results", "roc_points", "roc_table", "score", "threshold_at"]
 
@@ -162,6 +165,8 @@ def score(labelled: pd.DataFrame, by: list[str] | None = None) -> pd.DataFrame:
     by : list of str, optional
         Columns to group by; ``method`` should be among them.
     """
+    import pandas as pd
+
     by = GROUP if by is None else by
     lines = []
     for key, group in labelled.groupby(by, sort=True):
@@ -179,6 +184,8 @@ def roc_table(labelled: pd.DataFrame) -> pd.DataFrame:
 
     Columns: the group's, then ``false_alarm`` and ``detection``, one line per point, from (0, 0).
     """
+    import pandas as pd
+
     parts = []
     for key, group in labelled.groupby(GROUP, sort=True):
         if not np.isfinite(group["evidence"].to_numpy(dtype=float)).any():

@@ -17,8 +17,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from ..benchmark import dataset, markdown, plots, scoring
 from ..benchmark.runner import METHODS, RunTask, run_one
@@ -29,6 +28,9 @@ from ..core.records import Record
 from ..outputs import write_bytes, write_text
 from ..progress import ProgressBar
 from .refusal import ServiceError
+
+if TYPE_CHECKING:
+    import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
 
@@ -238,6 +240,8 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     ServiceError
         No results.parquet in ``request.out``.
     """
+    import pandas as pd
+
     path = request.out / "results.parquet"
     if not path.is_file():
         raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
@@ -252,6 +256,8 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
 
 def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     """Run, score and write what ``request`` asks for (see the module docstring)."""
+    import pandas as pd
+
     lines = select_runs(_scenarios(request), request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
