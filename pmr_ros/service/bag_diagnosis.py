@@ -104,12 +104,7 @@ def diagnose_bag(
         A needed topic is missing, empty or of the wrong type, no
         configuration, or one whose channels are not the bag's.
     """
-    namespace = bag_namespace(bag) if namespace is None else namespace
-    bag.require(required_topics(namespace))
-    config, origin = bag_configuration(bag, config_path)
-    check_system(bag, config, origin, namespace)
-    if method is not None:
-        config = replace(config, pmr=replace(config.pmr, method=method))
+    config, origin, namespace = _checked_config(bag, config_path, method, namespace)
     config, note = judged_config(config, held=held_samples(bag, namespace), origin=origin, min_samples=min_samples)
     replay = replay_bag(bag, config, namespace)
     end_of_bag = replay.finish()
@@ -270,12 +265,7 @@ def bag_record(
     """
     import pandas
 
-    namespace = bag_namespace(bag) if namespace is None else namespace
-    bag.require(required_topics(namespace))
-    config, origin = bag_configuration(bag, config_path)
-    check_system(bag, config, origin, namespace)
-    if method is not None:
-        config = replace(config, pmr=replace(config.pmr, method=method))
+    config, origin, namespace = _checked_config(bag, config_path, method, namespace)
     placed = _placed(bag, config, namespace)
     if not placed:
         raise BagError(f"{bag.path}: no r, u, y message of the configuration's channels to diagnose")
@@ -292,3 +282,16 @@ def bag_record(
     start = pandas.Timestamp(first * model.sample_time, unit="s", tz="UTC").isoformat()
     data = PlantData.from_record(signals, source=str(bag.path), sample_time_s=model.sample_time, start=start)
     return data, config
+
+
+def _checked_config(
+    bag: Bag, config_path: str | None, method: str | None, namespace: str | None
+) -> tuple[PmrConfig, str, str]:
+    """The configuration a bag is judged with (its channels checked against the bag's), its origin, the namespace."""
+    namespace = bag_namespace(bag) if namespace is None else namespace
+    bag.require(required_topics(namespace))
+    config, origin = bag_configuration(bag, config_path)
+    check_system(bag, config, origin, namespace)
+    if method is not None:
+        config = replace(config, pmr=replace(config.pmr, method=method))
+    return config, origin, namespace
