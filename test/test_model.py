@@ -207,3 +207,26 @@ def test_state_space_advance_equals_the_dense_step_and_is_the_same_on_a_batch():
         np.testing.assert_array_equal(batch[j], ss.advance(x[j], u[j]))
     pole, source, weight = ss.one_source_form
     assert pole.shape == source.shape == weight.shape == (ss.A.shape[0],)
+
+
+def test_element_of_a_cell_gives_the_same_step_response_as_the_matrix_filter():
+    """``TransferMatrix.element`` is the cell's element: its step response is the matrix's own filter's."""
+    import numpy as np
+    from numpy.testing import assert_allclose
+
+    from pmr_ros.core.sim.model import TransferMatrix
+
+    model = TransferMatrix(
+        gain=[[2.0, 0.5], [0.0, -1.0]],
+        time_constant=[[5.0, 0.0], [0.0, 3.0]],
+        delay=[[2.0, 1.0], [0.0, 0.0]],
+        sample_time=1.0,
+        element_type=np.array([["foptd", "integrating"], ["none", "foptd"]], dtype=object),
+    )
+    u = np.zeros((40, 2))
+    u[1:, :] = 1.0
+    outputs = model.element_outputs(u)
+    for i in range(2):
+        for k in range(2):
+            step = model.element(i, k).step_response(38)  # s_n: n samples after the step at sample 1
+            assert_allclose(outputs[2:, i, k], step, atol=1e-12)

@@ -27,13 +27,14 @@ from functools import cached_property
 import numpy as np
 
 from ..results import ElementModel
+from .lti import Element, Empty, Foptd, Integrating
+from .mismatch import SCENARIOS, Mismatch
 
-__all__ = ["DiscreteFoptd", "Mismatch", "StateSpace", "TransferMatrix", "element_name"]
+__all__ = ["SCENARIOS", "DiscreteFoptd", "Mismatch", "StateSpace", "TransferMatrix", "element_name"]
 
 ELEMENT_TYPES = ("foptd", "integrating", "none")
 """The kinds of element a model may hold."""
 
-SCENARIOS = ("none", "gain", "time_constant", "delay", "full")
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
 
 
@@ -125,47 +126,6 @@ class StateSpace:
         """
         pole, source, weight = self.one_source_form
         return pole * x + weight * np.concatenate((x, u), axis=-1)[..., source]
-
-
-@dataclass(frozen=True)
-class Mismatch:
-    """Plant-model mismatch per element: ``G = Ghat`` with these changes.
-
-    Attributes
-    ----------
-    gain_pct : ndarray
-        Relative gain change ``(K - Khat) / Khat`` in percent.
-    time_constant_pct : ndarray
-        Relative time-constant change in percent.
-    delay_samples : ndarray of int
-        Delay change ``D - Dhat`` in samples.
-    """
-
-    gain_pct: np.ndarray
-    time_constant_pct: np.ndarray
-    delay_samples: np.ndarray
-
-    @classmethod
-    def zero(cls, n_outputs: int, n_inputs: int) -> Mismatch:
-        """No mismatch at all: the plant equals the model."""
-        z = np.zeros((n_outputs, n_inputs))
-        return cls(z, z.copy(), z.astype(int))
-
-    def for_scenario(self, scenario: str) -> Mismatch:
-        """Keep only the parts of the mismatch that ``scenario`` applies (Table 2)."""
-        if scenario not in SCENARIOS:
-            raise ValueError(f"unknown scenario {scenario!r}; choose one of {', '.join(SCENARIOS)}")
-        zero = Mismatch.zero(*self.gain_pct.shape)
-        return Mismatch(
-            self.gain_pct if scenario in ("gain", "full") else zero.gain_pct,
-            self.time_constant_pct if scenario in ("time_constant", "full") else zero.time_constant_pct,
-            self.delay_samples if scenario in ("delay", "full") else zero.delay_samples,
-        )
-
-    @property
-    def gain_ratio(self) -> np.ndarray:
-        """Injected ``K / Khat``."""
-        return 1.0 + self.gain_pct / 100.0
 
 
 @dataclass(frozen=True)
@@ -287,6 +247,28 @@ class TransferMatrix:
             )
             out[name] = (i, k, element)
         return out
+
+    def element(self, i: int, k: int) -> Element:
+        """The element ``G_ik`` as an :class:`~pmr_ros.core.sim.lti.Element`, sampled and scaled alike for every type.
+
+        Parameters
+        ----------
+        i, k : int
+            Row (output) and column (input), from 0.
+
+        Returns
+        -------
+        Element
+            :class:`~pmr_ros.core.sim.lti.Foptd`, :class:`~pmr_ros.core.sim.lti.Integrating`
+            or :class:`~pmr_ros.core.sim.lti.Empty`.
+        """
+        kind = self.element_type[i, k]
+        delay = int(self.delay_samples[i, k])
+        if kind == "foptd":
+            return Foptd(float(self.gain[i, k]), float(self.time_constant[i, k]), delay, self.sample_time)
+        if kind == "integrating":
+            return Integrating(float(self.gain[i, k]), delay, self.sample_time)
+        return Empty(self.sample_time)
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
         """Samples until every FOPTD element forgets its initial state to ``exp(-time_constants)``.
