@@ -230,3 +230,35 @@ def test_element_of_a_cell_gives_the_same_step_response_as_the_matrix_filter():
         for k in range(2):
             step = model.element(i, k).step_response(38)  # s_n: n samples after the step at sample 1
             assert_allclose(outputs[2:, i, k], step, atol=1e-12)
+
+
+def test_a_matrix_of_mixed_elements_filters_and_scales_each_cell_as_its_element():
+    """``of_elements`` keeps tf and step-response cells; outputs and mismatch go through each element."""
+    import numpy as np
+    from numpy.testing import assert_allclose
+
+    from pmr_ros.core.sim.lti import Empty, Foptd
+    from pmr_ros.core.sim.mismatch import Mismatch
+    from pmr_ros.core.sim.model import TransferMatrix
+    from pmr_ros.core.sim.rational import transfer_function
+    from pmr_ros.core.sim.step_curve import as_step_response
+
+    second = transfer_function("2", "20, 12, 1", delay_samples=2, sample_time=1.0, name="G12")
+    curve = as_step_response(Foptd(-1.5, 4.0, 1, 1.0), 60, name="G21")
+    rows = [[Foptd(1.0, 5.0, 0, 1.0), second], [curve, Empty(1.0)]]
+    model = TransferMatrix.of_elements(rows, sample_time=1.0)
+    assert list(model.element_type.ravel()) == ["foptd", "tf", "step_response", "none"]
+    assert_allclose(model.gain, [[1.0, 2.0], [-1.5, 0.0]], rtol=1e-3)  # the curve's 60 samples are 15 tau
+    assert model.element(0, 1) is second and model.has_general
+    u = np.zeros((80, 2))
+    u[1:, 0], u[1:, 1] = 1.0, 1.0
+    out = model.element_outputs(u)
+    assert_allclose(out[2:, 0, 1], second.step_response(78), atol=1e-12)
+    assert_allclose(out[2:, 1, 0], curve.step_response(78), atol=1e-12)
+    z = np.zeros((2, 2))
+    plant = model.with_mismatch(Mismatch(z + 20.0, z - 50.0, np.array([[0, 1], [2, 0]])))
+    assert_allclose(plant.gain, 1.2 * model.gain, rtol=1e-9)
+    assert_allclose(plant.delay_samples, [[0, 3], [3, 0]])
+    # the tf element twice as fast (alpha 0.5): 2.4 / (5 s^2 + 6 s + 1), one sample more delay
+    faster = transfer_function("2.4", "5, 6, 1", delay_samples=3, sample_time=1.0)
+    assert_allclose(plant.element(0, 1).step_response(60), faster.step_response(60), atol=1e-12)

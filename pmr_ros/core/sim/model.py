@@ -21,18 +21,19 @@ A model may carry its measured disturbances (DVs) as its last input columns
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 
 import numpy as np
 
 from ..results import ElementModel
+from .foptd_matrix import DiscreteFoptd, StateSpace
 from .lti import Element, Empty, Foptd, Integrating
 from .mismatch import SCENARIOS, Mismatch
 
 __all__ = ["SCENARIOS", "DiscreteFoptd", "Mismatch", "StateSpace", "TransferMatrix", "element_name"]
 
-ELEMENT_TYPES = ("foptd", "integrating", "none")
+ELEMENT_TYPES = ("foptd", "integrating", "none", "tf", "step_response")
 """The kinds of element a model may hold."""
 
 """Mismatch scenarios of the paper's Table 2: which parts of a mismatch apply."""
@@ -49,83 +50,6 @@ def element_name(i: int, k: int, n: int, *, prefix: str = "G") -> str:
     if n > 9:
         return f"{prefix}{i + 1}_{k + 1}"
     return f"{prefix}{i + 1}{k + 1}"
-
-
-@dataclass(frozen=True)
-class DiscreteFoptd:
-    """ZOH discretization of a FOPTD matrix, element-wise.
-
-    Attributes
-    ----------
-    pole : ndarray, shape (n_outputs, n_inputs)
-        ``a = exp(-Ts / tau)``.
-    numerator : ndarray, shape (n_outputs, n_inputs)
-        ``b = K (1 - a)``.
-    delay_samples : ndarray of int, shape (n_outputs, n_inputs)
-        Dead time in whole samples (the ZOH adds one more sample of lag).
-    """
-
-    pole: np.ndarray
-    numerator: np.ndarray
-    delay_samples: np.ndarray
-
-    def frequency_response(self, omega: np.ndarray) -> np.ndarray:
-        """Complex response at ``omega`` [rad/sample], shape (n_out, n_in, len(omega))."""
-        z_inv = np.exp(-1j * np.asarray(omega, dtype=float))
-        a = self.pole[..., None]
-        b = self.numerator[..., None]
-        d = self.delay_samples[..., None]
-        return b * z_inv ** (1 + d) / (1.0 - a * z_inv)
-
-    def filter_coefficients(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(b, a)`` polynomials in z^-1 of element (i, k) for ``scipy.signal.lfilter``."""
-        d = int(self.delay_samples[i, k])
-        num = np.zeros(d + 2)
-        num[-1] = self.numerator[i, k]
-        return num, np.array([1.0, -self.pole[i, k]])
-
-
-@dataclass(frozen=True)
-class StateSpace:
-    """Discrete realization ``x+ = A x + B u``, ``y = C x`` of a transfer matrix.
-
-    Each input feeds a shift register as long as its largest delay; each
-    element is one first-order state reading the register tap of its delay.
-    So every state has its own pole (0 for a register) and exactly one other
-    source, a register tap or an input: :meth:`advance` steps it with two
-    multiplications per state instead of the dense products.
-    """
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-
-    @cached_property
-    def one_source_form(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(pole, source, weight)`` per state: ``x+[j] = pole[j] x[j] + weight[j] [x; u][source[j]]``."""
-        pole = np.diag(self.A).copy()
-        feed = np.hstack([self.A - np.diag(pole), self.B])  # columns: states, then inputs
-        if np.any(np.count_nonzero(feed, axis=1) > 1):
-            raise ValueError("advance needs one source per state (the realization of TransferMatrix.state_space)")
-        source = np.argmax(np.abs(feed), axis=1)
-        return pole, source, feed[np.arange(feed.shape[0]), source]
-
-    def advance(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """``A x + B u`` for one state ``(nx,)`` or a batch ``(runs, nx)``, elementwise (same numbers either way).
-
-        Parameters
-        ----------
-        x : ndarray, shape (..., nx)
-            State.
-        u : ndarray, shape (..., n_inputs)
-            Input held over the sample [input unit].
-
-        Returns
-        -------
-        ndarray, shape (..., nx)
-        """
-        pole, source, weight = self.one_source_form
-        return pole * x + weight * np.concatenate((x, u), axis=-1)[..., source]
 
 
 @dataclass(frozen=True)
@@ -152,6 +76,11 @@ class TransferMatrix:
     n_disturbances : int
         How many of the last input columns are measured disturbances (DVs),
         the feedforward model ``Gd`` beside ``G`` (:func:`~pmr_ros.core.sim.augment.augmented_model`); 0: none.
+    general : tuple of tuple of (Element or None)
+        Per cell, the element itself where its type is ``tf`` or
+        ``step_response`` (its gain is then the element's steady-state gain,
+        its delay the element's, its time constant NaN); None elsewhere.
+        Empty (the default): no such element.  Build with :meth:`of_elements`.
     """
 
     gain: np.ndarray
@@ -163,6 +92,7 @@ class TransferMatrix:
     name: str = ""
     element_type: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
     n_disturbances: int = 0
+    general: tuple[tuple[Element | None, ...], ...] = ()
 
     def __post_init__(self) -> None:
         for attr in ("gain", "time_constant", "delay"):
@@ -175,6 +105,7 @@ class TransferMatrix:
         if kinds.shape != shape or not set(kinds.ravel()) <= set(ELEMENT_TYPES):
             raise ValueError(f"element_type must be {shape} entries of {', '.join(ELEMENT_TYPES)}")
         object.__setattr__(self, "element_type", kinds)
+        self._check_general(shape)
         # what an element does not have is not there: no time constant off FOPTD, nothing in an empty cell
         object.__setattr__(self, "time_constant", np.where(kinds == "foptd", self.time_constant, np.nan))
         empty = kinds == "none"
@@ -184,6 +115,73 @@ class TransferMatrix:
             object.__setattr__(self, "output_names", tuple(f"y{i + 1}" for i in range(shape[0])))
         if not self.input_names:
             object.__setattr__(self, "input_names", tuple(f"u{k + 1}" for k in range(shape[1])))
+
+    def _check_general(self, shape: tuple[int, ...]) -> None:
+        """Every ``tf``/``step_response`` cell holds its element and no other cell does."""
+        cells = [[None] * shape[1] for _ in range(shape[0])] if not self.general else self.general
+        if len(cells) != shape[0] or any(len(row) != shape[1] for row in cells):
+            raise ValueError(f"general must be {shape} cells of Element or None")
+        general_kind = np.isin(self.element_type, ("tf", "step_response"))
+        held = np.array([[c is not None for c in row] for row in cells], dtype=bool).reshape(shape)
+        if (held != general_kind).any():
+            raise ValueError("general must hold an Element exactly where element_type is tf or step_response")
+        object.__setattr__(self, "general", tuple(tuple(row) for row in cells))
+
+    @classmethod
+    def of_elements(
+        cls,
+        elements: Sequence[Sequence[Element]],
+        *,
+        sample_time: float,
+        output_names: tuple[str, ...] = (),
+        input_names: tuple[str, ...] = (),
+        name: str = "",
+        n_disturbances: int = 0,
+    ) -> TransferMatrix:
+        """The matrix of ``elements`` (rows of :class:`~pmr_ros.core.sim.lti.Element`), any type mixed.
+
+        Parameters
+        ----------
+        elements : sequence of sequence of Element
+            ``elements[i][k]`` is ``G_ik``; every one sampled at ``sample_time``.
+        sample_time : float
+            Ts [time unit].
+        output_names, input_names, name, n_disturbances
+            As the attributes.
+
+        Returns
+        -------
+        TransferMatrix
+
+        Raises
+        ------
+        ValueError
+            Rows of different lengths, or an element at another sample time.
+        """
+        from .realize import cell_arrays
+
+        gain, tau, delay, kinds, general = cell_arrays(elements, sample_time=sample_time)
+        return cls(
+            gain,
+            tau,
+            delay,
+            sample_time,
+            output_names,
+            input_names,
+            name,
+            kinds,
+            n_disturbances,
+            tuple(tuple(row) for row in general),
+        )
+
+    def element_rows(self) -> list[list[Element]]:
+        """Every cell's :meth:`element`, row by row (what :mod:`.realize` takes)."""
+        return [[self.element(i, k) for k in range(self.n_inputs)] for i in range(self.n_outputs)]
+
+    @property
+    def has_general(self) -> bool:
+        """Whether any element is a ``tf`` or ``step_response`` (no FOPTD shortcut applies then)."""
+        return any(c is not None for row in self.general for c in row)
 
     @property
     def n_outputs(self) -> int:
@@ -259,10 +257,13 @@ class TransferMatrix:
         Returns
         -------
         Element
-            :class:`~pmr_ros.core.sim.lti.Foptd`, :class:`~pmr_ros.core.sim.lti.Integrating`
-            or :class:`~pmr_ros.core.sim.lti.Empty`.
+            :class:`~pmr_ros.core.sim.lti.Foptd`, :class:`~pmr_ros.core.sim.lti.Integrating`,
+            :class:`~pmr_ros.core.sim.lti.Empty`, or the ``tf``/``step_response`` element held.
         """
         kind = self.element_type[i, k]
+        held = self.general[i][k]
+        if held is not None:
+            return held
         delay = int(self.delay_samples[i, k])
         if kind == "foptd":
             return Foptd(float(self.gain[i, k]), float(self.time_constant[i, k]), delay, self.sample_time)
@@ -288,12 +289,41 @@ class TransferMatrix:
         return DiscreteFoptd(pole, np.where(self.present, numerator, 0.0), self.delay_samples)
 
     def with_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
-        """The plant ``G`` that differs from this model by ``mismatch`` (no time constant change off FOPTD)."""
+        """The plant ``G`` that differs from this model by ``mismatch``.
+
+        A ``tf``/``step_response`` element is scaled as a whole
+        (:meth:`~pmr_ros.core.sim.lti.Element.scaled`: its time-constant change
+        is its dynamics change alpha - 1); integrating elements have no time constant to change.
+        """
+        if self.has_general:
+            return self._with_general_mismatch(mismatch)
         return replace(
             self,
             gain=self.gain * (1.0 + mismatch.gain_pct / 100.0),
             time_constant=self.time_constant * (1.0 + mismatch.time_constant_pct / 100.0),
             delay=self.delay + mismatch.delay_samples * self.sample_time,
+        )
+
+    def _with_general_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
+        """:meth:`with_mismatch` cell by cell through :meth:`element` and ``scaled``."""
+        rows = [
+            [
+                self.element(i, k).scaled(
+                    gain_ratio=1.0 + mismatch.gain_pct[i, k] / 100.0,
+                    time_scale=1.0 + (0.0 if self.integrating[i, k] else mismatch.time_constant_pct[i, k] / 100.0),
+                    delay_change=int(mismatch.delay_samples[i, k]) if self.present[i, k] else 0,
+                )
+                for k in range(self.n_inputs)
+            ]
+            for i in range(self.n_outputs)
+        ]
+        return TransferMatrix.of_elements(
+            rows,
+            sample_time=self.sample_time,
+            output_names=self.output_names,
+            input_names=self.input_names,
+            name=self.name,
+            n_disturbances=self.n_disturbances,
         )
 
     def with_time_constant(self, i: int, k: int, time_constant: float) -> TransferMatrix:
@@ -351,6 +381,10 @@ class TransferMatrix:
         from scipy.signal import lfilter, lfilter_zi
 
         u = np.asarray(u, dtype=float)
+        if self.has_general:
+            from .realize import element_outputs
+
+            return element_outputs(self.element_rows(), u)
         disc = self.discretize()
         out = np.zeros((u.shape[0], self.n_outputs, self.n_inputs))
         present = self.present

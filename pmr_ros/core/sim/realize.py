@@ -16,9 +16,9 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
 
-from .lti import Element, controllable_form
+from .lti import Element, Foptd, controllable_form
 
-__all__ = ["element_outputs", "realize"]
+__all__ = ["cell_arrays", "element_outputs", "realize"]
 
 
 def _taps(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, bool] | None:
@@ -120,6 +120,54 @@ def _sort(elements: Sequence[Sequence[Element]], start: np.ndarray) -> tuple[lis
             else:  # y_i += sum_j c_j u_k(t - d - j): register states d .. d + L - 1
                 tapped.append((i, start[k] + disc.delay_samples, *taps))
     return own, tapped
+
+
+def cell_arrays(
+    elements: Sequence[Sequence[Element]], *, sample_time: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[tuple[Element | None, ...], ...]]:
+    """The arrays a :class:`~.model.TransferMatrix` holds for the matrix ``elements[i][k]``.
+
+    Parameters
+    ----------
+    elements : sequence of sequence of Element
+        n_outputs rows of n_inputs elements, any type mixed.
+    sample_time : float
+        Ts [time unit]; every element must be sampled at it.
+
+    Returns
+    -------
+    gain, time_constant, delay : ndarray, shape (n_outputs, n_inputs)
+        Steady-state gain (ramp rate when integrating; 0 empty) [output unit / input unit],
+        tau of FOPTD elements (NaN elsewhere) and dead time [time unit].
+    element_type : ndarray of str
+        Each element's ``kind``.
+    general : tuple of tuple of (Element or None)
+        The ``tf`` and ``step_response`` elements themselves, None elsewhere.
+
+    Raises
+    ------
+    ValueError
+        Rows of different lengths, or an element sampled at another time.
+    """
+    rows = [list(row) for row in elements]
+    if not rows or not rows[0] or any(len(row) != len(rows[0]) for row in rows):
+        raise ValueError("elements must be non-empty rows of equal length")
+    shape = (len(rows), len(rows[0]))
+    gain, tau, delay = np.zeros(shape), np.full(shape, np.nan), np.zeros(shape)
+    kinds = np.empty(shape, dtype=object)
+    general: list[list[Element | None]] = [[None] * shape[1] for _ in range(shape[0])]
+    for i, row in enumerate(rows):
+        for k, element in enumerate(row):
+            if not np.isclose(element.sample_time, sample_time):
+                raise ValueError(f"element ({i + 1}, {k + 1}) is sampled at {element.sample_time}, not {sample_time}")
+            kinds[i, k] = element.kind
+            delay[i, k] = element.delay_samples * sample_time
+            gain[i, k] = 0.0 if element.kind == "none" else element.steady_state_gain
+            if isinstance(element, Foptd):
+                tau[i, k] = element.time_constant
+            elif element.kind in ("tf", "step_response"):
+                general[i][k] = element
+    return gain, tau, delay, kinds, tuple(tuple(row) for row in general)
 
 
 def element_outputs(elements: Sequence[Sequence[Element]], u: np.ndarray) -> np.ndarray:
