@@ -347,10 +347,11 @@ def test_strings_parameter_takes_one_string_per_element_or_one_for_all():
     assert parameter("system.model_file").default == ""
 
 
-def test_a_run_config_with_a_tf_element_is_refused_until_simulation_takes_it(tmp_path):
+def test_a_run_config_with_a_tf_element_holds_that_element(tmp_path):
     (tmp_path / "tf.yaml").write_text(TF_MODEL)
-    with pytest.raises(ConfigError, match=r"system.element_type\[1\] \(G12\) = 'tf': is read by pmr-ros model"):
-        load_config(str(tmp_path / "tf.yaml"))
+    model = load_config(str(tmp_path / "tf.yaml")).model
+    assert model.element(0, 1) == transfer_function("-0.5, 1", "20, 12, 1", delay_samples=2, sample_time=1.0, name="G12")
+    assert list(model.element_type.ravel()) == ["integrating", "tf", "none", "foptd"]
 
 
 def test_mdl_example_text_is_what_the_docs_describe():

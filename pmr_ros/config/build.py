@@ -25,6 +25,7 @@ from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
 from .data import DataSettings, check_data_settings, data_settings
 from .errors import ConfigError
+from .general_elements import GENERAL_KINDS, block_elements, block_numbers
 from .plant_block import plant_block
 from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
 from .routine import (
@@ -134,11 +135,14 @@ def _model(v: _Values) -> TransferMatrix:
 def _check_elements(
     v: _Values, block: str, kinds: np.ndarray, gain: np.ndarray, tau: np.ndarray, *, prefix: str
 ) -> None:
-    """Per element type: a non-zero gain, a positive FOPTD time constant; warn of an integrating one's ignored tau."""
+    """Per element type: a non-zero gain, a positive FOPTD time constant; warn of an integrating one's ignored tau.
+
+    A tf or step_response element's gain is its own (the field is ignored, may be 0).
+    """
     shape, per = v.shape, "disturbance_elements" if prefix else ""
     label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
     flat_kinds, g, t = kinds.ravel(), gain.ravel(), tau.ravel()
-    zero_gain = np.flatnonzero((flat_kinds != "none") & (g == 0))
+    zero_gain = np.flatnonzero(np.isin(flat_kinds, ("foptd", "integrating")) & (g == 0))
     bad_tau = np.flatnonzero((flat_kinds == "foptd") & (t <= 0))
     if zero_gain.size and (not bad_tau.size or zero_gain[0] <= bad_tau[0]):
         j = int(zero_gain[0])
@@ -167,15 +171,12 @@ def _matrix(
     shape = v.shape
     label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
     kinds = v[f"{block}.{prefix}element_type"]
-    later = np.flatnonzero(np.isin(kinds.ravel(), ("tf", "step_response")))
-    if later.size:  # read by pmr-ros model import/export; the simulation and diagnosis take them later (issue 23)
-        j = int(later[0])
-        raise v.error(
-            f"{block}.element_type[{j}] ({label(j)})",
-            kinds.ravel()[j],
-            "is read by pmr-ros model import/export but not yet simulated or diagnosed",
-        )
-    gain, tau, delay = v[f"{block}.{prefix}gain"], v[f"{block}.{prefix}time_constant"], v[f"{block}.{prefix}delay"]
+    general = not prefix and bool(np.isin(kinds, GENERAL_KINDS).any())
+    gain, tau = (
+        block_numbers(v, f"{block}.{prefix}gain", kinds),
+        block_numbers(v, f"{block}.{prefix}time_constant", kinds),
+    )
+    delay = v[f"{block}.{prefix}delay"]
     _check_elements(v, block, kinds, gain, tau, prefix=prefix)
     whole = np.where(kinds == "none", 0.0, delay / ts)
     bad = np.flatnonzero(np.abs(whole - np.rint(whole)).ravel() > 1e-9 * np.maximum(1.0, np.abs(whole).ravel()))
@@ -186,12 +187,19 @@ def _matrix(
             float(delay.ravel()[j]),
             f"must be a whole number of samples (sample_time = {ts:g})",
         )
+    if general:
+        return block_elements(
+            v,
+            block,
+            {"element_type": kinds, "gain": gain, "time_constant": tau, "delay": delay},
+            names=(outputs, inputs, name),
+        )
     return TransferMatrix(gain, tau, np.rint(whole) * ts, ts, outputs, inputs, name, element_type=kinds)
 
 
 def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any]) -> TransferMatrix | None:
     """The ``plant`` block, if given; it excludes a ``mismatch`` block and a ``run.scenario``."""
-    if "gain" not in v.tree.get(PLANT_BLOCK, {}):
+    if not {"gain", "numerator", "model_file"} & set(v.tree.get(PLANT_BLOCK, {})):
         return None
     for clash in ("mismatch", "run.scenario"):
         block, _, key = clash.partition(".")

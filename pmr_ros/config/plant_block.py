@@ -46,7 +46,7 @@ def plant_block(
     ConfigError
         A repeated field that differs from the system's.
     """
-    keys: tuple[str, ...] = ("name", "element_type")
+    keys: tuple[str, ...] = ("name", "element_type", "numerator", "denominator", "model_file")
     if disturbance_names:
         keys += ("disturbance_time_constant", "disturbance_delay", "disturbance_element_type")
     for key in keys:

@@ -105,11 +105,13 @@ def prediction_matrices(
 def steady_state_gain(model: TransferMatrix) -> np.ndarray:
     """Steady-state map of the inputs, shape (n_outputs, n_inputs).
 
-    A stable output's row holds its FOPTD gains (its settled value per unit
-    input); an integrating output's row holds ``Ts K`` of its integrating
-    elements (its rate per sample per unit input); empty cells are 0.
+    A stable output's row holds its elements' steady-state gains (its settled
+    value per unit input: K of a FOPTD element, ``num(0)/den(0)`` of a tf, the
+    settled end of a step-response curve); an integrating output's row holds
+    ``Ts K`` of its integrating elements (its rate per sample per unit input,
+    K a ramp rate per time unit); empty cells are 0.
     """
-    stable = np.where(model.element_type == "foptd", model.gain, 0.0)
+    stable = np.where(model.present & ~model.integrating, model.gain, 0.0)
     rate = np.where(model.integrating, model.gain * model.sample_time, 0.0)
     return np.where(model.integrating_outputs[:, None], rate, stable)
 

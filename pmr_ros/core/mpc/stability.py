@@ -91,10 +91,14 @@ def neutral_modes(controller: LinearMpc, plant: TransferMatrix) -> np.ndarray:
     ndarray, shape (n_s, n_neutral)
         In the coordinates of :func:`closed_loop_matrix`.
     """
-    npx = plant.state_space().A.shape[0]
-    nmx = controller.matrices.A.shape[0]
+    p = plant.state_space()
+    npx = p.A.shape[0]
+    m = controller.matrices
+    nmx = m.A.shape[0]
     n_in, n_ramps = controller.model.n_inputs, controller.estimator.n_ramps
     n_s = npx + nmx + n_in + 2 * n_ramps
+    if controller.model.has_general or plant.has_general:
+        return _general_neutral_modes((p.A, p.C), (m.A, m.C), controller.estimator.integrating, n_s)
     ramp_of_row = {int(i): j for j, i in enumerate(controller.estimator.integrating)}
     pairs = [  # a controller-model integrator up, its output's step estimate down
         (npx + state, npx + nmx + n_in + ramp_of_row[row]) for state, row in _integrator_states(controller.model)
@@ -106,6 +110,32 @@ def neutral_modes(controller: LinearMpc, plant: TransferMatrix) -> np.ndarray:
     columns = np.zeros((n_s, len(pairs)))
     for c, (up, down) in enumerate(pairs):
         columns[up, c], columns[down, c] = 1.0, -1.0
+    return columns
+
+
+NEUTRAL_RCOND = 1e-9
+"""Relative singular value below which ``A - I`` is taken as singular: a sampled integrator's pole is 1 to round-off."""
+
+
+def _general_neutral_modes(
+    plant: tuple[np.ndarray, np.ndarray], model: tuple[np.ndarray, np.ndarray], ramp_rows: np.ndarray, n_s: int
+) -> np.ndarray:
+    """:func:`neutral_modes` of realizations of any order, from their invariant directions at eigenvalue 1.
+
+    A plant direction ``v`` with ``A_p v = v`` and ``C_p v = 0`` (integrators of
+    one output that cancel) never shows; a controller-model direction
+    ``A_m v = v`` shows as ``C_m v`` in the prediction, which the step
+    estimates of the integrating outputs offset by ``-C_m v``.
+    """
+    (ap, cp), (am, cm) = plant, model
+    npx, nmx = ap.shape[0], am.shape[0]
+    hidden = scipy.linalg.null_space(np.vstack([ap - np.eye(npx), cp]), rcond=NEUTRAL_RCOND)
+    shown = scipy.linalg.null_space(am - np.eye(nmx), rcond=NEUTRAL_RCOND)
+    columns = np.zeros((n_s, hidden.shape[1] + shown.shape[1]))
+    columns[:npx, : hidden.shape[1]] = hidden
+    steps = n_s - 2 * len(ramp_rows)  # the step estimates of the integrating outputs start here
+    columns[npx : npx + nmx, hidden.shape[1] :] = shown
+    columns[steps : steps + len(ramp_rows), hidden.shape[1] :] = -(cm @ shown)[np.asarray(ramp_rows, dtype=int)]
     return columns
 
 

@@ -65,6 +65,15 @@ def augmented_model(model: TransferMatrix, disturbance_model: TransferMatrix | N
             f"the disturbance model ({disturbance_model.n_outputs} outputs, Ts {disturbance_model.sample_time:g}) "
             f"does not match the model ({model.n_outputs} outputs, Ts {model.sample_time:g})"
         )
+    if model.has_general or disturbance_model.has_general:  # the elements themselves, side by side
+        return TransferMatrix.of_elements(
+            [[*g, *gd] for g, gd in zip(model.element_rows(), disturbance_model.element_rows(), strict=True)],
+            sample_time=model.sample_time,
+            output_names=model.output_names,
+            input_names=(*model.input_names, *disturbance_model.input_names),
+            name=model.name,
+            n_disturbances=disturbance_model.n_inputs,
+        )
     return TransferMatrix(
         np.hstack([model.gain, disturbance_model.gain]),
         np.hstack([model.time_constant, disturbance_model.time_constant]),
@@ -79,6 +88,15 @@ def augmented_model(model: TransferMatrix, disturbance_model: TransferMatrix | N
 
 
 def _columns(model: TransferMatrix, columns: slice, n_disturbances: int) -> TransferMatrix:
+    if model.has_general:
+        return TransferMatrix.of_elements(
+            [row[columns] for row in model.element_rows()],
+            sample_time=model.sample_time,
+            output_names=model.output_names,
+            input_names=model.input_names[columns],
+            name=model.name,
+            n_disturbances=n_disturbances,
+        )
     return TransferMatrix(
         model.gain[:, columns],
         model.time_constant[:, columns],

@@ -105,11 +105,29 @@ class _PlantGroup:
         self.x = self.pole * self.x + self.weight * feed
 
 
-def _plant_groups(spaces: list[StateSpace]) -> list[_PlantGroup]:
-    sizes = sorted({ss.A.shape[0] for ss in spaces})
-    groups = []
+@dataclass
+class _GeneralPlant:
+    """One run whose plant has elements of higher order (states of several sources): its own sparse steps."""
+
+    runs: np.ndarray
+    space: StateSpace
+    C: np.ndarray
+    x: np.ndarray
+
+    def advance(self, u: np.ndarray) -> None:
+        """Hold the run's input ``u`` (one row) for one sample."""
+        self.x = self.space.advance(self.x, u)
+
+
+def _plant_groups(spaces: list[StateSpace]) -> list[_PlantGroup | _GeneralPlant]:
+    groups: list[_PlantGroup | _GeneralPlant] = [
+        _GeneralPlant(np.array([j]), ss, ss.C[None], np.zeros((1, ss.A.shape[0])))
+        for j, ss in enumerate(spaces)
+        if not ss.one_source
+    ]
+    sizes = sorted({ss.A.shape[0] for ss in spaces if ss.one_source})
     for nx in sizes:
-        idx = np.array([j for j, ss in enumerate(spaces) if ss.A.shape[0] == nx])
+        idx = np.array([j for j, ss in enumerate(spaces) if ss.A.shape[0] == nx and ss.one_source])
         pole, source, weight = (
             np.stack(parts) for parts in zip(*(spaces[j].one_source_form for j in idx), strict=True)
         )

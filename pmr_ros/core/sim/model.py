@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..results import ElementModel
-from .foptd_matrix import DiscreteFoptd, StateSpace
+from .foptd_matrix import DiscreteFoptd, StateSpace, foptd_state_space
 from .lti import Element, Empty, Foptd, Integrating
 from .mismatch import SCENARIOS, Mismatch
 
@@ -205,8 +205,9 @@ class TransferMatrix:
 
     @property
     def integrating(self) -> np.ndarray:
-        """Where the element is integrating, shape (n_outputs, n_inputs)."""
-        return np.asarray(self.element_type == "integrating")
+        """Where the element is integrating (an ``integrating`` one, a tf with an integrator, a ramp curve)."""
+        ramps = [[c is not None and c.integrating for c in row] for row in self.general] if self.has_general else False
+        return np.asarray((self.element_type == "integrating") | np.array(ramps, dtype=bool))
 
     @property
     def integrating_outputs(self) -> np.ndarray:
@@ -272,13 +273,16 @@ class TransferMatrix:
         return Empty(self.sample_time)
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
-        """Samples until every FOPTD element forgets its initial state to ``exp(-time_constants)``.
+        """Samples until every element forgets its initial state to ``exp(-time_constants)``.
 
-        ``time_constants`` x the largest tau plus the largest delay, in samples.
-        (An integrating element never forgets; its data are differenced instead.)
+        ``time_constants`` x the largest FOPTD tau plus the largest delay, in
+        samples; a ``tf``/``step_response`` element's own
+        :meth:`~pmr_ros.core.sim.lti.Element.settle_samples` at that fraction
+        when longer.  (An integrating element never forgets; its data are differenced instead.)
         """
         settle = int(np.ceil(time_constants * self.slowest_time_constant / self.sample_time))
-        return settle + int(self.delay_samples.max()) + 1
+        general = [c.settle_samples(float(np.exp(-time_constants))) for row in self.general for c in row if c]
+        return max(settle + int(self.delay_samples.max()) + 1, *general, 0)
 
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""
@@ -306,11 +310,12 @@ class TransferMatrix:
 
     def _with_general_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
         """:meth:`with_mismatch` cell by cell through :meth:`element` and ``scaled``."""
+        kinds, tau_pct = self.element_type, mismatch.time_constant_pct
         rows = [
             [
                 self.element(i, k).scaled(
                     gain_ratio=1.0 + mismatch.gain_pct[i, k] / 100.0,
-                    time_scale=1.0 + (0.0 if self.integrating[i, k] else mismatch.time_constant_pct[i, k] / 100.0),
+                    time_scale=1.0 + (0.0 if kinds[i, k] == "integrating" else tau_pct[i, k] / 100.0),
                     delay_change=int(mismatch.delay_samples[i, k]) if self.present[i, k] else 0,
                 )
                 for k in range(self.n_inputs)
@@ -333,35 +338,19 @@ class TransferMatrix:
         return replace(self, time_constant=tau)
 
     def state_space(self) -> StateSpace:
-        """Minimal-per-element realization with one shift register per input.
+        """Discrete realization ``x+ = A x + B u``, ``y = C x`` with one shift register per input.
 
-        One first-order state per element that is there (row-major), reading
-        the register tap of its delay; empty cells have no state.
+        FOPTD, integrating and empty elements only: one first-order state per
+        element that is there (row-major), reading the register tap of its
+        delay (:func:`~.foptd_matrix.foptd_state_space`, stepped with two
+        multiplications per state).  With ``tf`` or ``step_response`` elements
+        (:attr:`has_general`): :func:`~.realize.realize` of :meth:`element_rows`.
         """
-        disc = self.discretize()
-        n_out, n_in = self.n_outputs, self.n_inputs
-        present = self.present
-        elements = [(int(i), int(k)) for i, k in zip(*np.nonzero(present), strict=False)]  # row-major
-        lengths = np.where(present, disc.delay_samples, 0).max(axis=0)
-        reg_start = len(elements) + np.concatenate(([0], np.cumsum(lengths)[:-1]))
-        nx = len(elements) + int(lengths.sum())
-        A = np.zeros((nx, nx))
-        B = np.zeros((nx, n_in))
-        C = np.zeros((n_out, nx))
-        for k in range(n_in):
-            if lengths[k] > 0:
-                B[reg_start[k], k] = 1.0
-                for t in range(1, lengths[k]):
-                    A[reg_start[k] + t, reg_start[k] + t - 1] = 1.0
-        for e, (i, k) in enumerate(elements):
-            A[e, e] = disc.pole[i, k]
-            d = disc.delay_samples[i, k]
-            if d == 0:
-                B[e, k] = disc.numerator[i, k]
-            else:
-                A[e, reg_start[k] + d - 1] = disc.numerator[i, k]
-            C[i, e] = 1.0
-        return StateSpace(A, B, C)
+        if self.has_general:
+            from .realize import realize
+
+            return StateSpace(*realize(self.element_rows()))
+        return foptd_state_space(self.discretize(), self.present)
 
     def element_outputs(self, u: np.ndarray) -> np.ndarray:
         """Per-element model outputs ``yhat_ik = G_ik u_k``.
