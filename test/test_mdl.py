@@ -350,7 +350,8 @@ def test_strings_parameter_takes_one_string_per_element_or_one_for_all():
 def test_a_run_config_with_a_tf_element_holds_that_element(tmp_path):
     (tmp_path / "tf.yaml").write_text(TF_MODEL)
     model = load_config(str(tmp_path / "tf.yaml")).model
-    assert model.element(0, 1) == transfer_function("-0.5, 1", "20, 12, 1", delay_samples=2, sample_time=1.0, name="G12")
+    expected = transfer_function("-0.5, 1", "20, 12, 1", delay_samples=2, sample_time=1.0, name="G12")
+    assert model.element(0, 1) == expected
     assert list(model.element_type.ravel()) == ["integrating", "tf", "none", "foptd"]
 
 
