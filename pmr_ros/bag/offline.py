@@ -344,7 +344,8 @@ class _Replay:
         """A recorded ``pmr/active_model``: as the live diagnostician, diagnose against it from its first sample on."""
         try:
             active = read_active_model(text, source)
-            if active.system == system_tree(self.config.model):
+            curves = str(self.config.parameters.get("system", {}).get("model_file", ""))
+            if active.system == system_tree(self.config.model, model_file=curves):
                 return
             # the model alone: the judged settings (method, --min-samples) stay as they are
             model = with_system(self.config, active.system, source).model

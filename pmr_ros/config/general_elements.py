@@ -72,7 +72,7 @@ def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> 
     return curves
 
 
-def _curve(block: str, curves: Any, names: tuple[str, str], error: ErrorMaker) -> tuple[np.ndarray, bool]:
+def _curve(block: str, curves: Any, names: tuple[str, str], error: ErrorMaker) -> tuple[list[float], bool]:
     """The curve and ramp flag of the pair (output, input) ``names`` in the curve file."""
     where = []
     for what, name, known in zip(("output", "input"), names, (curves.output_names, curves.input_names), strict=True):
@@ -80,7 +80,7 @@ def _curve(block: str, curves: Any, names: tuple[str, str], error: ErrorMaker) -
             raise error(f"{block}.model_file", None, f"has no {what} {name!r} (it has {', '.join(known)})")
         where.append(known.index(name))
     io, ik = where
-    return curves.curves[io, ik], bool(curves.ramp[io, ik])
+    return curves.curves[io, ik].tolist(), bool(curves.ramp[io, ik])
 
 
 def _element_error(block: str, j: int, label: str, fields: BlockFields, exc: ElementError) -> tuple[str, Any, str]:

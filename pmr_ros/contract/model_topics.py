@@ -44,10 +44,14 @@ class ActiveModel:
     system: dict[str, Any]
 
 
-def active_model_text(model: TransferMatrix, *, first_sample: int, revision: int) -> str:
-    """The ``pmr/active_model`` payload of ``model`` (YAML, floats lossless)."""
+def active_model_text(model: TransferMatrix, *, first_sample: int, revision: int, model_file: str = "") -> str:
+    """The ``pmr/active_model`` payload of ``model`` (YAML, floats lossless); ``model_file`` its curve file, if any."""
     return yaml.safe_dump(
-        {"first_sample": int(first_sample), "revision": int(revision), "system": system_tree(model)},
+        {
+            "first_sample": int(first_sample),
+            "revision": int(revision),
+            "system": system_tree(model, model_file=model_file),
+        },
         sort_keys=False,
         width=10_000,
     )

@@ -105,7 +105,8 @@ class MpcControllerNode(ConfiguredNode):
         self._publish_model(k)
 
     def _publish_model(self, first_sample: int) -> None:
-        text = active_model_text(self.model, first_sample=first_sample, revision=self.revision)
+        curves = str(self.config.parameters.get("system", {}).get("model_file", ""))
+        text = active_model_text(self.model, first_sample=first_sample, revision=self.revision, model_file=curves)
         self._model_pub.publish(text_message("active_model", text))
 
     def _on_signal(self, signal: str, msg: Any) -> None:

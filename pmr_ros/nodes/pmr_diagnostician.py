@@ -186,7 +186,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
         except ConfigError as exc:
             self._warn(f"ignored: {exc}")
             return
-        if active.system == system_tree(self.config.model):
+        curves = str(self.config.parameters.get("system", {}).get("model_file", ""))
+        if active.system == system_tree(self.config.model, model_file=curves):
             return
         flat = flatten_parameters({"system": active.system})
         result = self.set_parameters_atomically([Parameter(name, value=ros_value(v)) for name, v in flat.items()])

@@ -9,12 +9,17 @@ the same impact figures and the same params file everywhere.
 
 from __future__ import annotations
 
+import hashlib
+import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..config import PmrConfig
-from ..config.write import model_params_text, write_params_file
+from ..config.write import curve_file_path, model_params_text, write_curve_file, write_params_file
 from ..contract.windowing import VERDICT, WindowOutcome
 from ..core.loop.impact import control_impact
 from ..core.loop.update import ModelUpdate, NotCorrectable, corrected_model
@@ -22,7 +27,15 @@ from ..core.results import Diagnosis
 from .memory_checks import impact_shortfall
 from .refusal import EXIT_INSUFFICIENT, ServiceError
 
-__all__ = ["Closed", "ClosedWindow", "close_and_write", "close_diagnosis", "close_window", "model_file_text"]
+__all__ = [
+    "Closed",
+    "ClosedWindow",
+    "close_and_write",
+    "close_diagnosis",
+    "close_window",
+    "curve_file",
+    "model_file_text",
+]
 
 
 @dataclass(frozen=True)
@@ -88,8 +101,38 @@ def _verdict_lines(diagnosis: Diagnosis) -> list[str]:
     return [f"verdict {e.name}: {e.verdict} - {e.summary()}" for e in diagnosis]
 
 
+def curve_file(config: PmrConfig, update: ModelUpdate, model_path: str | None = None) -> str:
+    """``system.model_file`` of the corrected model, its curves written: '' without step_response elements.
+
+    With ``model_path`` (``--write-model``) the curves go beside that params
+    file, in the format of the configuration's curve file, named relative to
+    it.  A live proposal keeps the configuration's file when no curve changed,
+    else the corrected curves go to a file named by their content in the
+    temporary folder (the nodes of a node set share the host).
+    """
+    if not np.any(update.model.element_type == "step_response"):
+        return ""
+    original = str(config.parameters.get("system", {}).get("model_file", ""))
+    if model_path is not None:
+        path = curve_file_path(model_path, original)
+        write_curve_file(update.model, path, original=original)
+        return path.name
+    if not any(c.element is not None and c.element.kind == "step_response" for c in update.changes):
+        return original
+    digest = hashlib.sha1(repr([c.element for c in update.changes]).encode()).hexdigest()[:16]
+    path = curve_file_path(Path(tempfile.gettempdir()) / "pmr_ros_models" / f"proposed-{digest}.yaml", original)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_curve_file(update.model, path, original=original)
+    return str(path)
+
+
 def model_file_text(
-    config: PmrConfig, update: ModelUpdate, diagnosis: Diagnosis, *, window: Mapping[str, Any] | None = None
+    config: PmrConfig,
+    update: ModelUpdate,
+    diagnosis: Diagnosis,
+    *,
+    window: Mapping[str, Any] | None = None,
+    model_file: str = "",
 ) -> str:
     """The corrected model's params file: the configuration's other blocks kept, simulation truth left out.
 
@@ -102,6 +145,8 @@ def model_file_text(
         The verdicts the update rests on: one comment line per element.
     window : mapping, optional
         ``first_sample``, ``last_sample`` of the diagnosed window (named in the header).
+    model_file : str
+        ``system.model_file`` of a model with step_response elements (:func:`curve_file`).
 
     Returns
     -------
@@ -124,7 +169,9 @@ def model_file_text(
         *_verdict_lines(diagnosis),
     ]
     notes = {change.name: change.note() for change in update.changes}
-    return model_params_text(update.model, settings=config.parameters, header=header, notes=notes)
+    return model_params_text(
+        update.model, settings=config.parameters, header=header, notes=notes, model_file=model_file
+    )
 
 
 @dataclass(frozen=True)
@@ -158,7 +205,13 @@ def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
     closed = close_diagnosis(outcome.diagnosis, config)
     proposal = None
     if closed.proposes and closed.update is not None:
-        proposal = model_file_text(config, closed.update, closed.diagnosis, window=outcome.window)
+        proposal = model_file_text(
+            config,
+            closed.update,
+            closed.diagnosis,
+            window=outcome.window,
+            model_file=curve_file(config, closed.update),
+        )
     return ClosedWindow(replace(outcome, diagnosis=closed.diagnosis), proposal, closed.impact_note)
 
 
@@ -191,5 +244,6 @@ def close_and_write(
             raise ServiceError(f"--write-model {model_path}: {closed.why_not}", code=EXIT_INSUFFICIENT)
         return diagnosis
     if model_path is not None:
-        write_params_file(model_path, model_file_text(config, closed.update, closed.diagnosis))
+        curves = curve_file(config, closed.update, model_path)
+        write_params_file(model_path, model_file_text(config, closed.update, closed.diagnosis, model_file=curves))
     return closed.diagnosis

@@ -27,7 +27,7 @@ from ..sim.excitation import ExcitationSettings, PrbsSettings
 from ..sim.model import TransferMatrix
 from ..sim.operation import DisturbanceSignalSettings, ManualSettings
 from ..sim.true_plant import OutputDisturbance
-from .update import ModelUpdate
+from .update import ModelUpdate, with_changes
 
 __all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures"]
 
@@ -146,12 +146,7 @@ def loop_figures(loop: LoopConfig, plant: TransferMatrix, *, samples: int) -> Lo
 def _with_element(model: TransferMatrix, update: ModelUpdate, name: str) -> TransferMatrix:
     change = next(c for c in update.changes if c.name == name)
     i, k = divmod(model.element_names().index(name), model.n_inputs)
-    gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
-    gain[i, k] = change.after.gain
-    if change.after.time_constant is not None:
-        tau[i, k] = change.after.time_constant
-    delay[i, k] = change.after.delay_samples * model.sample_time
-    return replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
+    return with_changes(model, [(i, k, change)])
 
 
 def control_impact(diagnosis: Diagnosis, *, loop: LoopConfig, update: ModelUpdate, samples: int) -> Diagnosis:

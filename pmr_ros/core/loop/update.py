@@ -10,18 +10,26 @@ model needs the parametric method.  A diagnosis with measured disturbances
 (D elements, columns past the model's inputs) corrects the disturbance model
 ``Gd`` the same way when it is given (:attr:`ModelUpdate.disturbance_model`);
 the controller's model ``G`` is what the MPC acts on.
+
+A ``tf`` or ``step_response`` element keeps its form: the corrected element
+is the element scaled, ``rho Ghat(alpha s) exp(-dD s)``
+(:meth:`~pmr_ros.core.sim.lti.Element.scaled`) with ``rho = 1 + dK/100``, the
+dynamics ``alpha = 1 + dtau/100`` (its time-constant change is its dynamics
+change) and ``dD``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..results import Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
+from ..sim.lti import Element, Foptd, Integrating
 from ..sim.model import TransferMatrix
 
-__all__ = ["ElementChange", "ModelUpdate", "corrected_model"]
+__all__ = ["ElementChange", "ModelUpdate", "corrected_model", "with_changes"]
 
 
 class NotCorrectable(ValueError):
@@ -40,12 +48,16 @@ class ElementChange:
         The model's element and the corrected one.
     estimate : ParametricResult
         The numbers and intervals the change rests on.
+    element : Element or None
+        The corrected element itself where the model's is a ``tf`` or
+        ``step_response`` (the model's scaled); None for the other types.
     """
 
     name: str
     before: ElementModel
     after: ElementModel
     estimate: ParametricResult
+    element: Element | None = None
 
     def comment(self) -> str:
         """One line for people: the element, what changed and why."""
@@ -70,6 +82,12 @@ class ElementChange:
             parts.append(
                 f"tau {self.before.time_constant:.6g} -> {self.after.time_constant:.6g} "
                 f"(dtau {p.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {p.tau_verdict})"
+            )
+        if self.element is not None and p.tau_mismatch_pct is not None and p.tau_mismatch_pct_interval is not None:
+            lo, hi = p.tau_mismatch_pct_interval
+            parts.append(
+                f"dynamics x{1.0 + p.tau_mismatch_pct / 100.0:.4g} "
+                f"(dalpha {p.tau_mismatch_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}] {p.tau_verdict})"
             )
         if p.delay_mismatch_samples is not None and p.delay_confidence is not None:
             parts.append(
@@ -104,27 +122,68 @@ class ModelUpdate:
         return tuple(c for c in self.changes if c.name.startswith("D"))
 
 
-def _estimated_element(element: ElementDiagnosis) -> ElementModel:
+def _estimated_element(element: ElementDiagnosis, cell: Element) -> tuple[ElementModel, Element | None]:
+    """The corrected element: its estimated parameters; for a tf/step_response element also the element scaled."""
     p = element.parametric
     before = element.model
     if p is None or p.gain_mismatch_pct is None or p.delay_mismatch_samples is None:
         raise NotCorrectable(f"{element.name}: a mismatch verdict without a parametric estimate")
+    if cell.kind in ("tf", "step_response"):
+        alpha = 1.0 + (p.tau_mismatch_pct or 0.0) / 100.0
+        scaled = cell.scaled(
+            gain_ratio=1.0 + p.gain_mismatch_pct / 100.0,
+            time_scale=alpha,
+            delay_change=int(p.delay_mismatch_samples),
+        )
+        return ElementModel(before.kind, scaled.steady_state_gain, None, scaled.delay_samples), scaled
     tau = before.time_constant
     if tau is not None and p.tau_mismatch_pct is not None:
         tau = tau * (1.0 + p.tau_mismatch_pct / 100.0)
     gain = before.gain * (1.0 + p.gain_mismatch_pct / 100.0)
-    return ElementModel(before.kind, gain, tau, before.delay_samples + int(p.delay_mismatch_samples))
+    return ElementModel(before.kind, gain, tau, before.delay_samples + int(p.delay_mismatch_samples)), None
 
 
-def _replaced(model: TransferMatrix, changed: list[tuple[int, int, ElementModel]]) -> TransferMatrix:
-    """``model`` with the elements ``(row, column, estimate)`` replaced."""
-    gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
-    for i, k, after in changed:
-        gain[i, k] = after.gain
-        if after.time_constant is not None:
-            tau[i, k] = after.time_constant
-        delay[i, k] = after.delay_samples * model.sample_time
-    return replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
+def with_changes(model: TransferMatrix, changes: Sequence[tuple[int, int, ElementChange]]) -> TransferMatrix:
+    """``model`` with the elements ``(row, column, change)`` replaced by the changes' corrected elements.
+
+    Parameters
+    ----------
+    model : TransferMatrix
+        The model (``G`` or ``Gd``).
+    changes : sequence of (int, int, ElementChange)
+        Zero-based row and column of each changed element.
+
+    Returns
+    -------
+    TransferMatrix
+        Of the same element types; a ``tf``/``step_response`` element replaced by :attr:`ElementChange.element`.
+    """
+    if not model.has_general:
+        gain, tau, delay = model.gain.copy(), model.time_constant.copy(), model.delay.copy()
+        for i, k, change in changes:
+            gain[i, k] = change.after.gain
+            if change.after.time_constant is not None:
+                tau[i, k] = change.after.time_constant
+            delay[i, k] = change.after.delay_samples * model.sample_time
+        return replace(model, gain=gain, time_constant=np.where(np.isnan(tau), 0.0, tau), delay=delay)
+    rows = model.element_rows()
+    for i, k, change in changes:
+        rows[i][k] = change.element if change.element is not None else _simple_element(change.after, model.sample_time)
+    return TransferMatrix.of_elements(
+        rows,
+        sample_time=model.sample_time,
+        output_names=model.output_names,
+        input_names=model.input_names,
+        name=model.name,
+        n_disturbances=model.n_disturbances,
+    )
+
+
+def _simple_element(after: ElementModel, sample_time: float) -> Element:
+    """A corrected FOPTD or integrating element."""
+    if after.time_constant is None:
+        return Integrating(after.gain, after.delay_samples, sample_time)
+    return Foptd(after.gain, after.time_constant, after.delay_samples, sample_time)
 
 
 def corrected_model(
@@ -163,8 +222,8 @@ def corrected_model(
         raise NotCorrectable(
             "a corrected model needs the parametric method (the classic tau index is a slope, not a time constant)"
         )
-    process: list[tuple[int, int, ElementModel]] = []
-    disturbance: list[tuple[int, int, ElementModel]] = []
+    process: list[tuple[int, int, ElementChange]] = []
+    disturbance: list[tuple[int, int, ElementChange]] = []
     changes, later = [], []
     for element in diagnosis:
         if element.verdict != "mismatch" or element.parametric is None:
@@ -172,13 +231,14 @@ def corrected_model(
         k = element.column
         if k >= model.n_inputs and disturbance_model is None:
             continue  # a D element without the disturbance model to correct
-        after = _estimated_element(element)
-        change = ElementChange(element.name, element.model, after, element.parametric)
+        target, column = (model, k) if k < model.n_inputs else (disturbance_model, k - model.n_inputs)
+        after, cell = _estimated_element(element, target.element(element.row, column))  # type: ignore[union-attr]
+        change = ElementChange(element.name, element.model, after, element.parametric, cell)
         if k < model.n_inputs:
-            process.append((element.row, k, after))
+            process.append((element.row, k, change))
             changes.append(change)
         else:
-            disturbance.append((element.row, k - model.n_inputs, after))
+            disturbance.append((element.row, column, change))
             later.append(change)
-    corrected_disturbances = None if disturbance_model is None else _replaced(disturbance_model, disturbance)
-    return ModelUpdate(_replaced(model, process), tuple(changes + later), corrected_disturbances)
+    corrected_disturbances = None if disturbance_model is None else with_changes(disturbance_model, disturbance)
+    return ModelUpdate(with_changes(model, process), tuple(changes + later), corrected_disturbances)
