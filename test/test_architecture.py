@@ -24,7 +24,8 @@ LAYERS: dict[str, set[str]] = {
     "core": set(),
     "progress": set(),
     "outputs": set(),  # safe output writing: used by every writer
-    "config": {"core", "resources", "outputs"},
+    # models: the curve files a params file names (models.curve_files and the readers it uses import no config)
+    "config": {"core", "resources", "outputs", "models"},
     "peers": {"core"},  # peer methods of the benchmark: numpy/scipy on the core's model, no ROS, no commands
     "benchmark": {"core", "config", "peers", "resources", "outputs"},  # scenarios, runs, scoring, dataset, report
     "report": {"core", "config", "data", "sweep", "outputs"},

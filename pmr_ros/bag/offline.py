@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..config import ConfigError, PmrConfig, load_config, parse_config
-from ..config.write import system_tree
+from ..config.write import configured_system_tree
 from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.model_topics import read_active_model, with_system
@@ -344,8 +344,7 @@ class _Replay:
         """A recorded ``pmr/active_model``: as the live diagnostician, diagnose against it from its first sample on."""
         try:
             active = read_active_model(text, source)
-            curves = str(self.config.parameters.get("system", {}).get("model_file", ""))
-            if active.system == system_tree(self.config.model, model_file=curves):
+            if active.system == configured_system_tree(self.config.model, self.config.parameters):
                 return
             # the model alone: the judged settings (method, --min-samples) stay as they are
             model = with_system(self.config, active.system, source).model

@@ -54,8 +54,8 @@ def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> 
     """The curve file of the block's step_response elements, or None when it has none."""
     if not np.any(fields["element_type"] == "step_response"):
         return None
+    from ..models.curve_files import read_curves
     from ..models.curve_set import ModelFileError
-    from ..models.system_file import read_curves
 
     if not fields["model_file"]:
         raise error(f"{block}.model_file", None, "missing: step_response elements read their curves there")

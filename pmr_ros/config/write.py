@@ -25,6 +25,7 @@ from .errors import ConfigError
 
 __all__ = [
     "SIMULATION_TRUTH",
+    "configured_system_tree",
     "curve_file_path",
     "model_params_text",
     "system_tree",
@@ -83,6 +84,11 @@ def system_tree(model: TransferMatrix, *, model_file: str = "") -> dict[str, Any
         "element_type": [str(v) for v in model.element_type.ravel()],
         **extra,
     }
+
+
+def configured_system_tree(model: TransferMatrix, parameters: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`system_tree` of ``model`` naming the curve file of the parameter tree ``parameters`` (its ``system``)."""
+    return system_tree(model, model_file=str(dict(parameters.get("system", {})).get("model_file", "")))
 
 
 def _scalar(value: Any) -> str:

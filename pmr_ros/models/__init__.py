@@ -25,7 +25,7 @@ _WHERE = {
     "load_model": "system_file",
     "mdl_text": "mdl",
     "read_csv_curves": "csv_curves",
-    "read_curves": "system_file",
+    "read_curves": "curve_files",
     "read_mdl": "mdl",
     "relative_model_file": "system_file",
     "to_curve_set": "system_file",
@@ -57,6 +57,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _WHERE, __all__)
 
 if TYPE_CHECKING:
     from .csv_curves import csv_text, read_csv_curves, write_csv_curves
+    from .curve_files import read_curves
     from .curve_set import CurveSet, ModelFileError, curve_gains
     from .mdl import MdlExtras, mdl_text, read_mdl, write_mdl
-    from .system_file import LoadedModel, import_params_text, load_model, read_curves, relative_model_file, to_curve_set
+    from .system_file import LoadedModel, import_params_text, load_model, relative_model_file, to_curve_set

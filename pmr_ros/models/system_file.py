@@ -23,29 +23,12 @@ from ..config.schema import Shape, blocks, closest_name, element_label, paramete
 from ..core.sim.elements import build_element
 from ..core.sim.lti import Element, ElementError, Empty
 from ..core.sim.step_curve import dead_time_samples
-from .csv_curves import read_csv_curves
-from .curve_set import CurveSet, ModelFileError
-from .mdl import read_mdl
+from .curve_files import read_curves
+from .curve_set import CurveSet
 
 __all__ = ["LoadedModel", "import_params_text", "load_model", "read_curves", "relative_model_file", "to_curve_set"]
 
 INDENT = "    "
-
-
-def read_curves(path: str | Path) -> CurveSet:
-    """The curves of a model file by its suffix: ``.mdl`` (DMCplus) or ``.csv``.
-
-    Raises
-    ------
-    ModelFileError
-        Another suffix, or a file that does not read (one line).
-    """
-    suffix = Path(path).suffix.lower()
-    if suffix == ".mdl":
-        return read_mdl(path)
-    if suffix == ".csv":
-        return read_csv_curves(path)
-    raise ModelFileError(f"{path}: unknown model file type {suffix or '(none)'!r}: use a DMCplus .mdl or a .csv")
 
 
 def _element_lines(key: str, values: list[Any], labels: list[str]) -> list[str]:

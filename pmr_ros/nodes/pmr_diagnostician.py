@@ -46,7 +46,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 
 from ..config import ConfigError, PmrConfig, flatten_parameters
-from ..config.write import system_tree
+from ..config.write import configured_system_tree
 from ..contract.alignment import SIGNALS, SampleAligner
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
@@ -186,8 +186,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         except ConfigError as exc:
             self._warn(f"ignored: {exc}")
             return
-        curves = str(self.config.parameters.get("system", {}).get("model_file", ""))
-        if active.system == system_tree(self.config.model, model_file=curves):
+        if active.system == configured_system_tree(self.config.model, self.config.parameters):
             return
         flat = flatten_parameters({"system": active.system})
         result = self.set_parameters_atomically([Parameter(name, value=ros_value(v)) for name, v in flat.items()])
