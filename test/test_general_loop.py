@@ -211,3 +211,29 @@ def test_a_corrected_tf_element_is_the_element_scaled_as_the_foptd_one_is_correc
             )
     change = general.changes[0]
     assert change.element is not None and "dynamics x" in change.note()
+
+
+def test_the_adaptation_lines_show_a_time_constant_only_where_the_element_has_one():
+    from pmr_ros.commands.adapt import adaptation_lines
+
+    def model(kind, gain, tau):
+        return {"kind": kind, "gain": gain, "time_constant": tau, "delay_samples": 1}
+
+    report = {
+        "adaptation": {
+            "before": {"elements": {"G11": {"verdict": "mismatch"}, "G12": {"verdict": "mismatch"}}},
+            "before_window": [0, 99],
+            "changes": [
+                {"element": "G11", "before": model("tf", 12.8, None), "after": model("tf", 15.4, None)},
+                {"element": "G12", "before": model("foptd", 2.0, 5.0), "after": model("foptd", 2.2, 5.5)},
+            ],
+            "switch_sample": 120,
+            "after_window": [150, 249],
+            "tracking": {"before": {"ise_per_sample": 2.0}, "after": {"ise_per_sample": 1.0}, "ise_ratio": 0.5},
+            "worse": False,
+            "notes": [],
+        }
+    }
+    lines = adaptation_lines(report)
+    assert "  G11: K 12.8 -> 15.4, D 1 -> 1 samples" in lines
+    assert "  G12: K 2 -> 2.2, tau 5.0 -> 5.5, D 1 -> 1 samples" in lines

@@ -29,9 +29,11 @@ def adaptation_lines(report: dict[str, Any]) -> list[str]:
     )
     for change in adaptation["changes"]:
         b, a = change["before"], change["after"]
+        tau = (  # a tf, step_response or integrating element has no time constant to show
+            "" if a["time_constant"] is None else f"tau {b['time_constant']} -> {round(a['time_constant'], 3)}, "
+        )
         lines.append(
-            f"  {change['element']}: K {b['gain']:.4g} -> {a['gain']:.4g}, tau {b['time_constant']} -> "
-            f"{a['time_constant'] if a['time_constant'] is None else round(a['time_constant'], 3)}, "
+            f"  {change['element']}: K {b['gain']:.4g} -> {a['gain']:.4g}, {tau}"
             f"D {b['delay_samples']} -> {a['delay_samples']} samples"
         )
     t = adaptation["tracking"]
