@@ -237,3 +237,11 @@ def test_the_adaptation_lines_show_a_time_constant_only_where_the_element_has_on
     lines = adaptation_lines(report)
     assert "  G11: K 12.8 -> 15.4, D 1 -> 1 samples" in lines
     assert "  G12: K 2 -> 2.2, tau 5.0 -> 5.5, D 1 -> 1 samples" in lines
+
+
+def test_the_memory_check_counts_the_states_of_a_general_realization():
+    from pmr_ros.core.sim.footprint import states
+
+    for model in (_tf_model(), _step_model(_tf_model(), 90)):
+        assert states(model) == model.state_space().A.shape[0]
+    assert states(_step_model(_tf_model(), 90)) == 2 * 90  # a register of 90 taps per input, no own states

@@ -47,12 +47,19 @@ PREDICTION_COPIES = 2
 def states(model: TransferMatrix) -> int:
     """States of the realization: one per element plus each input's longest delay in samples.
 
+    With ``tf`` or ``step_response`` elements, those of :func:`~.realize.realize`
+    (:func:`~.realize.state_count`).
+
     Examples
     --------
     >>> from pmr_ros.config import load_config
     >>> states(load_config().model)  # Wood-Berry: 4 elements, registers of 7 and 3 samples
     14
     """
+    if model.has_general:  # realize's states: registers, each element's order, ramp accumulators
+        from .realize import state_count
+
+        return state_count(model.element_rows())
     present = model.present
     lengths = np.where(present, model.delay_samples, 0).max(axis=0)
     return int(present.sum()) + int(lengths.sum())

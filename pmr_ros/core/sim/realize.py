@@ -18,7 +18,7 @@ from scipy.signal import lfilter, lfilter_zi
 
 from .lti import Element, Foptd, controllable_form
 
-__all__ = ["cell_arrays", "element_outputs", "realize"]
+__all__ = ["cell_arrays", "element_outputs", "realize", "state_count"]
 
 
 def _taps(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, bool] | None:
@@ -75,10 +75,8 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
         Shapes (nx, nx), (nx, n_inputs), (n_outputs, nx).
     """
     n_out, n_in = len(elements), len(elements[0])
-    lengths, start = _registers(elements, n_in)
-    own, tapped = _sort(elements, start)
+    lengths, start, own, tapped, nx = _layout(elements)
     n_reg = int(lengths.sum())
-    nx = n_reg + sum(p[3][0].shape[0] for p in own) + sum(f[3] for f in tapped)
     A, B, C = np.zeros((nx, nx)), np.zeros((nx, n_in)), np.zeros((n_out, nx))
     for k in range(n_in):
         if lengths[k]:
@@ -103,6 +101,31 @@ def realize(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarr
             C[i, at] = weights[-1]
             at += 1
     return A, B, C
+
+
+def _layout(elements: Sequence[Sequence[Element]]) -> tuple[np.ndarray, np.ndarray, list, list, int]:
+    """Register lengths and starts, the elements with own states and those read at taps, and the state count."""
+    lengths, start = _registers(elements, len(elements[0]))
+    own, tapped = _sort(elements, start)
+    return (
+        lengths,
+        start,
+        own,
+        tapped,
+        int(lengths.sum()) + sum(p[3][0].shape[0] for p in own) + sum(t[3] for t in tapped),
+    )
+
+
+def state_count(elements: Sequence[Sequence[Element]]) -> int:
+    """The number of states of :func:`realize` of ``elements``, without forming its matrices.
+
+    Examples
+    --------
+    >>> from pmr_ros.core.sim.rational import transfer_function
+    >>> state_count([[transfer_function("1", "20, 12, 1", delay_samples=3, sample_time=1.0)]])  # 3 + 2
+    5
+    """
+    return _layout(elements)[4]
 
 
 def _sort(elements: Sequence[Sequence[Element]], start: np.ndarray) -> tuple[list, list]:
