@@ -245,3 +245,21 @@ def test_the_memory_check_counts_the_states_of_a_general_realization():
     for model in (_tf_model(), _step_model(_tf_model(), 90)):
         assert states(model) == model.state_space().A.shape[0]
     assert states(_step_model(_tf_model(), 90)) == 2 * 90  # a register of 90 taps per input, no own states
+
+
+def test_a_switch_from_a_tf_model_to_its_corrected_curves_makes_no_bump():
+    """At a steady state the controller switched to another model of any form makes no move (no bump)."""
+    tf = _tf_model()
+    truth = tf.with_mismatch(Mismatch(np.full((2, 2), 12.0), np.full((2, 2), 10.0), np.zeros((2, 2), dtype=int)))
+    config = _loop_config(tf)
+    controller, plant = LinearMpc(tf, config.mpc), FoptdPlant(truth, 0.0, seed=0)
+    r = np.array([0.5, -0.3])
+    u = np.zeros((1000, 2))
+    for k in range(1000):
+        if k == 800:
+            controller = controller.switched(_step_model(truth, 400))  # the plant's own curves
+        u[k] = controller.step(plant.measure(), r)
+        plant.advance(u[k])
+    assert_allclose(plant.output(), r, atol=1e-6)
+    assert_allclose(u[800:], np.tile(u[799], (200, 1)), atol=1e-6)
+    assert_allclose(controller.disturbance[0], 0.0, atol=1e-6)  # the curves explain the plant: no bias left
