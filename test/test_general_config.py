@@ -240,3 +240,25 @@ def test_measured_disturbances_beside_tf_elements_feed_forward_as_with_their_cur
     assert np.ptp(by_tf.dv) > 0.5  # the DV moves
     assert_allclose(by_curves.u, by_tf.u, atol=1e-5)
     assert_allclose(by_curves.y, by_tf.y, atol=1e-5)
+
+
+def test_a_proposal_names_the_curves_it_needs(tmp_path):
+    from pmr_ros.core.loop.update import ElementChange, ModelUpdate, with_changes
+    from pmr_ros.core.results import ElementModel
+    from pmr_ros.service.closing import curve_file
+
+    _write_mdl(tmp_path / "curves" / "unit.mdl")
+    (tmp_path / "unit.yaml").write_text(STEP_CONFIG)
+    config = load_config(tmp_path / "unit.yaml")
+    original = config.parameters["system"]["model_file"]
+    assert curve_file(config, ModelUpdate(config.model, ())) == original  # no curve changed: the file as it is
+    faster = config.model.element(1, 0).scaled(gain_ratio=0.9, time_scale=0.8)
+    before = ElementModel("step_response", 1.0, None, 2)
+    change = ElementChange("G21", before, before, None, faster)  # the estimate is not read here
+    update = ModelUpdate(with_changes(config.model, [(1, 0, change)]), (change,))
+    proposed = curve_file(config, update)
+    assert proposed != original and proposed.endswith(".mdl") and curve_file(config, update) == proposed
+    curves = read_curves(proposed)
+    assert_allclose(curves.curves[1, 0][: len(faster.curve)], faster.curve, rtol=5e-7, atol=1e-9)
+    written = curve_file(config, update, str(tmp_path / "out.yaml"))  # --write-model: beside the params file
+    assert written == "out.mdl" and (tmp_path / "out.mdl").is_file()
