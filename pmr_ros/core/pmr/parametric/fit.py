@@ -22,18 +22,16 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...sim.model import TransferMatrix
-from ..implicit import RowLayout
 from ..spectra import RecordSpectra, RowSpectra
+from .columns import column_models, interaction_delay_range
 from .lsq import RowParameters, RowProblem
 from .rank import first_pass
-from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
+from .ratio import ColumnModel, RowSystem, noise_spectrum, row_system
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
 from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
@@ -114,6 +112,10 @@ class RowFit:
         The other delay vectors whose likelihood weight relative to the fit is
         at least :data:`~.trials.ALTERNATIVE_WEIGHT_MIN`: the intervals are
         mixtures over them and the fit (:mod:`.verdicts`).
+    steady_gain, steady_gain_sd : ndarray, shape (n,), or None
+        Each column's coefficient at the lowest fitted bin alone (the per-bin
+        free estimate, its fitted delay's phase taken off: the gain ratio
+        whatever the plant's shape) and its standard deviation; None: not kept.
     """
 
     lin: np.ndarray
@@ -128,46 +130,13 @@ class RowFit:
     columns: tuple[ColumnModel, ...]
     separation: Separation | None = None
     alternatives: tuple[WeightedFit, ...] = ()
+    steady_gain: np.ndarray | None = None
+    steady_gain_sd: np.ndarray | None = None
 
     @property
     def scale(self) -> float:
         """The reduced chi-square the likelihood is tempered by (>= 1)."""
         return max(1.0, self.chi_square / self.dof)
-
-
-def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
-    """``(0, highest)`` dead time [samples] searched for an unmodeled interaction.
-
-    Up to the model's largest delay plus the delay-mismatch range: an
-    interaction is taken to be no slower to appear than a modeled element could be.
-    """
-    return 0, int(model.delay_samples.max()) + int(max_delay_samples)
-
-
-def column_models(model: TransferMatrix, layout: RowLayout, *, max_delay_samples: int) -> list[ColumnModel]:
-    """The parameterization of each column of a row's layout (:class:`~.ratio.ColumnModel`)."""
-    i = layout.row
-    differenced = bool(model.integrating_outputs[i])
-    reference = max(model.slowest_time_constant / model.sample_time, 1.0)
-    interaction = interaction_delay_range(model, max_delay_samples)
-    tau_bound = math.log(TAU_RATIO_BOUND)
-    out = []
-    for k in layout.columns:
-        kind = str(model.element_type[i, k])
-        if kind == "none":
-            template = "pulse" if differenced else "lag"
-            bounds = (math.log(TEMPLATE_TAU_FLOOR / reference), tau_bound)
-            out.append(ColumnModel(template, 0.0, reference, bounds, interaction, False))
-            continue
-        delay = int(model.delay_samples[i, k])
-        delays = (max(-max_delay_samples, -delay), max_delay_samples)
-        if kind == "integrating":
-            out.append(ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), delays, max_delay_samples < delay))
-            continue
-        tau = float(model.time_constant[i, k]) / model.sample_time
-        pole = math.exp(-1.0 / tau)
-        out.append(ColumnModel("ratio", pole, tau, (-tau_bound, tau_bound), delays, max_delay_samples < delay))
-    return out
 
 
 @dataclass(frozen=True)
@@ -251,11 +220,12 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
         raise ValueError("leakage_offset needs the record the spectra come from (RowData.record)")
     columns = problem.columns
 
-    def model_output(x: np.ndarray) -> np.ndarray:
+    def model_output(x: np.ndarray, u: np.ndarray) -> np.ndarray:
         total = np.zeros(x.shape[0])
         for c, (column, k) in enumerate(zip(columns, data.columns, strict=True)):
             lin, s, delay = float(params.lin[c]), float(params.s[c]), int(params.delays[c])
-            total += column.response(x[:, k], lin=lin, s=s, delay=delay)
+            signal = x[:, k] if column.scaled is None else u[:, k]  # a scaled column filters its input
+            total += column.response(signal, lin=lin, s=s, delay=delay)
         return total[:, None]
 
     exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
@@ -325,6 +295,17 @@ def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) 
     return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
 
 
+def _steady_gain(system: RowSystem, delays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per column: the free estimate at the lowest fitted bin with the delay's phase taken off, and its deviation.
+
+    The real part's variance is ``[M^-1]_kk`` at a complex bin and at the (real) zero-frequency bin alike
+    (:func:`~.ratio.row_system` whitens both so).
+    """
+    free, variance = system.free_estimate()
+    turn = system.z_inv[0] ** (-np.asarray(delays, dtype=float))
+    return np.real(free[0] * turn), np.sqrt(variance[0])
+
+
 def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation: float) -> tuple[WeightedFit, ...]:
     """The delay vectors other than ``chosen`` that keep a likelihood weight, with their fits' deviations."""
     out = []
@@ -381,6 +362,7 @@ def fit_row(
         params, cost = final.fit(params)
     inflation = data.bin_correlation * max(1.0, cost / dof)
     sd_lin, sd_s = _uncertainty(final, params, inflation)
+    steady, steady_sd = _steady_gain(first, params.delays)
     return RowFit(
         lin=params.lin,
         s=params.s,
@@ -394,4 +376,6 @@ def fit_row(
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
+        steady_gain=steady,
+        steady_gain_sd=steady_sd,
     )
