@@ -18,7 +18,7 @@ import numpy as np
 from ..sim.lti import Element, Foptd
 from ..sim.model import TransferMatrix
 
-__all__ = ["SETTLED", "equivalent_time_constant", "slowest_time_constant"]
+__all__ = ["SETTLED", "equivalent_time_constant", "row_time_constants", "slowest_time_constant"]
 
 SETTLED = math.exp(-3.0)
 """Settled: within this fraction of the final value (3 time constants of a first-order lag)."""
@@ -56,3 +56,15 @@ def slowest_time_constant(model: TransferMatrix) -> float:
     """The largest time constant, or equivalent, of the model's elements [time unit]; 0 when none has one."""
     general = [equivalent_time_constant(e) for row in model.general for e in row if e is not None]
     return max(model.slowest_time_constant, *general, 0.0)
+
+
+def row_time_constants(model: TransferMatrix, i: int) -> np.ndarray:
+    """The time constants, or equivalents, of row ``i``'s FOPTD, ``tf`` and ``step_response`` elements that have one."""
+    taus = []
+    for k in range(model.n_inputs):
+        kind = model.element_type[i, k]
+        if kind == "foptd":
+            taus.append(float(model.time_constant[i, k]))
+        elif kind in ("tf", "step_response"):
+            taus.append(equivalent_time_constant(model.element(i, k)))
+    return np.array([t for t in taus if t > 0.0])
