@@ -307,7 +307,7 @@ def test_a_real_gain_change_is_still_found_under_the_structural_mismatch(seed, s
 # -- the gain under a lack of fit -------------------------------------------------------------------------
 
 
-def _misfit(*, lin: float, steady: float | None, lack: float = 40.0) -> RowFit:
+def _misfit(*, lin: float, steady: float | None, lack: float = 40.0, chi_square: float = 100.0) -> RowFit:
     column = ColumnModel("ratio", np.exp(-0.1), 10.0, (-3.0, 3.0), (-2, 6), True)
     return RowFit(
         lin=np.array([lin]),
@@ -315,7 +315,7 @@ def _misfit(*, lin: float, steady: float | None, lack: float = 40.0) -> RowFit:
         delays=np.array([1]),
         sd_lin=np.array([0.005]),
         sd_s=np.array([0.01]),
-        chi_square=100.0,
+        chi_square=chi_square,
         dof=100,
         delay_profile=({1: 0.0, 2: 50.0, 0: 50.0},),
         lack_of_fit=np.array([lack]),
@@ -326,18 +326,26 @@ def _misfit(*, lin: float, steady: float | None, lack: float = 40.0) -> RowFit:
 
 
 @pytest.mark.parametrize(
-    ("lin", "steady", "lack", "gain_verdict"),
+    ("lin", "steady", "lack", "chi_square", "gain_verdict", "misfit"),
     [
-        (1.15, 1.14, 40.0, "mismatch"),  # fit and steady state agree beyond the tolerance
-        (1.15, 1.00, 40.0, "inconclusive"),  # they disagree: the hull straddles the tolerance
-        (1.00, 1.01, 40.0, "ok"),
-        (1.15, None, 40.0, "inconclusive"),  # no steady-state reading: nothing to check the gain by
-        (1.15, 1.00, 1.0, "mismatch"),  # the fit follows the data: its own interval decides
+        (1.15, 1.14, 40.0, 100.0, "mismatch", True),  # fit and steady state agree beyond the tolerance
+        (1.15, 1.00, 40.0, 100.0, "inconclusive", True),  # they disagree: the hull straddles the tolerance
+        (1.00, 1.01, 40.0, 100.0, "ok", True),
+        (1.15, None, 40.0, 100.0, "inconclusive", True),  # no steady-state reading: nothing to check the gain by
+        (1.15, 1.00, 1.0, 100.0, "mismatch", False),  # the fit follows the data: its own interval decides
+        # the row beyond noise (z = 0.6 / sqrt(2 / 100) = 4.2 > 2.5) and the element above its noise
+        (1.15, 1.00, 1.8, 160.0, "inconclusive", True),
+        (1.15, 1.00, 1.8, 130.0, "mismatch", False),  # z = 2.1: within noise
+        (1.15, 1.00, 0.9, 160.0, "mismatch", False),  # the element itself follows the data
     ],
 )
-def test_under_a_lack_of_fit_only_the_gain_is_judged_on_the_hull_with_the_steady_state(lin, steady, lack, gain_verdict):
+def test_under_a_lack_of_fit_only_the_gain_is_judged_on_the_hull_with_the_steady_state(
+    lin, steady, lack, chi_square, gain_verdict, misfit
+):
+    fit = _misfit(lin=lin, steady=steady, lack=lack, chi_square=chi_square)
+    assert fit.misfit_z == pytest.approx((chi_square / 100 - 1) / np.sqrt(2 / 100))
     result = element_result(
-        _misfit(lin=lin, steady=steady, lack=lack),
+        fit,
         0,
         settings=CONFIG.parametric,
         quality={},
@@ -345,6 +353,5 @@ def test_under_a_lack_of_fit_only_the_gain_is_judged_on_the_hull_with_the_steady
         labels=[("G11", "u1")],
     )
     assert result.gain_verdict == gain_verdict
-    misfit = lack > CONFIG.parametric.lack_of_fit_max
     assert (result.tau_verdict == result.delay_verdict == "inconclusive") == misfit
     assert any(r.startswith(SHAPE_REASON) for r in result.reasons) == misfit

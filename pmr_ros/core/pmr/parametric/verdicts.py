@@ -10,8 +10,8 @@ Two rules, each its own function so that each can be hardened alone:
   intervals -- a delay at the edge of its search range (the true one may lie
   beyond, and the gain and time constant then bend to mimic it) makes every
   verdict of the element ``inconclusive``; a fit that does not follow the data
-  beyond its noise (lack of fit: the plant differs from the model in shape, or
-  its delay lies beyond the search range) makes the time-constant (dynamics)
+  beyond its noise (lack of fit, its own or its row's, :mod:`.shape`: the plant
+  differs from the model in shape, or its delay lies beyond the search range) makes the time-constant (dynamics)
   and delay verdicts ``inconclusive`` -- speed and delay bend to mimic a shape
   -- and the gain is judged on the hull of its fitted interval and the
   interval read at the lowest fitted bin alone (:func:`steady_state_interval`,
@@ -32,8 +32,10 @@ from ...results import ParametricResult
 from ..delay import search_limit_reason
 from .fit import RowFit, WeightedFit
 from .settings import ParametricSettings
+from .shape import ROW_MISFIT_Z, SHAPE_REASON, shape_misfit, shape_reason, steady_state_interval
 
 __all__ = [
+    "ROW_MISFIT_Z",
     "SHAPE_REASON",
     "delay_confidence",
     "element_result",
@@ -179,19 +181,10 @@ def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *,
     return quantile(tail), quantile(1.0 - tail)
 
 
-SHAPE_REASON = "the plant's response differs in shape, not only in gain, speed or delay"
-"""The reason of an element whose best scaled model does not fit the data beyond noise."""
-
-
 def _edge_reason(fit: RowFit, c: int) -> str | None:
     column = fit.columns[c]
     low, high = column.delay_bounds
     return search_limit_reason(int(fit.delays[c]), low=low, high=high, low_is_limit=column.low_is_limit)
-
-
-def shape_misfit(fit: RowFit, c: int, settings: ParametricSettings) -> bool:
-    """Whether column ``c``'s fit lies further from the per-bin free estimate than ``parametric.lack_of_fit_max``."""
-    return not float(fit.lack_of_fit[c]) <= settings.lack_of_fit_max
 
 
 def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[str, ...]:
@@ -202,25 +195,8 @@ def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[st
     edge = _edge_reason(fit, c)
     reasons = [] if edge is None else [edge]
     if shape_misfit(fit, c, settings):
-        reasons.append(
-            f"{SHAPE_REASON}: the fit does not follow the data ({float(fit.lack_of_fit[c]):.1f}x the noise > "
-            f"{settings.lack_of_fit_max:g}; or a delay lies beyond pmr.max_delay_samples)"
-        )
+        reasons.append(shape_reason(fit, c, settings))
     return tuple(reasons)
-
-
-def steady_state_interval(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[float, float] | None:
-    """Column ``c``'s gain change [%] read at the lowest fitted bin alone, as an interval; None when not kept.
-
-    At w = 0 (the lowest nonzero bin of a differenced row) every shape is 1:
-    the coefficient there is the gain ratio whatever the plant's shape
-    (:attr:`~.fit.RowFit.steady_gain`).
-    """
-    if fit.steady_gain is None or fit.steady_gain_sd is None:
-        return None
-    z = z_score(settings)
-    gain, sd = float(fit.steady_gain[c]), float(fit.steady_gain_sd[c])
-    return 100.0 * (gain - z * sd - 1.0), 100.0 * (gain + z * sd - 1.0)
 
 
 def separation_reason(
