@@ -19,9 +19,9 @@ from pmr_ros.core.pmr.curves import ElementCurves, fitted_ratio, pmr_curves
 from pmr_ros.core.pmr.identifiable import RowLayout
 from pmr_ros.core.pmr.implicit import instrument_factor
 from pmr_ros.core.pmr.parametric import diagnose_parametric
-from pmr_ros.core.pmr.parametric.columns import column_models
 from pmr_ros.core.pmr.parametric.fit import RowFit
 from pmr_ros.core.pmr.parametric.method import _fit as method_fit
+from pmr_ros.core.pmr.parametric.parameterization import column_models
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel, ratio_shape
 from pmr_ros.core.pmr.parametric.scaled import ScaledShape
 from pmr_ros.core.pmr.parametric.verdicts import SHAPE_REASON, element_result

@@ -13,7 +13,7 @@ The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
 output ``y_i`` to one regressor ``x_ik`` per input, through the instruments
 z (the external signals that move, :class:`~pmr_ros.core.records.InstrumentSet`):
 
-* a modeled element (``foptd`` or ``integrating``): ``x_ik = Ghat_ik u_k``,
+* a modeled element (of any type): ``x_ik = Ghat_ik u_k``,
   so that ``y_i = sum_k G_PMR_ik x_ik + v_i`` with ``G_PMR = G / Ghat``;
 * an empty cell (``none``): the *reference* ``x_ik = u_k(t - 1)``, the output
   of a unit static gain behind the zero-order hold's sample of lag, so that
@@ -274,18 +274,9 @@ def row_regressors(model: TransferMatrix, u: np.ndarray, i: int) -> np.ndarray:
 
 
 def _model_row(model: TransferMatrix, i: int) -> TransferMatrix:
-    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix)."""
-    present = model.present[i]
-    if model.has_general:
-        row = [model.element(i, int(k)) for k in np.flatnonzero(present)]
-        return TransferMatrix.of_elements([row], sample_time=model.sample_time)
-    return TransferMatrix(
-        model.gain[i : i + 1, present],
-        np.nan_to_num(model.time_constant[i : i + 1, present], nan=1.0),
-        model.delay[i : i + 1, present],
-        model.sample_time,
-        element_type=model.element_type[i : i + 1, present],
-    )
+    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix), any element type."""
+    row = [model.element(i, int(k)) for k in np.flatnonzero(model.present[i])]
+    return TransferMatrix.of_elements([row], sample_time=model.sample_time)
 
 
 class RecordSpectra:

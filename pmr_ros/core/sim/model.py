@@ -205,9 +205,8 @@ class TransferMatrix:
 
     @property
     def integrating(self) -> np.ndarray:
-        """Where the element is integrating (an ``integrating`` one, a tf with an integrator, a ramp curve)."""
-        ramps = [[c is not None and c.integrating for c in row] for row in self.general] if self.has_general else False
-        return np.asarray((self.element_type == "integrating") | np.array(ramps, dtype=bool))
+        """Where the element is integrating, shape (n_outputs, n_inputs)."""
+        return np.asarray(self.element_type == "integrating")
 
     @property
     def integrating_outputs(self) -> np.ndarray:
@@ -273,16 +272,13 @@ class TransferMatrix:
         return Empty(self.sample_time)
 
     def settling_samples(self, time_constants: float = 8.0) -> int:
-        """Samples until every element forgets its initial state to ``exp(-time_constants)``.
+        """Samples until every FOPTD element forgets its initial state to ``exp(-time_constants)``.
 
-        ``time_constants`` x the largest FOPTD tau plus the largest delay, in
-        samples; a ``tf``/``step_response`` element's own
-        :meth:`~pmr_ros.core.sim.lti.Element.settle_samples` at that fraction
-        when longer.  (An integrating element never forgets; its data are differenced instead.)
+        ``time_constants`` x the largest tau plus the largest delay, in samples.
+        (An integrating element never forgets; its data are differenced instead.)
         """
         settle = int(np.ceil(time_constants * self.slowest_time_constant / self.sample_time))
-        general = [c.settle_samples(float(np.exp(-time_constants))) for row in self.general for c in row if c]
-        return max(settle + int(self.delay_samples.max()) + 1, *general, 0)
+        return settle + int(self.delay_samples.max()) + 1
 
     def discretize(self) -> DiscreteFoptd:
         """Exact zero-order-hold discretization with the delay in whole samples."""
@@ -310,12 +306,11 @@ class TransferMatrix:
 
     def _with_general_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
         """:meth:`with_mismatch` cell by cell through :meth:`element` and ``scaled``."""
-        kinds, tau_pct = self.element_type, mismatch.time_constant_pct
         rows = [
             [
                 self.element(i, k).scaled(
                     gain_ratio=1.0 + mismatch.gain_pct[i, k] / 100.0,
-                    time_scale=1.0 + (0.0 if kinds[i, k] == "integrating" else tau_pct[i, k] / 100.0),
+                    time_scale=1.0 + (0.0 if self.integrating[i, k] else mismatch.time_constant_pct[i, k] / 100.0),
                     delay_change=int(mismatch.delay_samples[i, k]) if self.present[i, k] else 0,
                 )
                 for k in range(self.n_inputs)

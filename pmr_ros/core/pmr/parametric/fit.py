@@ -29,8 +29,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..spectra import RecordSpectra, RowSpectra
-from .columns import column_models, interaction_delay_range
 from .lsq import RowParameters, RowProblem
+from .parameterization import column_models, interaction_delay_range
 from .rank import first_pass
 from .ratio import ColumnModel, RowSystem, noise_spectrum, row_system
 from .search import column_grids, sweep_columns
@@ -312,15 +312,17 @@ def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) 
     return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
 
 
-def _steady_gain(system: RowSystem, delays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _steady_gain(system: RowSystem, delays: np.ndarray) -> dict[str, np.ndarray]:
     """Per column: the free estimate at the lowest fitted bin with the delay's phase taken off, and its deviation.
+
+    As :class:`RowFit`'s ``steady_gain`` and ``steady_gain_sd``.
 
     The real part's variance is ``[M^-1]_kk`` at a complex bin and at the (real) zero-frequency bin alike
     (:func:`~.ratio.row_system` whitens both so).
     """
     free, variance = system.free_estimate()
     turn = system.z_inv[0] ** (-np.asarray(delays, dtype=float))
-    return np.real(free[0] * turn), np.sqrt(variance[0])
+    return {"steady_gain": np.real(free[0] * turn), "steady_gain_sd": np.sqrt(variance[0])}
 
 
 def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation: float) -> tuple[WeightedFit, ...]:
@@ -379,7 +381,6 @@ def fit_row(
         params, cost = final.fit(params)
     inflation = data.bin_correlation * max(1.0, cost / dof)
     sd_lin, sd_s = _uncertainty(final, params, inflation)
-    steady, steady_sd = _steady_gain(first, params.delays)
     return RowFit(
         lin=params.lin,
         s=params.s,
@@ -393,7 +394,6 @@ def fit_row(
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
-        steady_gain=steady,
-        steady_gain_sd=steady_sd,
+        **_steady_gain(first, params.delays),
         bin_correlation=data.bin_correlation,
     )
