@@ -355,3 +355,27 @@ def test_under_a_lack_of_fit_only_the_gain_is_judged_on_the_hull_with_the_steady
     assert result.gain_verdict == gain_verdict
     assert (result.tau_verdict == result.delay_verdict == "inconclusive") == misfit
     assert any(r.startswith(SHAPE_REASON) for r in result.reasons) == misfit
+
+
+_RAMPS = TransferMatrix.of_elements(
+    [[_tf("0.05", "8, 1, 0", 2), _tf("1.5", "30, 13, 1", 1)], [_tf("-0.02", "1, 0", 3), _tf("1", "12, 1", 2)]],
+    sample_time=1.0,
+)
+
+
+@pytest.mark.skipif(
+    not _RAMPS.integrating_outputs.all(), reason="TransferMatrix.integrating does not count tf integrators yet (lin23a)"
+)
+def test_integrating_tf_elements_keep_their_ramp_rate_as_the_gain_and_scale_the_rest():
+    """``0.05/(s(8s+1))`` made 1.2x slower with rho 1.1: its ramp rate is rho/alpha; ``K/s`` has gain and delay only."""
+    changes = {(0, 0): (1.1, 1.2, 0), (1, 0): (0.9, 1.0, 1)}
+    diagnosis = _diagnose(_step_test(_changed(_RAMPS, changes), seed=1), _RAMPS)
+    assert diagnosis.status == "ok", diagnosis.reason
+    lagged, level = diagnosis.elements["G11"].parametric, diagnosis.elements["G21"].parametric
+    assert lagged.gain_mismatch_pct == pytest.approx(100 * (1.1 / 1.2 - 1), abs=3.0)
+    assert lagged.tau_mismatch_pct == pytest.approx(20.0, abs=5.0)
+    assert (lagged.gain_verdict, lagged.tau_verdict, lagged.delay_verdict) == ("mismatch", "mismatch", "ok")
+    assert level.gain_mismatch_pct == pytest.approx(-10.0, abs=3.0) and level.tau_mismatch_pct is None
+    assert (level.gain_verdict, level.tau_verdict, level.delay_verdict) == ("mismatch", None, "mismatch")
+    for name in ("G12", "G22"):
+        assert diagnosis.elements[name].verdict == "ok", name
