@@ -39,6 +39,38 @@ DERIVATIVE_STEP = 1e-5
 Its truncation error (relative ~ step^2 = 1e-10) and round-off (~1e-16 / step
 = 1e-11) are both far below what a fit or its covariance reads."""
 
+KEPT_RATIOS = 512
+"""Most shapes one element keeps (per frequency grid and alpha) before it forgets them all."""
+
+_BASES: dict[bytes, np.ndarray] = {}
+"""``exp(-j w k)``, k = 0, 1, ..., per frequency grid: the DFT of a long finite impulse response as one product."""
+
+_BASIS_GRIDS = 8
+"""Most frequency grids :data:`_BASES` keeps."""
+
+
+def _response(element: Element, omega: np.ndarray) -> np.ndarray:
+    """``b(e^jw) / a(e^jw)`` of the sampled element, its whole-sample delay left out (it cancels in the ratio).
+
+    A step-response curve's numerator has as many coefficients as the curve:
+    Horner's rule would loop over them in Python; one matrix product with
+    the grid's ``exp(-j w k)`` does not.
+    """
+    disc = element.discrete()
+    b, a = disc.numerator, disc.denominator
+    if b.size <= 16:
+        z_inv = np.exp(-1j * omega)
+        return np.polyval(b[::-1], z_inv) / np.polyval(a[::-1], z_inv)
+    key = omega.tobytes()
+    basis = _BASES.get(key)
+    if basis is None or basis.shape[1] < b.size:
+        if len(_BASES) >= _BASIS_GRIDS:
+            _BASES.clear()
+        size = max(b.size, 2 * (0 if basis is None else basis.shape[1]))
+        basis = _BASES[key] = np.exp(-1j * np.outer(omega, np.arange(size)))
+    return (basis[:, : b.size] @ b) / (basis[:, : a.size] @ a)
+
+
 _NO_DYNAMICS = 1e-9
 """A shape that moves less than this when alpha changes by half: the element has no dynamics to scale (``K/s``)."""
 
@@ -55,24 +87,34 @@ class ScaledShape:
 
     element: Element
     _model: dict[bytes, np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
+    _ratios: dict[tuple[bytes, float], np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def _normalization(self, alpha: np.ndarray | float) -> np.ndarray | float:
         return alpha if self.element.integrating else 1.0
 
     def _model_response(self, omega: np.ndarray) -> np.ndarray:
-        """``Ghat(e^jw)``, kept per frequency grid (the fit asks for the same bins many times)."""
+        """``Ghat(e^jw)`` without its delay, kept per frequency grid (the fit asks for the same bins many times)."""
         key = omega.tobytes()
         if key not in self._model:
-            self._model[key] = self.element.frequency_response(omega)
+            self._model[key] = _response(self.element, omega)
         return self._model[key]
 
     def ratio(self, omega: np.ndarray, alpha: float) -> np.ndarray:
-        """``shape(w)`` at ``alpha`` and ``omega`` [rad/sample], shape of ``omega``; 1 at w = 0."""
+        """``shape(w)`` at ``alpha`` and ``omega`` [rad/sample], shape of ``omega``; 1 at w = 0.
+
+        Kept per frequency grid and alpha (the delay search refits the other
+        columns at the same alpha many times); at most :data:`KEPT_RATIOS` of them.
+        """
         omega = np.asarray(omega, dtype=float)
-        scaled = self.element.scaled(time_scale=float(alpha)).frequency_response(omega)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = self._normalization(alpha) * scaled / self._model_response(omega)
-        return np.where(omega == 0.0, 1.0, out)
+        key = (omega.tobytes(), float(alpha))
+        if key not in self._ratios:
+            if len(self._ratios) >= KEPT_RATIOS:
+                self._ratios.clear()
+            scaled = _response(self.element.scaled(time_scale=float(alpha)), omega)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out = self._normalization(alpha) * scaled / self._model_response(omega)
+            self._ratios[key] = np.where(omega == 0.0, 1.0, out)
+        return self._ratios[key]
 
     def shapes(self, z_inv: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Shapes at ``z_inv = exp(-jw)`` for each ``s`` and their derivative in ``s``, each shape (len(s), F).
