@@ -45,8 +45,11 @@ KEPT_RATIOS = 512
 _BASES: dict[bytes, np.ndarray] = {}
 """``exp(-j w k)``, k = 0, 1, ..., per frequency grid: the DFT of a long finite impulse response as one product."""
 
-_BASIS_GRIDS = 8
+_BASIS_GRIDS = 4
 """Most frequency grids :data:`_BASES` keeps."""
+
+_BASIS_SIZE = 1 << 21
+"""Largest basis kept (frequencies x coefficients; 32 MB): beyond it Horner's rule (rare calls on every bin)."""
 
 
 def _response(element: Element, omega: np.ndarray) -> np.ndarray:
@@ -58,7 +61,7 @@ def _response(element: Element, omega: np.ndarray) -> np.ndarray:
     """
     disc = element.discrete()
     b, a = disc.numerator, disc.denominator
-    if b.size <= 16:
+    if b.size <= 16 or omega.size * b.size > _BASIS_SIZE:
         z_inv = np.exp(-1j * omega)
         return np.polyval(b[::-1], z_inv) / np.polyval(a[::-1], z_inv)
     key = omega.tobytes()
@@ -66,7 +69,7 @@ def _response(element: Element, omega: np.ndarray) -> np.ndarray:
     if basis is None or basis.shape[1] < b.size:
         if len(_BASES) >= _BASIS_GRIDS:
             _BASES.clear()
-        size = max(b.size, 2 * (0 if basis is None else basis.shape[1]))
+        size = min(max(b.size, 2 * (0 if basis is None else basis.shape[1])), _BASIS_SIZE // omega.size)
         basis = _BASES[key] = np.exp(-1j * np.outer(omega, np.arange(size)))
     return (basis[:, : b.size] @ b) / (basis[:, : a.size] @ a)
 
