@@ -3,7 +3,12 @@
 The estimate is the implicit MIMO PMR (eq. 13 of the paper,
 :func:`pmr_ros.core.pmr.implicit.implicit_estimate`) from the same stretches and
 Welch segments the diagnosis used; the fitted curve is the parametric
-result's FOPTD ratio (:func:`pmr_ros.core.pmr.parametric.ratio.ratio_shape`).
+result's ratio: the FOPTD one (:func:`pmr_ros.core.pmr.parametric.ratio.ratio_shape`),
+or the best scaled model ``rho Ghat(s alpha) e^{-dD s}`` over ``Ghat`` of an
+element of any type (:mod:`pmr_ros.core.pmr.parametric.scaled`).  With the
+model element's own frequency response (:attr:`ElementCurves.model_response`)
+both are the plant's: the estimated frequency response against the best
+scaled model, which shows a plant that differs in shape.
 
 Confidence band.  Per output row i and frequency w the estimate solves
 ``b = A theta`` with ``b = S_{z y_i}`` and ``A = S_{z yhat_i}`` (z the
@@ -39,12 +44,14 @@ import numpy as np
 
 from ..records import Record
 from ..results import Diagnosis, ElementDiagnosis
+from ..sim.lti import Element
 from ..sim.model import TransferMatrix
 from .checks import InsufficientData, check_stretches
 from .classic import PmrSettings
 from .delay import informative_band
 from .implicit import PmrEstimate, implicit_estimate, instrument_factor
 from .parametric.ratio import noise_spectrum, ratio_shape, row_system
+from .parametric.scaled import ScaledShape
 from .parametric.settings import ParametricSettings
 from .spectra import RecordSpectra, WelchSettings, record_spectra
 
@@ -92,6 +99,10 @@ class ElementCurves:
         The parametric result's fitted ratio (None without one).
     level : float
         Confidence level of the band.
+    model_response : ndarray of complex or None
+        The model element's frequency response ``Ghat(e^jw)`` (None: not kept);
+        times :attr:`estimate` the plant's estimated frequency response, times
+        :attr:`fitted` the best scaled model's.
     """
 
     name: str
@@ -102,11 +113,24 @@ class ElementCurves:
     band: np.ndarray
     fitted: np.ndarray | None
     level: float
+    model_response: np.ndarray | None = None
 
     @property
     def radius(self) -> np.ndarray:
         """Radius of the confidence disc around the estimate at each frequency."""
         return band_radius(self.sigma, self.level)
+
+    @property
+    def plant_estimate(self) -> np.ndarray | None:
+        """The plant's estimated frequency response ``estimate * Ghat``; None without :attr:`model_response`."""
+        return None if self.model_response is None else self.estimate * self.model_response
+
+    @property
+    def plant_fitted(self) -> np.ndarray | None:
+        """The best scaled model's frequency response ``fitted * Ghat``; None without either."""
+        if self.model_response is None or self.fitted is None:
+            return None
+        return self.fitted * self.model_response
 
 
 def band_radius(sigma: np.ndarray, level: float) -> np.ndarray:
@@ -149,17 +173,27 @@ def estimate_sigma(spectra: RecordSpectra, estimate: PmrEstimate, row: int) -> n
     return sigma
 
 
-def fitted_ratio(element: ElementDiagnosis, omega: np.ndarray, sample_time: float) -> np.ndarray | None:
+def fitted_ratio(
+    element: ElementDiagnosis, omega: np.ndarray, sample_time: float, *, model_element: Element | None = None
+) -> np.ndarray | None:
     """The parametric result's PMR ``rho (1-a)/(1-ahat) (1-ahat z^-1)/(1-a z^-1) z^-dD`` at ``omega``.
 
-    An integrating element's ratio is ``rho z^-dD``; None without a fitted result.
+    An integrating element's ratio is ``rho z^-dD``; a ``tf`` or
+    ``step_response`` element's ``rho Ghat_alpha / Ghat z^-dD``
+    (:class:`~.parametric.scaled.ScaledShape`, ``alpha - 1`` its reported
+    dynamics change), which needs the element itself as ``model_element``.
+    None without a fitted result.
     """
     result, model = element.parametric, element.model
     if result is None or result.gain_mismatch_pct is None or result.delay_mismatch_samples is None:
         return None
-    z_inv = np.exp(-1j * np.asarray(omega, dtype=float))
+    omega = np.asarray(omega, dtype=float)
+    z_inv = np.exp(-1j * omega)
     rho = 1.0 + result.gain_mismatch_pct / 100.0
     delay = int(result.delay_mismatch_samples)
+    if model.kind in ("tf", "step_response") and model_element is not None and result.tau_mismatch_pct is not None:
+        alpha = 1.0 + result.tau_mismatch_pct / 100.0
+        return rho * ScaledShape(model_element).ratio(omega, alpha) * z_inv**delay
     if model.time_constant is None or result.tau_mismatch_pct is None:
         return rho * z_inv**delay
     tau_hat = model.time_constant
@@ -206,6 +240,7 @@ def pmr_curves(stretches: Sequence[Record], diagnosis: Diagnosis, config: CurveS
             element = diagnosis.elements[model.element_names()[i * model.n_inputs + k]]
             if element.model.kind == "none":
                 continue
+            cell = model.element(i, k)
             out[element.name] = ElementCurves(
                 element.name,
                 spectra.omega,
@@ -213,7 +248,8 @@ def pmr_curves(stretches: Sequence[Record], diagnosis: Diagnosis, config: CurveS
                 sigma[:, k],
                 estimate.coherence[:, i],
                 band,
-                fitted_ratio(element, spectra.omega, model.sample_time),
+                fitted_ratio(element, spectra.omega, model.sample_time, model_element=cell),
                 level,
+                cell.frequency_response(spectra.omega),
             )
     return out

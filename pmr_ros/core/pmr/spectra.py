@@ -13,7 +13,7 @@ The result equals ``scipy.signal.csd(..., detrend=False)``; the tests check it.
 output ``y_i`` to one regressor ``x_ik`` per input, through the instruments
 z (the external signals that move, :class:`~pmr_ros.core.records.InstrumentSet`):
 
-* a modeled element (``foptd`` or ``integrating``): ``x_ik = Ghat_ik u_k``,
+* a modeled element (of any type): ``x_ik = Ghat_ik u_k``,
   so that ``y_i = sum_k G_PMR_ik x_ik + v_i`` with ``G_PMR = G / Ghat``;
 * an empty cell (``none``): the *reference* ``x_ik = u_k(t - 1)``, the output
   of a unit static gain behind the zero-order hold's sample of lag, so that
@@ -274,15 +274,9 @@ def row_regressors(model: TransferMatrix, u: np.ndarray, i: int) -> np.ndarray:
 
 
 def _model_row(model: TransferMatrix, i: int) -> TransferMatrix:
-    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix)."""
-    present = model.present[i]
-    return TransferMatrix(
-        model.gain[i : i + 1, present],
-        np.nan_to_num(model.time_constant[i : i + 1, present], nan=1.0),
-        model.delay[i : i + 1, present],
-        model.sample_time,
-        element_type=model.element_type[i : i + 1, present],
-    )
+    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix), any element type."""
+    row = [model.element(i, int(k)) for k in np.flatnonzero(model.present[i])]
+    return TransferMatrix.of_elements([row], sample_time=model.sample_time)
 
 
 class RecordSpectra:
@@ -342,8 +336,8 @@ class RecordSpectra:
         """Instruments: the setpoints, dither columns and manual MVs that move."""
         return int(self._z.ffts.shape[2])
 
-    def _row_segments(self, i: int, transform: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
-        """Segment FFTs, shape (F, K, q), of ``[y_i, x_i1 .. x_in]`` or of ``transform(x_i)`` per stretch.
+    def _row_segments(self, i: int, transform: Callable[[np.ndarray, np.ndarray], np.ndarray] | None) -> np.ndarray:
+        """Segment FFTs, shape (F, K, q), of ``[y_i, x_i1 .. x_in]`` or of ``transform(x_i, u)`` per stretch.
 
         Each stretch as :meth:`row` takes it: filtered whole, differenced in an
         integrating row, its warm-up dropped, then cut into the instruments' segments.
@@ -351,18 +345,18 @@ class RecordSpectra:
         blocks = []
         for u, y, warmup in self._data:
             x = row_regressors(self.model, u, i)
-            block = np.column_stack([y[:, i], x]) if transform is None else transform(x)
+            block = np.column_stack([y[:, i], x]) if transform is None else transform(x, u)
             if self.differenced[i]:
                 block = np.diff(block, axis=0, prepend=block[:1])
             blocks.append(block[warmup:])
         seg, _ = stretch_segments(blocks, self.settings)
         return np.transpose(seg.ffts, (1, 0, 2))
 
-    def instrument_cross(self, i: int, transform: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    def instrument_cross(self, i: int, transform: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
         """Cross-spectra of the instruments with ``transform`` of row ``i``'s regressors, shape (F, n_z, q).
 
         ``transform`` maps a stretch's regressors (N, n_in), filtered in the
-        time domain over the whole stretch, to q signals (N, q); they are cut
+        time domain over the whole stretch, and its inputs u (N, n_in) to q signals (N, q); they are cut
         into the same segments as :meth:`row`'s.  A filter ``H`` applied in the
         time domain gives ``S_{z, H x}`` without the leakage of a Welch segment's
         edges, which ``H(w) S_{z x}`` has (:func:`~pmr_ros.core.pmr.parametric.fit.leakage_offset`).

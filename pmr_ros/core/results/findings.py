@@ -33,7 +33,7 @@ VERDICTS = ("ok", "mismatch", "inconclusive")
 PROPERTIES = ("gain", "time_constant", "delay", "interaction")
 """The properties of an element a mismatch is found in (``interaction``: an unmodeled one in an empty cell)."""
 
-KINDS = ("foptd", "integrating", "none")
+KINDS = ("foptd", "integrating", "none", "tf", "step_response")
 """Element kinds of a model (:class:`ElementModel.kind`); ``none`` is an empty cell."""
 
 
@@ -45,9 +45,12 @@ class ElementModel:
     ----------
     kind : str
         One of :data:`KINDS`: ``foptd`` K exp(-theta s)/(tau s + 1), ``integrating``
-        K exp(-theta s)/s, ``none`` an empty cell (no model; gain 0).
+        K exp(-theta s)/s, ``none`` an empty cell (no model; gain 0), ``tf`` a
+        rational transfer function with dead time, ``step_response`` a sampled
+        step-response curve.
     gain : float
-        K [output unit / input unit; per time unit when integrating].
+        K [output unit / input unit; per time unit when integrating]; the
+        steady-state gain (ramp rate) of a ``tf`` or ``step_response`` element.
     time_constant : float or None
         tau [time unit]; None unless ``foptd``.
     delay_samples : int
@@ -141,7 +144,15 @@ Interval = tuple[float, float]
 
 @dataclass(frozen=True)
 class ParametricResult:
-    """The parametric (FOPTD-ratio fit) diagnosis of one element.
+    """The parametric (plant-model ratio fit) diagnosis of one element.
+
+    The plant element is modelled as ``rho Ghat(s alpha) exp(-dD s)``: the
+    model's gain times rho, its dynamics alpha times slower, its delay dD
+    samples longer.  For a FOPTD element ``alpha - 1`` is the relative change
+    of its time constant; for a ``tf`` or ``step_response`` element (the
+    element's kind is :attr:`ElementModel.kind`) it is the change of its
+    dynamics as a whole, reported in the same ``tau_*`` fields (the names are
+    kept for compatibility).
 
     Numbers are None when the data could not support a fit (then every
     verdict is ``inconclusive`` and ``reasons`` say why).  Intervals are
@@ -156,7 +167,9 @@ class ParametricResult:
     gain_mismatch_pct, gain_mismatch_pct_interval : float, Interval
         ``dK = (K - Khat)/Khat`` [%].
     tau_mismatch_pct, tau_mismatch_pct_interval : float, Interval
-        ``dtau`` [%]; None unless the element is ``foptd``.
+        ``dtau`` [%] of a ``foptd`` element; the dynamics change
+        ``100 (alpha - 1)`` [%] of a ``tf`` or ``step_response`` element
+        with dynamics to scale; None otherwise (integrating ``K/s``, empty cells).
     delay_mismatch_samples : int
         ``dD = D - Dhat`` [samples].
     delay_confidence : float

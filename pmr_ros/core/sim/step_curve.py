@@ -82,6 +82,15 @@ class StepResponse(Element):
     def _curve(self) -> np.ndarray:
         return np.asarray(self.curve)
 
+    @cached_property
+    def _resampler(self) -> CubicSpline:
+        """The cubic spline through ``r_0 = 0, r_1 .. r_M``, the curve after its delay.
+
+        Built once: the diagnosis scales one element many times.
+        """
+        after = np.concatenate(([0.0], self._curve[self.delay_samples :]))
+        return CubicSpline(np.arange(after.size), after)
+
     @property
     def integrating(self) -> bool:
         """The ramp flag."""
@@ -133,7 +142,7 @@ class StepResponse(Element):
         after = np.concatenate(([0.0], self._curve[self.delay_samples :]))  # r_0 = 0 .. r_M, delay-free
         m = after.size - 1
         x = np.arange(1, max(1, int(np.ceil(time_scale * m - 1e-9))) + 1) / time_scale
-        inside = CubicSpline(np.arange(m + 1), after)(np.minimum(x, m))
+        inside = self._resampler(np.minimum(x, m))
         slope = self.last_slope if self.ramp else 0.0
         values = np.where(x > m, after[-1] + (x - m) * slope, inside)
         stated = None

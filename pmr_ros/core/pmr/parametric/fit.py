@@ -28,12 +28,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...sim.model import TransferMatrix
-from ..implicit import RowLayout
 from ..spectra import RecordSpectra, RowSpectra
 from .lsq import RowParameters, RowProblem
+from .parameterization import column_models, interaction_delay_range
 from .rank import first_pass
-from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
+from .ratio import ColumnModel, RowSystem, noise_spectrum, row_system
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
 from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
@@ -114,6 +113,12 @@ class RowFit:
         The other delay vectors whose likelihood weight relative to the fit is
         at least :data:`~.trials.ALTERNATIVE_WEIGHT_MIN`: the intervals are
         mixtures over them and the fit (:mod:`.verdicts`).
+    steady_gain, steady_gain_sd : ndarray, shape (n,), or None
+        Each column's coefficient at the lowest fitted bin alone (the per-bin
+        free estimate, its fitted delay's phase taken off: the gain ratio
+        whatever the plant's shape) and its standard deviation; None: not kept.
+    bin_correlation : float
+        Of the Welch window the spectra were averaged with (1: bins independent).
     """
 
     lin: np.ndarray
@@ -128,46 +133,27 @@ class RowFit:
     columns: tuple[ColumnModel, ...]
     separation: Separation | None = None
     alternatives: tuple[WeightedFit, ...] = ()
+    steady_gain: np.ndarray | None = None
+    steady_gain_sd: np.ndarray | None = None
+    bin_correlation: float = 1.0
 
     @property
     def scale(self) -> float:
         """The reduced chi-square the likelihood is tempered by (>= 1)."""
         return max(1.0, self.chi_square / self.dof)
 
+    @property
+    def misfit_z(self) -> float:
+        """How far the row's reduced chi-square lies above 1, in its standard deviations under a fitting model.
 
-def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
-    """``(0, highest)`` dead time [samples] searched for an unmodeled interaction.
-
-    Up to the model's largest delay plus the delay-mismatch range: an
-    interaction is taken to be no slower to appear than a modeled element could be.
-    """
-    return 0, int(model.delay_samples.max()) + int(max_delay_samples)
-
-
-def column_models(model: TransferMatrix, layout: RowLayout, *, max_delay_samples: int) -> list[ColumnModel]:
-    """The parameterization of each column of a row's layout (:class:`~.ratio.ColumnModel`)."""
-    i = layout.row
-    differenced = bool(model.integrating_outputs[i])
-    reference = max(model.slowest_time_constant / model.sample_time, 1.0)
-    interaction = interaction_delay_range(model, max_delay_samples)
-    tau_bound = math.log(TAU_RATIO_BOUND)
-    out = []
-    for k in layout.columns:
-        kind = str(model.element_type[i, k])
-        if kind == "none":
-            template = "pulse" if differenced else "lag"
-            bounds = (math.log(TEMPLATE_TAU_FLOOR / reference), tau_bound)
-            out.append(ColumnModel(template, 0.0, reference, bounds, interaction, False))
-            continue
-        delay = int(model.delay_samples[i, k])
-        delays = (max(-max_delay_samples, -delay), max_delay_samples)
-        if kind == "integrating":
-            out.append(ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), delays, max_delay_samples < delay))
-            continue
-        tau = float(model.time_constant[i, k]) / model.sample_time
-        pole = math.exp(-1.0 / tau)
-        out.append(ColumnModel("ratio", pole, tau, (-tau_bound, tau_bound), delays, max_delay_samples < delay))
-    return out
+        ``(chi2/dof - 1) / sqrt(2 b / dof)``, b the bin correlation (neighbouring
+        bins repeat each other, so the sum has ``dof / b`` independent terms).
+        Measured: within +-1.1 on the Wood-Berry closed loop and below 0 on
+        step tests of tf models fitted with the right structure; 2.6-4.9 on
+        the low-noise rows of a second-order plant under its best FOPTD model
+        whose elements' own lack of fit (1.2-2.8) stays below ``lack_of_fit_max``.
+        """
+        return (self.chi_square / self.dof - 1.0) / math.sqrt(2.0 * self.bin_correlation / self.dof)
 
 
 @dataclass(frozen=True)
@@ -251,11 +237,12 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
         raise ValueError("leakage_offset needs the record the spectra come from (RowData.record)")
     columns = problem.columns
 
-    def model_output(x: np.ndarray) -> np.ndarray:
+    def model_output(x: np.ndarray, u: np.ndarray) -> np.ndarray:
         total = np.zeros(x.shape[0])
         for c, (column, k) in enumerate(zip(columns, data.columns, strict=True)):
             lin, s, delay = float(params.lin[c]), float(params.s[c]), int(params.delays[c])
-            total += column.response(x[:, k], lin=lin, s=s, delay=delay)
+            signal = x[:, k] if column.scaled is None else u[:, k]  # a scaled column filters its input
+            total += column.response(signal, lin=lin, s=s, delay=delay)
         return total[:, None]
 
     exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
@@ -323,6 +310,19 @@ def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) 
     free, variance = system.free_estimate()
     theta = problem.coefficients(params).theta
     return np.mean(np.abs(free - theta) ** 2 / (2.0 * variance), axis=0)
+
+
+def _steady_gain(system: RowSystem, delays: np.ndarray) -> dict[str, np.ndarray]:
+    """Per column: the free estimate at the lowest fitted bin with the delay's phase taken off, and its deviation.
+
+    As :class:`RowFit`'s ``steady_gain`` and ``steady_gain_sd``.
+
+    The real part's variance is ``[M^-1]_kk`` at a complex bin and at the (real) zero-frequency bin alike
+    (:func:`~.ratio.row_system` whitens both so).
+    """
+    free, variance = system.free_estimate()
+    turn = system.z_inv[0] ** (-np.asarray(delays, dtype=float))
+    return {"steady_gain": np.real(free[0] * turn), "steady_gain_sd": np.sqrt(variance[0])}
 
 
 def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation: float) -> tuple[WeightedFit, ...]:
@@ -394,4 +394,6 @@ def fit_row(
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
+        **_steady_gain(first, params.delays),
+        bin_correlation=data.bin_correlation,
     )

@@ -19,6 +19,7 @@ from ...sim.model import TransferMatrix
 from ..classic import PmrSettings
 from ..implicit import RowEstimate, RowLayout
 from ..spectra import WelchSettings
+from ..timescale import row_time_constants
 from .rank import collinear_inputs_reason
 from .settings import ParametricSettings
 
@@ -48,7 +49,7 @@ class RowQuality:
     condition : float
         Median condition number of the row's regression over ``bins``.
     time_constant_ratio : float
-        Largest over smallest model time constant of the row.
+        Largest over smallest model time constant (or equivalent, :mod:`~pmr_ros.core.pmr.timescale`) of the row.
     excitation : ndarray, shape (n_columns,)
         Each modeled element's share of the row's instrument-driven output (0 for an empty cell).
     reasons : tuple of str
@@ -194,7 +195,7 @@ def row_quality(
     i = layout.row
     differenced = bool(model.integrating_outputs[i])
     bins = fitted_bins(omega, estimate.coherence, differenced=differenced, coherence_min=classic.coherence_min)
-    taus = model.time_constant[i][model.element_type[i] == "foptd"]
+    taus = row_time_constants(model, i)
     ratio = float(taus.max() / taus.min()) if taus.size else 1.0
     coherence = float(estimate.coherence[bins].mean()) if bins.size else 0.0
     condition = float(np.median(estimate.condition[bins])) if bins.size and layout.columns.size else np.inf

@@ -103,6 +103,7 @@ class RowProblem:
             np.array([c.s_bounds[1] for c in self.columns]),
         )
         self.tau_index = np.flatnonzero(self.has_tau)
+        self.scaled_index = np.flatnonzero([c.scaled is not None for c in self.columns])
         interaction = np.array([c.interaction for c in self.columns], dtype=bool)
         self.free_tau = np.flatnonzero(self.has_tau & ~interaction)
         self._lowest = min((c.delay_bounds[0] for c in self.columns), default=0)
@@ -124,6 +125,9 @@ class RowProblem:
         denominator = 1 - a * z_inv
         shape = np.where(self.has_tau, (1 - a) * numerator / denominator, 1.0)
         d_shape = np.where(self.has_tau, numerator * (z_inv - 1) / denominator**2 * (a / tau), 0.0)
+        for c in self.scaled_index:  # a tf/step_response element: its own shape (:mod:`.scaled`)
+            scaled, d_scaled = self.columns[c].shapes(z_inv[:, 0], params.s[c : c + 1])
+            shape[:, c], d_shape[:, c] = scaled[0], d_scaled[0]
         d_lin = shape * delay
         return Coefficients(params.lin * d_lin, d_lin, params.lin * d_shape * delay)
 

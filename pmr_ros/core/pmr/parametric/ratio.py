@@ -15,7 +15,10 @@ with ``rho = K / Khat``, ``a = exp(-Ts / tau)``, ``ahat = exp(-Ts / tauhat)`` an
   first-order template ``gamma (1 - a)/(1 - a z^-1) z^-D`` -- the ratio shape
   with ``ahat = 0``, fitted for gain gamma, time constant and dead time;
 * an empty cell in an integrating (differenced) row: an integrating
-  interaction, ``gamma z^-D`` relative to its reference ``Ts u_k(t-1)``.
+  interaction, ``gamma z^-D`` relative to its reference ``Ts u_k(t-1)``;
+* a ``tf`` or ``step_response`` element: ``rho Ghat(s alpha) e^{-dD s}`` over
+  its model, ``alpha = exp(s)`` the element made faster or slower as a whole
+  (:mod:`.scaled`; for a FOPTD element that is the ratio above with ``tau = tauhat alpha``).
 
 Each is unbiased for the same reason: at the true parameters the row's
 equations hold exactly in expectation, ``S_{z y_i} = sum_k S_{z x_ik} theta_ik``,
@@ -51,6 +54,7 @@ from scipy.signal import lfilter, lfilter_zi
 
 from ..products import hermitian_product
 from ..spectra import RowSpectra
+from .scaled import ScaledShape
 
 __all__ = [
     "GAIN_RATIO_BOUND",
@@ -98,18 +102,23 @@ class ColumnModel:
     Attributes
     ----------
     kind : str
-        ``ratio`` (FOPTD element), ``delay`` (integrating element), ``lag``
+        ``ratio`` (FOPTD element), ``delay`` (integrating element, or one of
+        another type with no dynamics to scale), ``scaled`` (a ``tf`` or
+        ``step_response`` element: ``s = log alpha``, :mod:`.scaled`), ``lag``
         (empty cell, first-order template), ``pulse`` (empty cell of an integrating row).
     pole_model : float
-        ``ahat`` of a ratio; 0 for a template.
+        ``ahat`` of a ratio; 0 for a template or a scaled element.
     tau_reference : float
-        ``tau = tau_reference exp(s)`` [samples]: the model's tau, or the template's reference.
+        ``tau = tau_reference exp(s)`` [samples]: the model's tau, or the
+        template's reference (1 for a scaled element: ``exp(s)`` is alpha).
     s_bounds : (float, float)
         Bounds of ``s`` (unused without a time constant).
     delay_bounds : (int, int)
         Whole-sample delays searched: ``dD`` of an element, ``D`` of an interaction.
     low_is_limit : bool
         Whether the lower delay bound is a search limit (else a physical bound).
+    scaled : ScaledShape or None
+        The model element's shape over alpha, for kind ``scaled``.
     """
 
     kind: str
@@ -118,11 +127,12 @@ class ColumnModel:
     s_bounds: tuple[float, float]
     delay_bounds: tuple[int, int]
     low_is_limit: bool
+    scaled: ScaledShape | None = None
 
     @property
     def has_tau(self) -> bool:
-        """Whether the coefficient has a time constant to fit."""
-        return self.kind in ("ratio", "lag")
+        """Whether the coefficient has a time constant (for a scaled element: a dynamics scale alpha) to fit."""
+        return self.kind in ("ratio", "lag", "scaled")
 
     @property
     def interaction(self) -> bool:
@@ -138,12 +148,14 @@ class ColumnModel:
 
         The same filter as :meth:`shapes` (times ``lin`` and the delay) gives in
         the frequency domain; started at steady state for ``x[0]``.  A negative
-        delay is an advance: the last samples repeat the last value.
+        delay is an advance: the last samples repeat the last value.  A scaled
+        column reads the element's *input* ``u_k`` instead of its regressor
+        ``Ghat u_k`` (:meth:`.scaled.ScaledShape.response`: ``1 / Ghat`` need not be stable).
 
         Parameters
         ----------
         x : ndarray, shape (N,) or (N, q)
-            Signal(s), one per column, along axis 0.
+            Signal(s), one per column, along axis 0 (a scaled column: its input, shape (N,)).
         lin : float
             The linear parameter (``rho`` or ``gamma``).
         s : float
@@ -162,7 +174,9 @@ class ColumnModel:
         [0.0, 0.0, 2.0, 4.0, 6.0]
         """
         x = np.asarray(x, dtype=float)
-        if self.has_tau:
+        if self.scaled is not None:
+            out = lin * self.scaled.response(x, s)
+        elif self.has_tau:
             a, ah = self.pole(s), self.pole_model
             numerator = lin * (1.0 - a) / (1.0 - ah) * np.array([1.0, -ah])
             denominator = np.array([1.0, -a])
@@ -185,6 +199,8 @@ class ColumnModel:
         s : ndarray, shape (G,)
         """
         s = np.atleast_1d(np.asarray(s, dtype=float))
+        if self.scaled is not None:
+            return self.scaled.shapes(z_inv, s)
         if not self.has_tau:
             return np.ones((s.size, z_inv.size), dtype=complex), np.zeros((s.size, z_inv.size), dtype=complex)
         tau = self.tau_reference * np.exp(s)[:, None]

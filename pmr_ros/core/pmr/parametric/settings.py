@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from ...sim.model import TransferMatrix
 from ..classic import PmrSettings
 from ..spectra import WelchSettings
+from ..timescale import slowest_time_constant
 
 __all__ = ["ParametricSettings"]
 
@@ -23,7 +24,8 @@ class ParametricSettings:
     ----------
     segment_length : int
         Welch segment [samples]; 0 picks it from the slowest model element so
-        the bins resolve its corner: ``resolution x 2 pi tau_max / Ts``,
+        the bins resolve its corner: ``resolution x 2 pi tau_max / Ts``
+        (tau_max the largest time constant or equivalent, :mod:`~pmr_ros.core.pmr.timescale`),
         rounded up to a power of two, between the classic segment and a
         quarter of the record.
     resolution : float
@@ -94,7 +96,7 @@ class ParametricSettings:
                 self.resolution
                 * 2.0
                 * math.pi
-                * max(model.slowest_time_constant, model.sample_time)
+                * max(slowest_time_constant(model), model.sample_time)
                 / model.sample_time
             )
             ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))

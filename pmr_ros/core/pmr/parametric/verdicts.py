@@ -8,9 +8,14 @@ Two rules, each its own function so that each can be hardened alone:
   zero, else ``inconclusive`` (:func:`undecided_reason` says why);
 * :func:`trust_reasons`: numbers that cannot be trusted whatever their
   intervals -- a delay at the edge of its search range (the true one may lie
-  beyond, and the gain and time constant then bend to mimic it), or a fit
-  that does not follow the data (lack of fit) -- make every verdict of the
-  element ``inconclusive``;
+  beyond, and the gain and time constant then bend to mimic it) makes every
+  verdict of the element ``inconclusive``; a fit that does not follow the data
+  beyond its noise (lack of fit, its own or its row's, :mod:`.shape`: the plant
+  differs from the model in shape, or its delay lies beyond the search range) makes the time-constant (dynamics)
+  and delay verdicts ``inconclusive`` -- speed and delay bend to mimic a shape
+  -- and the gain is judged on the hull of its fitted interval and the
+  interval read at the lowest fitted bin alone (:func:`steady_state_interval`,
+  where the ratio is the gain ratio whatever the shape);
 * an empty cell's interaction: :mod:`pmr_ros.core.pmr.parametric.interaction`.
 """
 
@@ -27,13 +32,18 @@ from ...results import ParametricResult
 from ..delay import search_limit_reason
 from .fit import RowFit, WeightedFit
 from .settings import ParametricSettings
+from .shape import ROW_MISFIT_Z, SHAPE_REASON, shape_misfit, shape_reason, steady_state_interval
 
 __all__ = [
+    "ROW_MISFIT_Z",
+    "SHAPE_REASON",
     "delay_confidence",
     "element_result",
     "mixture_interval",
     "parameter_verdict",
     "separation_reason",
+    "shape_misfit",
+    "steady_state_interval",
     "trust_reasons",
     "undecided_reason",
     "z_score",
@@ -171,20 +181,21 @@ def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *,
     return quantile(tail), quantile(1.0 - tail)
 
 
-def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[str, ...]:
-    """Why column ``c``'s numbers cannot be trusted at all: a delay at its search limit, a lack of fit."""
+def _edge_reason(fit: RowFit, c: int) -> str | None:
     column = fit.columns[c]
     low, high = column.delay_bounds
-    reasons = []
-    edge = search_limit_reason(int(fit.delays[c]), low=low, high=high, low_is_limit=column.low_is_limit)
-    if edge is not None:
-        reasons.append(edge)
-    misfit = float(fit.lack_of_fit[c])
-    if not misfit <= settings.lack_of_fit_max:
-        reasons.append(
-            f"the fit does not follow the data ({misfit:.1f}x the noise > {settings.lack_of_fit_max:g}): "
-            "a delay beyond pmr.max_delay_samples, or an element of another structure"
-        )
+    return search_limit_reason(int(fit.delays[c]), low=low, high=high, low_is_limit=column.low_is_limit)
+
+
+def trust_reasons(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[str, ...]:
+    """Why column ``c``'s numbers cannot be trusted: a delay at its search limit, a lack of fit (:data:`SHAPE_REASON`).
+
+    The delay at its limit makes every verdict inconclusive, the lack of fit all but the gain's (:func:`_gain`).
+    """
+    edge = _edge_reason(fit, c)
+    reasons = [] if edge is None else [edge]
+    if shape_misfit(fit, c, settings):
+        reasons.append(shape_reason(fit, c, settings))
     return tuple(reasons)
 
 
@@ -257,6 +268,29 @@ def chosen_delay(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[int
     return delay, confidence, "mismatch" if delay != 0 else "ok"
 
 
+def _gain(fit: RowFit, c: int, settings: ParametricSettings) -> tuple[float, tuple[float, float], str]:
+    """``(dK %, interval, verdict)`` of a modeled element's column.
+
+    Under a lack of fit (:func:`shape_misfit`) the interval is the hull of the
+    fitted one and :func:`steady_state_interval`; without the latter, inconclusive.
+    """
+    gain = 100.0 * (float(fit.lin[c]) - 1.0)
+    low, high = _mixture(fit, c, settings, tau=False)
+    interval = (100.0 * (low - 1.0), 100.0 * (high - 1.0))
+    if shape_misfit(fit, c, settings):
+        steady = steady_state_interval(fit, c, settings)
+        if steady is None:
+            return gain, interval, "inconclusive"
+        interval = (min(interval[0], steady[0]), max(interval[1], steady[1]))
+    verdict = parameter_verdict(
+        interval,
+        tolerance=settings.gain_tolerance_pct,
+        ok_band_factor=settings.ok_band_factor,
+        max_halfwidth=settings.max_interval_pct,
+    )
+    return gain, interval, verdict
+
+
 def _tau(
     fit: RowFit, c: int, settings: ParametricSettings
 ) -> tuple[float | None, tuple[float, float] | None, str | None]:
@@ -288,16 +322,7 @@ def element_result(
 
     ``labels`` are ``(element name, input name)`` per column of the fit (for :func:`separation_reason`).
     """
-    rho = float(fit.lin[c])
-    gain = 100.0 * (rho - 1.0)
-    low, high = _mixture(fit, c, settings, tau=False)
-    gain_interval = (100.0 * (low - 1.0), 100.0 * (high - 1.0))
-    gain_verdict = parameter_verdict(
-        gain_interval,
-        tolerance=settings.gain_tolerance_pct,
-        ok_band_factor=settings.ok_band_factor,
-        max_halfwidth=settings.max_interval_pct,
-    )
+    gain, gain_interval, gain_verdict = _gain(fit, c, settings)
     tau, tau_interval, tau_verdict = _tau(fit, c, settings)
     delay, confidence, delay_verdict = chosen_delay(fit, c, settings)
     reasons = [] if delay_verdict != "inconclusive" else [f"delay uncertain (confidence {100 * confidence:.0f} %)"]
@@ -309,8 +334,10 @@ def element_result(
             reasons.append(undecided_reason(label, interval, tolerance=tolerance, settings=settings))
     distrust = trust_reasons(fit, c, settings)
     if distrust:
-        gain_verdict, delay_verdict = "inconclusive", "inconclusive"
+        delay_verdict = "inconclusive"
         tau_verdict = None if tau_verdict is None else "inconclusive"
+    if _edge_reason(fit, c) is not None:
+        gain_verdict = "inconclusive"
     halfwidths = (_halfwidth(gain_interval), None if tau_interval is None else _halfwidth(tau_interval))
     apart = separation_reason(fit, c, settings, labels=labels, halfwidths=halfwidths)
     if apart is not None:
