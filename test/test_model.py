@@ -262,3 +262,24 @@ def test_a_matrix_of_mixed_elements_filters_and_scales_each_cell_as_its_element(
     # the tf element twice as fast (alpha 0.5): 2.4 / (5 s^2 + 6 s + 1), one sample more delay
     faster = transfer_function("2.4", "5, 6, 1", delay_samples=3, sample_time=1.0)
     assert_allclose(plant.element(0, 1).step_response(60), faster.step_response(60), atol=1e-12)
+
+
+def test_an_injected_gain_change_of_an_integrating_tf_is_its_ramp_rate_change_whatever_its_speed():
+    """``with_mismatch`` on ``0.05/(s(8s+1))``: +10 % gain and +20 % dynamics give a ramp 1.1x as steep, 1.2x slower."""
+    import numpy as np
+    from numpy.testing import assert_allclose
+
+    from pmr_ros.core.sim.lti import Foptd
+    from pmr_ros.core.sim.mismatch import Mismatch
+    from pmr_ros.core.sim.model import TransferMatrix
+    from pmr_ros.core.sim.rational import transfer_function
+
+    ramp = transfer_function("0.05", "8, 1, 0", delay_samples=1, sample_time=1.0)
+    model = TransferMatrix.of_elements([[ramp, Foptd(1.0, 5.0, 0, 1.0)]], sample_time=1.0)
+    plant = model.with_mismatch(Mismatch(np.array([[10.0, 0.0]]), np.array([[20.0, 0.0]]), np.zeros((1, 2), int)))
+    assert_allclose(plant.element(0, 0).steady_state_gain, 1.1 * 0.05, rtol=1e-12)
+    assert_allclose(
+        plant.element(0, 0).step_response(400)[-1] - plant.element(0, 0).step_response(400)[-2], 0.055, rtol=1e-6
+    )
+    slower = transfer_function("0.055", "9.6, 1, 0", delay_samples=1, sample_time=1.0)
+    assert_allclose(plant.element(0, 0).step_response(100), slower.step_response(100), atol=1e-12)

@@ -363,9 +363,6 @@ _RAMPS = TransferMatrix.of_elements(
 )
 
 
-@pytest.mark.skipif(
-    not _RAMPS.integrating_outputs.all(), reason="TransferMatrix.integrating does not count tf integrators yet (lin23a)"
-)
 def test_integrating_tf_elements_keep_their_ramp_rate_as_the_gain_and_scale_the_rest():
     """``0.05/(s(8s+1))`` made 1.2x slower with rho 1.1: its ramp rate is rho/alpha; ``K/s`` has gain and delay only."""
     changes = {(0, 0): (1.1, 1.2, 0), (1, 0): (0.9, 1.0, 1)}

@@ -309,19 +309,12 @@ class TransferMatrix:
         )
 
     def _with_general_mismatch(self, mismatch: Mismatch) -> TransferMatrix:
-        """:meth:`with_mismatch` cell by cell through :meth:`element` and ``scaled``."""
-        kinds, tau_pct = self.element_type, mismatch.time_constant_pct
-        rows = [
-            [
-                self.element(i, k).scaled(
-                    gain_ratio=1.0 + mismatch.gain_pct[i, k] / 100.0,
-                    time_scale=1.0 + (0.0 if kinds[i, k] == "integrating" else tau_pct[i, k] / 100.0),
-                    delay_change=int(mismatch.delay_samples[i, k]) if self.present[i, k] else 0,
-                )
-                for k in range(self.n_inputs)
-            ]
-            for i in range(self.n_outputs)
-        ]
+        """:meth:`with_mismatch` cell by cell through :meth:`element` and ``scaled``.
+
+        An integrating element's gain change is that of its ramp rate: time
+        scaling by alpha divides the ramp rate by alpha, so rho is alpha (1 + dK).
+        """
+        rows = [[self._scaled_cell(i, k, mismatch) for k in range(self.n_inputs)] for i in range(self.n_outputs)]
         return TransferMatrix.of_elements(
             rows,
             sample_time=self.sample_time,
@@ -330,6 +323,14 @@ class TransferMatrix:
             name=self.name,
             n_disturbances=self.n_disturbances,
         )
+
+    def _scaled_cell(self, i: int, k: int, mismatch: Mismatch) -> Element:
+        """Element (i, k) with its share of ``mismatch`` (see :meth:`_with_general_mismatch`)."""
+        element = self.element(i, k)
+        alpha = 1.0 if self.element_type[i, k] == "integrating" else 1.0 + mismatch.time_constant_pct[i, k] / 100.0
+        rho = (1.0 + mismatch.gain_pct[i, k] / 100.0) * (alpha if element.integrating else 1.0)
+        delay = int(mismatch.delay_samples[i, k]) if self.present[i, k] else 0
+        return element.scaled(gain_ratio=rho, time_scale=alpha, delay_change=delay)
 
     def with_time_constant(self, i: int, k: int, time_constant: float) -> TransferMatrix:
         """A copy with element (i, k)'s time constant replaced [time unit]."""
