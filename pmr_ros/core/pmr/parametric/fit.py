@@ -31,6 +31,7 @@ import numpy as np
 from ...sim.model import TransferMatrix
 from ..implicit import RowLayout
 from ..spectra import RecordSpectra, RowSpectra
+from .bias import residual_moments, without_instrument_bias
 from .lsq import RowParameters, RowProblem
 from .rank import first_pass
 from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
@@ -193,6 +194,9 @@ class RowData:
         (spectra without a record) fits without the leakage correction.
     row : int
         The output row of ``record``.
+    segments : int
+        Welch segments averaged (K), for the finite-segment bias correction
+        (:mod:`.bias`); 0 fits the equations as they are.
     """
 
     spectra: RowSpectra
@@ -204,22 +208,29 @@ class RowData:
     bin_correlation: float
     record: RecordSpectra | None = None
     row: int = 0
+    segments: int = 0
 
-    def system(self, theta: np.ndarray, offset: np.ndarray | None = None) -> RowSystem:
+    def system(self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True) -> RowSystem:
         """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
 
         ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
-        segments' leakage at the current fit (:func:`leakage_offset`).
+        segments' leakage at the current fit (:func:`leakage_offset`).  With
+        ``segments`` known and ``debiased``, the finite-segment bias of the
+        instrumental equations is taken out (:mod:`.bias`).
         """
         noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
-        return row_system(
-            spectra,
-            self.factor,
-            columns=self.columns,
-            noise=noise,
-            bins=self.bins,
-            omega=self.omega,
+        weights = {"noise": noise, "bins": self.bins, "omega": self.omega, "equivalent_segments": self.equivalent_segments}
+        system = row_system(spectra, self.factor, columns=self.columns, **weights)
+        if not debiased or not self.segments:
+            return system
+        # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
+        residual = residual_moments(self.spectra, self.factor, columns=self.columns, **weights)
+        return without_instrument_bias(
+            system,
+            residual,
+            instruments=int(self.factor.shape[1]),
+            segments=self.segments,
             equivalent_segments=self.equivalent_segments,
         )
 
@@ -390,7 +401,7 @@ def fit_row(
         chi_square=cost,
         dof=dof,
         delay_profile=joint_profiles(trials, params),
-        lack_of_fit=_lack_of_fit(first, problem, params),
+        lack_of_fit=_lack_of_fit(data.system(theta_start, debiased=False), problem, params),
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
