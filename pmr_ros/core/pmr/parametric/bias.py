@@ -22,9 +22,12 @@ The part of the same moments orthogonal to the instruments (``R = full -
 projected``, from ``S_{yy}``, ``S_{x y}``, ``S_{x x}``) carries that noise
 correlation K - n_z times without the signal; ``lambda = n_z / (K - n_z)`` of
 it taken from the projected moments leaves them unbiased (Nagar's k-class
-correction, ``k = K / (K - n_z)``).  A constant restores the cost's
-chi-square scale (its expectation at the true parameters), which the
-reduced chi-square of the fit reads.
+correction, ``k = K / (K - n_z)``).  Overlapping segments repeat each other,
+the instruments' as the noise's: the projection then keeps ``n_z K / M`` of
+the noise dimensions (M the equivalent number of segments), and ``lambda =
+n_z / (M - n_z)``.  A constant restores the cost's chi-square scale (its
+expectation at the true parameters), which the reduced chi-square of the fit
+reads.
 """
 
 from __future__ import annotations
@@ -67,9 +70,9 @@ def residual_moments(
 
 
 def without_instrument_bias(
-    system: RowSystem, residual: np.ndarray, *, instruments: int, segments: int, equivalent_segments: float
+    system: RowSystem, residual: np.ndarray, *, instruments: int, equivalent_segments: float
 ) -> RowSystem:
-    """``system`` with ``lambda = n_z / (K - n_z)`` of the residual moments taken out (see the module docstring).
+    """``system`` with ``lambda = n_z / (M - n_z)`` of the residual moments taken out (see the module docstring).
 
     Parameters
     ----------
@@ -79,23 +82,20 @@ def without_instrument_bias(
         :func:`residual_moments` of the same row, bins and weights.
     instruments : int
         n_z.
-    segments : int
-        K, the Welch segments averaged; ``system`` itself when K <= n_z + 1.
     equivalent_segments : float
-        What they are worth (overlap): the expected residual power per bin.
+        M, what the Welch segments are worth (overlap); ``system`` itself when M <= n_z + 1.
     """
-    if segments <= instruments + 1:
+    if equivalent_segments <= instruments + 1:
         return system
-    lam = instruments / (segments - instruments)
-    # the expectation of lam * residual[0, 0] at the true parameters, per real component pair: keeps the
-    # cost's scale that of a chi-square with the system's components (DC has one component, not two)
-    per_bin = 2.0 * instruments * max(equivalent_segments - instruments, 0.0) / (segments - instruments)
+    lam = instruments / (equivalent_segments - instruments)
+    # lam * residual[0, 0] expects 2 n_z at the true parameters in a complex bin, n_z in the real DC one:
+    # added back, the cost keeps the scale of a chi-square with the system's components
     real = np.isclose(system.z_inv.imag, 0.0) & (system.z_inv.real > 0)
-    constant = float(np.sum(np.where(real, per_bin / 2.0, per_bin)))
+    expected = np.where(real, 1.0, 2.0) * instruments
     return RowSystem(
         M=system.M - lam * residual[:, 1:, 1:],
         v=system.v - lam * residual[:, 1:, 0],
-        beta=system.beta - lam * residual[:, 0, 0].real + constant / system.beta.size,
+        beta=system.beta - lam * residual[:, 0, 0].real + expected,
         z_inv=system.z_inv,
         components=system.components,
     )

@@ -115,6 +115,8 @@ class RowFit:
         The other delay vectors whose likelihood weight relative to the fit is
         at least :data:`~.trials.ALTERNATIVE_WEIGHT_MIN`: the intervals are
         mixtures over them and the fit (:mod:`.verdicts`).
+    bin_correlation : float
+        Of the Welch window: the likelihood's tempering beside the reduced chi-square (:attr:`scale`).
     """
 
     lin: np.ndarray
@@ -129,11 +131,19 @@ class RowFit:
     columns: tuple[ColumnModel, ...]
     separation: Separation | None = None
     alternatives: tuple[WeightedFit, ...] = ()
+    bin_correlation: float = 1.0
 
     @property
     def scale(self) -> float:
-        """The reduced chi-square the likelihood is tempered by (>= 1)."""
-        return max(1.0, self.chi_square / self.dof)
+        """What the likelihood is tempered by: the reduced chi-square (>= 1) times the bin correlation.
+
+        The chi-square counts every bin as independent; neighbouring bins of a
+        Welch window repeat each other (``bin_correlation``, 1.94 for Hann), so
+        a chi-square difference between two delay vectors overstates the
+        evidence by that factor, as the information overstates the precision
+        (the covariance is inflated by the same factor).
+        """
+        return self.bin_correlation * max(1.0, self.chi_square / self.dof)
 
 
 def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
@@ -194,9 +204,9 @@ class RowData:
         (spectra without a record) fits without the leakage correction.
     row : int
         The output row of ``record``.
-    segments : int
-        Welch segments averaged (K), for the finite-segment bias correction
-        (:mod:`.bias`); 0 fits the equations as they are.
+    unbiased : bool
+        Whether the finite-segment bias of the instrumental equations is taken
+        out (:mod:`.bias`); False fits the equations as they are.
     """
 
     spectra: RowSpectra
@@ -208,21 +218,21 @@ class RowData:
     bin_correlation: float
     record: RecordSpectra | None = None
     row: int = 0
-    segments: int = 0
+    unbiased: bool = False
 
     def system(self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True) -> RowSystem:
         """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
 
         ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
         segments' leakage at the current fit (:func:`leakage_offset`).  With
-        ``segments`` known and ``debiased``, the finite-segment bias of the
+        ``unbiased`` and ``debiased``, the finite-segment bias of the
         instrumental equations is taken out (:mod:`.bias`).
         """
         noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
         weights = {"noise": noise, "bins": self.bins, "omega": self.omega, "equivalent_segments": self.equivalent_segments}
         system = row_system(spectra, self.factor, columns=self.columns, **weights)
-        if not debiased or not self.segments:
+        if not (debiased and self.unbiased):
             return system
         # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
         residual = residual_moments(self.spectra, self.factor, columns=self.columns, **weights)
@@ -230,7 +240,6 @@ class RowData:
             system,
             residual,
             instruments=int(self.factor.shape[1]),
-            segments=self.segments,
             equivalent_segments=self.equivalent_segments,
         )
 
@@ -381,7 +390,7 @@ def fit_row(
     p = len(columns) + searched.free_tau.size
     dof = max(1, second.components - p)
     params, cost = _search_delays(trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation)
-    searched_scale = max(1.0, cost / dof)
+    searched_scale = data.bin_correlation * max(1.0, cost / dof)
     # pass 3: the segments' leakage at the fit taken out of S_zy, gains and time constants refitted at the
     # chosen delays (the leakage moves with the fit: a second round follows it).  The delays' profile and
     # alternatives stay pass 2's: a correction made at one delay vector would favour it over the others.
@@ -405,4 +414,5 @@ def fit_row(
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),
+        bin_correlation=data.bin_correlation,
     )

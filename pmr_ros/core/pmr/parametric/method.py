@@ -102,7 +102,7 @@ def _fit(
         bin_correlation=spectra.settings.bin_correlation,
         record=spectra,
         row=i,
-        segments=spectra.segments,
+        unbiased=True,
     )
     columns = column_models(model, fitted, max_delay_samples=classic.max_delay_samples)
     fit = fit_row(
