@@ -24,17 +24,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ...sim.model import TransferMatrix
 from ..implicit import RowLayout
-from ..spectra import RecordSpectra, RowSpectra
-from .bias import residual_moments, without_instrument_bias
 from .lsq import RowParameters, RowProblem
 from .rank import first_pass
-from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem, noise_spectrum, row_system
+from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel, RowSystem
+from .rowdata import RowData
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
 from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
@@ -179,69 +178,6 @@ def column_models(model: TransferMatrix, layout: RowLayout, *, max_delay_samples
         pole = math.exp(-1.0 / tau)
         out.append(ColumnModel("ratio", pole, tau, (-tau_bound, tau_bound), delays, max_delay_samples < delay))
     return out
-
-
-@dataclass(frozen=True)
-class RowData:
-    """What a row's fit reads.
-
-    Attributes
-    ----------
-    spectra : RowSpectra
-    factor : ndarray, shape (F, n_z, n_z)
-        Cholesky factor of the instrument spectra.
-    columns : ndarray of int
-        The regressors that enter.
-    bins : ndarray of int
-        Frequency bins that enter the fit.
-    omega : ndarray, shape (F,)
-        All frequencies [rad/sample].
-    equivalent_segments : float
-    bin_correlation : float
-        Of the Welch window (:attr:`~pmr_ros.core.pmr.spectra.WelchSettings.bin_correlation`).
-    record : RecordSpectra or None
-        The record the spectra come from, for :func:`leakage_offset`; None
-        (spectra without a record) fits without the leakage correction.
-    row : int
-        The output row of ``record``.
-    unbiased : bool
-        Whether the finite-segment bias of the instrumental equations is taken
-        out (:mod:`.bias`); False fits the equations as they are.
-    """
-
-    spectra: RowSpectra
-    factor: np.ndarray
-    columns: np.ndarray
-    bins: np.ndarray
-    omega: np.ndarray
-    equivalent_segments: float
-    bin_correlation: float
-    record: RecordSpectra | None = None
-    row: int = 0
-    unbiased: bool = False
-
-    def system(self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True) -> RowSystem:
-        """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
-
-        ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
-        segments' leakage at the current fit (:func:`leakage_offset`).  With
-        ``unbiased`` and ``debiased``, the finite-segment bias of the
-        instrumental equations is taken out (:mod:`.bias`).
-        """
-        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
-        spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
-        weights = {"noise": noise, "bins": self.bins, "omega": self.omega, "equivalent_segments": self.equivalent_segments}
-        system = row_system(spectra, self.factor, columns=self.columns, **weights)
-        if not (debiased and self.unbiased):
-            return system
-        # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
-        residual = residual_moments(self.spectra, self.factor, columns=self.columns, **weights)
-        return without_instrument_bias(
-            system,
-            residual,
-            instruments=int(self.factor.shape[1]),
-            equivalent_segments=self.equivalent_segments,
-        )
 
 
 def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) -> np.ndarray:
