@@ -172,7 +172,7 @@ def test_a_routine_runs_bag_is_diagnosed_with_its_d_elements_as_the_record(tmp_p
 
 
 def test_rolling_windows_of_a_bag_carry_its_dvs_as_the_whole_bag_does(tmp_path):
-    """``diagnose BAG --window``: the bag read once (:func:`bag_record`) has the DV topic; each window the D elements."""
+    """``diagnose BAG --window``: the bag read once (:func:`bag_record`) has the DVs; each window its D elements."""
     import routine_loop
     import yaml
     from test_data_routine_diagnosis import DV_MODEL, DV_PLANT

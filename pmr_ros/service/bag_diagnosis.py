@@ -243,7 +243,7 @@ def _channels(bag: Bag, config: PmrConfig, namespace: str) -> tuple[dict[str, tu
 
 
 def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int, np.ndarray]]:
-    """Every r, u, y (and dv) message of the node set as ``(signal, sample, values)``, in the configured channel order."""
+    """Every r, u, y (and dv) message of the node set as ``(signal, sample, values)``, channels in configured order."""
     model = config.model
     names, by_topic = _channels(bag, config, namespace)
     placed = []
