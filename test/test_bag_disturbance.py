@@ -169,3 +169,52 @@ def test_a_routine_runs_bag_is_diagnosed_with_its_d_elements_as_the_record(tmp_p
     d11 = got.elements["D11"].parametric  # the plant's D11 gain is 20 % above the model's
     assert d11.verdict == "mismatch" and abs(d11.gain_mismatch_pct - 20.0) <= 3.0
     assert all(got.elements[name].verdict == "ok" for name in ("G11", "G12", "G21", "G22", "D12", "D21"))
+
+
+def test_rolling_windows_of_a_bag_carry_its_dvs_as_the_whole_bag_does(tmp_path):
+    """``diagnose BAG --window``: the bag read once (:func:`bag_record`) has the DVs; each window its D elements."""
+    import routine_loop
+    import yaml
+    from test_data_routine_diagnosis import DV_MODEL, DV_PLANT
+
+    from pmr_ros.config import config_dir, load_config
+    from pmr_ros.core.pmr.diagnosis import diagnose_stretches
+    from pmr_ros.service.bag_diagnosis import bag_record
+    from pmr_ros.service.monitoring import monitor
+
+    tree = yaml.safe_load((config_dir() / "wood_berry.yaml").read_text())
+    system = tree["/**"]["ros__parameters"]["system"]
+    system.update(
+        disturbance_names=list(DV_MODEL.input_names),
+        disturbance_gain=DV_MODEL.gain.ravel().tolist(),
+        disturbance_time_constant=np.nan_to_num(DV_MODEL.time_constant, nan=1.0).ravel().tolist(),
+        disturbance_delay=DV_MODEL.delay.ravel().tolist(),
+        disturbance_element_type=DV_MODEL.element_type.ravel().tolist(),
+    )
+    path = tmp_path / "with_dvs.yaml"
+    path.write_text(yaml.safe_dump(tree))
+    config = load_config(path)
+    assert config.disturbance_model is not None and config.disturbance_model.n_inputs == 2
+    samples = 8192
+    routine = routine_loop.Routine(dither=np.zeros(2), dv_amplitude=0.3, setpoint_steps=1.0)
+    record = routine_loop.routine_run(config, config.model, routine, samples=samples, seed=2, disturbances=DV_PLANT)
+    signals = {"setpoint": record.r, "manipulated_input": record.u, "measured_output": record.y}
+    signals["disturbance"] = record.dv
+    names = {**CHANNELS, "disturbance": DV_MODEL.input_names}
+    with BagWriter(tmp_path / "bag", topics={k: t for k, t in recorded_topics().items() if k in signals}) as writer:
+        for k in range(samples):
+            for key, values in signals.items():
+                writer.write_message(topic(key).resolved(), k * 10**9 + 1, _joint_state(k, values[k], names[key]))
+    data, judged = bag_record(open_bag(tmp_path / "bag"), str(path))
+    np.testing.assert_allclose(data.signals["dv"], record.dv, rtol=0, atol=1e-12)
+    assert data.usable.all()
+    found = monitor(data, judged, window=samples, step=samples, jobs=1)
+    (only,) = found.windows
+    direct = diagnose_stretches(
+        data.stretches(), model=config.model, pmr=config.pmr, parametric=config.parametric, disturbance_model=DV_MODEL
+    )
+    assert list(only["elements"]) == list(direct.elements) and "D11" in only["elements"]
+    for name, theirs in direct.elements.items():
+        assert only["elements"][name]["verdict"] == theirs.verdict, name
+    d11 = only["elements"]["D11"]["parametric"]  # the plant's D11 gain is 20 % above the model's
+    assert d11["verdict"] == "mismatch" and abs(d11["gain_mismatch_pct"] - 20.0) <= 3.0

@@ -122,3 +122,37 @@ def test_the_samples_needed_before_simulating_are_the_checks_own_rule(wood_berry
     check_stretches([record(need)], model=model, welch=welch)
     with pytest.raises(InsufficientData, match=f"give 3 Welch segments of 512, need 4 \\({need} unbroken samples\\)"):
         check_stretches([record(need - 1)], model=model, welch=welch)
+
+
+def test_the_samples_needed_count_what_moves_not_every_setpoint():
+    """A zone CV, a DV that stands still, dither and manual stretches: the instruments the run's record will have."""
+    from pmr_ros.core.records import moving_instruments
+    from pmr_ros.core.sim.augment import augmented_record
+    from pmr_ros.core.sim.closed_loop import simulate
+    from pmr_ros.core.sim.footprint import planned_instruments
+
+    config = load_config(
+        overrides={
+            "system": {
+                "disturbance_names": ["feed", "feed_comp"],
+                "disturbance_gain": [3.0, 2.0, 1.5, 1.0],
+                "disturbance_time_constant": [12.0, 8.0, 9.0, 6.0],
+                "disturbance_delay": [2.0, 1.0, 3.0, 2.0],
+            },
+            "disturbance_signal": {"amplitude": [0.1, 0.0]},
+            "mpc": {"output_mode": ["setpoint", "zone"], "output_low": [-np.inf, -1.0], "output_high": [np.inf, 1.0]},
+            "excitation": {"mv_dither_amplitude": [0.2, 0.0]},
+            "run": {"manual_stretches": [[300, 400, 1], [900, 300, 1]]},
+        }
+    )
+    # x_D's setpoint, reflux's dither, feed (feed_comp stands still), steam in manual; x_B is a zone CV
+    assert planned_instruments(config) == 4
+    record = simulate(config, samples=1500, seed=3)
+    moving = moving_instruments([augmented_record(record, 2)])
+    assert moving.count == planned_instruments(config)
+    welch = config.parametric.welch(config.model, 16384, config.pmr)
+    settling, segment = config.model.settling_samples(), welch.segment_length
+    assert samples_needed(config.model, welch, instruments=4) == settling + segment + 7 * welch.step
+    # the default still counts every setpoint and the dithered inputs
+    assert samples_needed(config.model, welch, dithered_inputs=1) == settling + segment + 5 * welch.step
+    assert planned_instruments(load_config()) == 2

@@ -136,8 +136,11 @@ def test_d_elements_get_verdicts_like_g_elements(with_dvs):
     d11 = d.elements["D11"].parametric
     assert d11.verdict == "mismatch" and abs(d11.gain_mismatch_pct - 20.0) <= GAIN_PP
     assert d11.instrument_shares["dv_feed"] > 0.5
-    for name in ("D12", "D21", "G12", "G21", "G22"):
+    for name in ("D12", "G12", "G21", "G22"):
         assert d.elements[name].verdict == "ok", (name, d.elements[name].summary())
+    # D21 (the row's least excited element) keeps its delay with 94 % once the likelihood is tempered by the
+    # Welch bins' correlation (the 95 % needed): never a mismatch, ok when the data decide it
+    assert d.elements["D21"].verdict in ("ok", "inconclusive"), d.elements["D21"].summary()
     assert abs(d.elements["G11"].parametric.gain_mismatch_pct - 10.0) <= GAIN_PP
     d22 = d.elements["D22"].parametric
     assert d22.unmodeled_verdict == "mismatch"  # the empty DV cell's real effect: an unmodeled interaction

@@ -59,15 +59,14 @@ def run_samples_shortfall(config, *, samples: int) -> str | None:
     """
     from ..core.pmr.checks import segments_needed
     from ..core.pmr.diagnosis import method_welch
-    from ..core.sim.footprint import samples_needed
+    from ..core.sim.footprint import planned_instruments, samples_needed
 
     model = config.model
     welch = method_welch(samples, model=model, pmr=config.pmr, parametric=config.parametric)
-    dithered = int((config.excitation.mv_dither_amplitude > 0).sum())
-    needed = samples_needed(model, welch, dithered_inputs=dithered)
+    instruments = planned_instruments(config)
+    needed = samples_needed(model, welch, instruments=instruments)
     if samples >= needed:
         return None
-    instruments = model.n_outputs + dithered
     return (
         f"window too short, known before simulating: {samples} samples for a {model.n_outputs}x{model.n_inputs} "
         f"model; its diagnosis needs at least {needed} ({model.settling_samples()} of settling, then "

@@ -203,11 +203,7 @@ def window_signals(bag: Bag, result: OfflineResult) -> tuple[dict[str, np.ndarra
         return None
     model = result.config.model
     first, samples = int(window["first_sample"]), int(window["window_samples"])
-    names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
-    by_topic = {topic(SIGNAL_TOPICS[s]).resolved(result.namespace): s for s in names}
-    dv = disturbance_topic(bag, result.config, result.namespace)
-    if dv is not None:
-        names["dv"], by_topic[dv] = config_disturbances(result.config), "dv"
+    names, by_topic = _channels(bag, result.config, result.namespace)
     signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
@@ -235,11 +231,21 @@ def window_data(bag: Bag, result: OfflineResult) -> tuple[PlantData, list[Record
     return data, [Record(window["r"], window["u"], window["y"], dither, window.get("dv"))]
 
 
-def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int, np.ndarray]]:
-    """Every r, u, y message of the node set as ``(signal, sample, values)``, in the model's channel order."""
+def _channels(bag: Bag, config: PmrConfig, namespace: str) -> tuple[dict[str, tuple[str, ...]], dict[str, str]]:
+    """The channels of each signal the bag gives (r, u, y and, when configured and recorded, dv) and their topics."""
     model = config.model
     names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
     by_topic = {topic(SIGNAL_TOPICS[s]).resolved(namespace): s for s in names}
+    dv = disturbance_topic(bag, config, namespace)
+    if dv is not None:
+        names["dv"], by_topic[dv] = config_disturbances(config), "dv"
+    return names, by_topic
+
+
+def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int, np.ndarray]]:
+    """Every r, u, y (and dv) message of the node set as ``(signal, sample, values)``, channels in configured order."""
+    model = config.model
+    names, by_topic = _channels(bag, config, namespace)
     placed = []
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
@@ -252,10 +258,13 @@ def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int,
 def bag_record(
     bag: Bag, config_path: str | None = None, method: str | None = None, *, namespace: str | None = None
 ) -> tuple[PlantData, PmrConfig]:
-    """The bag's whole r, u, y (and dither) on the sample grid, read once, and the configuration to judge it with.
+    """The bag's whole r, u, y (dither, DVs) on the sample grid, read once, and the configuration to judge it with.
 
     Each message goes to the sample its stamp names (as the aligner places
-    it); a sample no message filled is missing.  Sample 0 of the data is the
+    it); a sample no message filled is missing.  The measured disturbances
+    come in when the configuration declares them and the bag holds their
+    topic (:func:`~pmr_ros.bag.disturbances.disturbance_topic`), as in the
+    whole-bag replay: every sample then needs them.  Sample 0 of the data is the
     first stamped sample; ``start`` is its time (ISO, from the stamps).
 
     Raises
@@ -272,8 +281,8 @@ def bag_record(
     first = min(k for _, k, _ in placed)
     samples = max(k for _, k, _ in placed) - first + 1
     model = config.model
-    widths = {"r": model.n_outputs, "u": model.n_inputs, "y": model.n_outputs}
-    signals = {s: np.full((samples, n), np.nan) for s, n in widths.items()}
+    names, _ = _channels(bag, config, namespace)
+    signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
     for signal, k, values in placed:
         signals[signal][k - first] = values
     dither = window_dither(config, first, samples)

@@ -65,7 +65,9 @@ def window_stretches(job: WindowJob, first: int, last: int, *, deviations: bool 
         part = {key: values[a:b] for key, values in job.data.signals.items()}
         if deviations:
             part = {key: values - values.mean(axis=0) for key, values in part.items()}
-        out.append(Record(part["r"], part["u"], part["y"], part.get("dither")))
+        manual = None if job.data.manual is None else job.data.manual[a:b]
+        manual = manual if manual is not None and manual.any() else None
+        out.append(Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual))
     return out
 
 
@@ -81,6 +83,7 @@ def diagnose_window(job: WindowJob, span: tuple[int, int]) -> Diagnosis:
         parametric=config.parametric,
         quality=quality,
         as_read=window_stretches(job, first, last, deviations=False),
+        disturbance_model=config.disturbance_model,
     )
 
 

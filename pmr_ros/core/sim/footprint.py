@@ -13,11 +13,14 @@ killed after a minute.
 
 :func:`samples_needed` is the shortest record the diagnosis accepts
 (:func:`~pmr_ros.core.pmr.checks.check_stretches`: twice as many Welch segments
-as instruments): a 64x64 model needs 33,000 samples, known before a 74 s
-simulation of 16,384 finds it out.
+as instruments, the external signals that move: :func:`planned_instruments`):
+a 64x64 model needs 33,000 samples, known before a 74 s simulation of 16,384
+finds it out.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,12 +29,16 @@ from ..pmr.spectra import WelchSettings
 from .memory import simulation_bytes
 from .model import TransferMatrix
 
+if TYPE_CHECKING:
+    from .closed_loop import LoopConfig
+
 __all__ = [
     "PREDICTION_COPIES",
     "REALIZATION_COPIES",
     "controller_bytes",
     "impact_bytes",
     "model_bytes",
+    "planned_instruments",
     "realization_bytes",
     "samples_needed",
     "states",
@@ -99,7 +106,9 @@ def impact_bytes(
     return loop + simulation_bytes(model, samples)
 
 
-def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0) -> int:
+def samples_needed(
+    model: TransferMatrix, welch: WelchSettings, *, dithered_inputs: int = 0, instruments: int | None = None
+) -> int:
     """The fewest unbroken samples the diagnosis of ``model`` accepts with ``welch``'s segments.
 
     The model's settling, then ``max(4, 2 n_instruments)`` Welch segments: the
@@ -111,6 +120,32 @@ def samples_needed(model: TransferMatrix, welch: WelchSettings, *, dithered_inpu
     model : TransferMatrix
     welch : WelchSettings
     dithered_inputs : int
-        Inputs whose MV dither joins the setpoints as instruments.
+        Inputs whose MV dither joins the setpoints as instruments (without ``instruments``).
+    instruments : int, optional
+        The external signals that move in the run (:func:`planned_instruments`);
+        default: every setpoint and the dithered inputs.
     """
-    return unbroken_samples_needed(model, welch, instruments=model.n_outputs + int(dithered_inputs))
+    if instruments is None:
+        instruments = model.n_outputs + int(dithered_inputs)
+    return unbroken_samples_needed(model, welch, instruments=int(instruments))
+
+
+def planned_instruments(config: LoopConfig) -> int:
+    """The instruments a simulated run of ``config`` will have: the external signals that move in it.
+
+    The setpoints the setpoint generator moves (a zone CV's stays at nominal;
+    an amplitude of 0 moves nothing), the dithered MVs, the DVs that move
+    (with a DV model) and the MVs put in manual (``run.manual_stretches``):
+    what :func:`~pmr_ros.core.records.moving_instruments` will count in the record.
+    """
+    prbs, n_out = config.prbs, config.model.n_outputs
+    size = prbs.amplitude if prbs.mode == "prbs" or prbs.step_amplitude is None else prbs.step_amplitude
+    zone = np.asarray(config.mpc.zone_outputs, dtype=bool)
+    zone = zone if zone.size == n_out else np.zeros(n_out, dtype=bool)
+    setpoints = int(np.sum((np.broadcast_to(np.asarray(size, dtype=float), (n_out,)) > 0) & ~zone))
+    dithered = int(np.sum(np.asarray(config.excitation.mv_dither_amplitude, dtype=float) > 0))
+    moving_dvs = 0
+    if config.disturbance_model is not None:
+        moving_dvs = int(np.sum(np.asarray(config.disturbance_signal.amplitude, dtype=float) > 0))
+    manual = len({mv for _, length, mv in config.manual.stretches if length > 0})
+    return setpoints + dithered + moving_dvs + manual

@@ -24,15 +24,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..spectra import RecordSpectra, RowSpectra
 from .lsq import RowParameters, RowProblem
 from .parameterization import column_models, interaction_delay_range
 from .rank import first_pass
-from .ratio import ColumnModel, RowSystem, noise_spectrum, row_system
+from .ratio import ColumnModel, RowSystem
+from .rowdata import RowData
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
 from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
@@ -118,7 +118,9 @@ class RowFit:
         free estimate, its fitted delay's phase taken off: the gain ratio
         whatever the plant's shape) and its standard deviation; None: not kept.
     bin_correlation : float
-        Of the Welch window the spectra were averaged with (1: bins independent).
+        Of the Welch window (1: bins independent): the likelihood's tempering
+        beside the reduced chi-square (:attr:`scale`), and the correlation
+        :attr:`misfit_z` counts.
     """
 
     lin: np.ndarray
@@ -139,8 +141,15 @@ class RowFit:
 
     @property
     def scale(self) -> float:
-        """The reduced chi-square the likelihood is tempered by (>= 1)."""
-        return max(1.0, self.chi_square / self.dof)
+        """What the likelihood is tempered by: the reduced chi-square (>= 1) times the bin correlation.
+
+        The chi-square counts every bin as independent; neighbouring bins of a
+        Welch window repeat each other (``bin_correlation``, 1.94 for Hann), so
+        a chi-square difference between two delay vectors overstates the
+        evidence by that factor, as the information overstates the precision
+        (the covariance is inflated by the same factor).
+        """
+        return self.bin_correlation * max(1.0, self.chi_square / self.dof)
 
     @property
     def misfit_z(self) -> float:
@@ -154,60 +163,6 @@ class RowFit:
         whose elements' own lack of fit (1.2-2.8) stays below ``lack_of_fit_max``.
         """
         return (self.chi_square / self.dof - 1.0) / math.sqrt(2.0 * self.bin_correlation / self.dof)
-
-
-@dataclass(frozen=True)
-class RowData:
-    """What a row's fit reads.
-
-    Attributes
-    ----------
-    spectra : RowSpectra
-    factor : ndarray, shape (F, n_z, n_z)
-        Cholesky factor of the instrument spectra.
-    columns : ndarray of int
-        The regressors that enter.
-    bins : ndarray of int
-        Frequency bins that enter the fit.
-    omega : ndarray, shape (F,)
-        All frequencies [rad/sample].
-    equivalent_segments : float
-    bin_correlation : float
-        Of the Welch window (:attr:`~pmr_ros.core.pmr.spectra.WelchSettings.bin_correlation`).
-    record : RecordSpectra or None
-        The record the spectra come from, for :func:`leakage_offset`; None
-        (spectra without a record) fits without the leakage correction.
-    row : int
-        The output row of ``record``.
-    """
-
-    spectra: RowSpectra
-    factor: np.ndarray
-    columns: np.ndarray
-    bins: np.ndarray
-    omega: np.ndarray
-    equivalent_segments: float
-    bin_correlation: float
-    record: RecordSpectra | None = None
-    row: int = 0
-
-    def system(self, theta: np.ndarray, offset: np.ndarray | None = None) -> RowSystem:
-        """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
-
-        ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
-        segments' leakage at the current fit (:func:`leakage_offset`).
-        """
-        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
-        spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
-        return row_system(
-            spectra,
-            self.factor,
-            columns=self.columns,
-            noise=noise,
-            bins=self.bins,
-            omega=self.omega,
-            equivalent_segments=self.equivalent_segments,
-        )
 
 
 def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) -> np.ndarray:
@@ -370,7 +325,7 @@ def fit_row(
     p = len(columns) + searched.free_tau.size
     dof = max(1, second.components - p)
     params, cost = _search_delays(trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation)
-    searched_scale = max(1.0, cost / dof)
+    searched_scale = data.bin_correlation * max(1.0, cost / dof)
     # pass 3: the segments' leakage at the fit taken out of S_zy, gains and time constants refitted at the
     # chosen delays (the leakage moves with the fit: a second round follows it).  The delays' profile and
     # alternatives stay pass 2's: a correction made at one delay vector would favour it over the others.
@@ -390,7 +345,7 @@ def fit_row(
         chi_square=cost,
         dof=dof,
         delay_profile=joint_profiles(trials, params),
-        lack_of_fit=_lack_of_fit(first, problem, params),
+        lack_of_fit=_lack_of_fit(data.system(theta_start, debiased=False), problem, params),
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),

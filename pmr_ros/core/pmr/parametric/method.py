@@ -10,7 +10,7 @@ likelihood of the chosen ``dD`` against its neighbours, on the same scale.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -102,11 +102,16 @@ def _fit(
         bin_correlation=spectra.settings.bin_correlation,
         record=spectra,
         row=i,
+        unbiased=True,
     )
     columns = column_models(model, fitted, max_delay_samples=classic.max_delay_samples)
-    fit = fit_row(
-        data, columns, theta_start=estimate.ratio[:, kept], joint_correlation=settings.joint_delay_correlation
-    )
+    start, joint = estimate.ratio[:, kept], settings.joint_delay_correlation
+    fit = fit_row(data, columns, theta_start=start, joint_correlation=joint)
+    if not np.all(fit.lack_of_fit <= settings.lack_of_fit_max):
+        # the bias correction takes what lies outside the instruments for noise; where the corrected fit leaves the
+        # data, that part held more (the segments' leakage of strongly excited inputs, whose instruments are strong
+        # and whose bias is small): the equations as they are
+        fit = fit_row(replace(data, unbiased=False), columns, theta_start=start, joint_correlation=joint)
     return _FittedRow(layout, estimate, quality, fit, fitted.columns, shares)
 
 

@@ -62,6 +62,7 @@ __all__ = [
     "TAU_RATIO_BOUND",
     "ColumnModel",
     "RowSystem",
+    "bin_scale",
     "noise_spectrum",
     "ratio_shape",
     "row_system",
@@ -254,6 +255,15 @@ class RowSystem:
         return theta, variance
 
 
+def bin_scale(noise: np.ndarray, *, bins: np.ndarray, omega: np.ndarray, equivalent_segments: float) -> np.ndarray:
+    """What whitens a row's equations to unit-variance real components at each of ``bins``, shape (F',).
+
+    ``sqrt(2 M / Phi_v)``; a real (DC) bin has its whole variance in the real part: half the factor 2.
+    """
+    scale = np.sqrt(2.0 * equivalent_segments / noise[bins])
+    return np.where(omega[bins] == 0.0, scale / np.sqrt(2.0), scale)
+
+
 def row_system(
     spectra: RowSpectra,
     factor: np.ndarray,
@@ -282,9 +292,7 @@ def row_system(
     equivalent_segments : float
     """
     L = factor[bins]
-    scale = np.sqrt(2.0 * equivalent_segments / noise[bins])
-    # a real (DC) bin has its whole variance in the real part: half the factor 2
-    scale = np.where(omega[bins] == 0.0, scale / np.sqrt(2.0), scale)
+    scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=equivalent_segments)
     b = np.linalg.solve(L, spectra.zy[bins][:, :, None])[:, :, 0] * scale[:, None]
     A = np.linalg.solve(L, spectra.zx[bins][:, :, columns]) * scale[:, None, None]
     return RowSystem(

@@ -1,0 +1,97 @@
+"""What one row's fit reads (:class:`RowData`) and its whitened equations at given weights.
+
+The equations are :func:`~.ratio.row_system`'s, with the segments' leakage
+taken out where the fit gives it (:func:`~.fit.leakage_offset`) and the
+finite-segment bias of the instruments removed (:mod:`.bias`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..spectra import RecordSpectra, RowSpectra
+from .bias import residual_moments, without_instrument_bias
+from .ratio import RowSystem, noise_spectrum, row_system
+
+__all__ = ["RowData"]
+
+
+@dataclass(frozen=True)
+class RowData:
+    """What a row's fit reads.
+
+    Attributes
+    ----------
+    spectra : RowSpectra
+    factor : ndarray, shape (F, n_z, n_z)
+        Cholesky factor of the instrument spectra.
+    columns : ndarray of int
+        The regressors that enter.
+    bins : ndarray of int
+        Frequency bins that enter the fit.
+    omega : ndarray, shape (F,)
+        All frequencies [rad/sample].
+    equivalent_segments : float
+    bin_correlation : float
+        Of the Welch window (:attr:`~pmr_ros.core.pmr.spectra.WelchSettings.bin_correlation`).
+    record : RecordSpectra or None
+        The record the spectra come from, for :func:`~.fit.leakage_offset`; None
+        (spectra without a record) fits without the leakage correction.
+    row : int
+        The output row of ``record``.
+    unbiased : bool
+        Whether the finite-segment bias of the instrumental equations is taken
+        out (:mod:`.bias`); False fits the equations as they are.
+    """
+
+    spectra: RowSpectra
+    factor: np.ndarray
+    columns: np.ndarray
+    bins: np.ndarray
+    omega: np.ndarray
+    equivalent_segments: float
+    bin_correlation: float
+    record: RecordSpectra | None = None
+    row: int = 0
+    unbiased: bool = False
+
+    def system(self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True) -> RowSystem:
+        """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
+
+        ``offset`` (F, n_z), when given, is taken from ``S_{z y}`` first: the
+        segments' leakage at the current fit (:func:`~.fit.leakage_offset`).  With
+        ``unbiased`` and ``debiased``, the finite-segment bias of the
+        instrumental equations is taken out (:mod:`.bias`).
+        """
+        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
+        spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
+        bins, omega, segments = self.bins, self.omega, self.equivalent_segments
+        system = row_system(
+            spectra,
+            self.factor,
+            columns=self.columns,
+            noise=noise,
+            bins=bins,
+            omega=omega,
+            equivalent_segments=segments,
+        )
+        if not (debiased and self.unbiased):
+            return system
+        # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
+        residual = residual_moments(
+            self.spectra,
+            self.factor,
+            columns=self.columns,
+            noise=noise,
+            bins=bins,
+            omega=omega,
+            equivalent_segments=segments,
+        )
+        return without_instrument_bias(
+            system,
+            residual,
+            instruments=int(self.factor.shape[1]),
+            equivalent_segments=self.equivalent_segments,
+        )
