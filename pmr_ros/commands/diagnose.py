@@ -252,6 +252,8 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
             result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None), notes=notes
         )
         report = offline_report(result, bag, diagnosis)
+        if notes:
+            report["impact_note"] = " ".join(notes)
     except BagError as exc:
         raise CommandError(str(exc)) from None
     sys.stdout.write(format_table(diagnosis, report))

@@ -47,6 +47,7 @@ def build_report(
         "scenario": scenario,
         "seed": seed,
         "sample_time": config.model.sample_time,
+        "controller": config.controller.kind,
         "settings": {
             "pmr": asdict(config.pmr),
             "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None,

@@ -57,9 +57,11 @@ TEMPLATE = """<!DOCTYPE html>
 
 {% if impact %}
 <h2 id="impact">Which mismatch matters for control</h2>
-<p class="note">The configured MPC simulated (noise-free, the configured setpoint excitation) on the plant as
+<p class="note">The {{ "configured PI loops" if report.get("controller") == "pi" else "configured MPC" }} simulated
+ (noise-free, the configured setpoint excitation) on the plant as
  estimated, against the same loop on the plant as modelled: the ratio of the integrated squared tracking error (ISE)
- and of the squared input moves, both weighted as the MPC weighs them. 1 means the mismatch does not matter for
+ and of the squared input moves, {{ "every controlled CV and every MV alike" if report.get("controller") == "pi"
+ else "both weighted as the MPC weighs them" }}. 1 means the mismatch does not matter for
  control; the estimates stand for the plant, their intervals are not propagated.</p>
 <table><tr><th>rank</th><th>element</th><th>ISE ratio, this mismatch alone</th><th>input moves ratio</th></tr>
 {% for row in impact %}<tr><td>{{ row.rank }}</td><td><a href="#{{ row.name }}">{{ row.name }}</a></td>
@@ -67,6 +69,9 @@ TEMPLATE = """<!DOCTYPE html>
 {% if impact_all %}<tr><td></td><td>all together</td><td>{{ "%.2f"|format(impact_all.ise_ratio) }}</td>
  <td>{{ "%.2f"|format(impact_all.input_movement_ratio) }}</td></tr>{% endif %}
 </table>
+{% elif report.get("impact_note") %}
+<h2 id="impact">Which mismatch matters for control</h2>
+<p class="note">{{ report.impact_note }}</p>
 {% endif %}
 
 <h2 id="elements">Element by element</h2>

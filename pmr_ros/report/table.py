@@ -65,12 +65,17 @@ def _impact(impact: ImpactResult | None) -> str:
     return f"x{impact.ise_ratio:.2f} (#{impact.rank})" if impact.rank else f"x{impact.ise_ratio:.2f}"
 
 
-def _impact_lines(diagnosis: Diagnosis) -> list[str]:
+CONTROLLERS = {"mpc": "configured MPC", "pi": "configured PI loops"}
+"""The simulated controller of the impact in words, by ``controller.kind``."""
+
+
+def _impact_lines(diagnosis: Diagnosis, controller: str = "mpc") -> list[str]:
     together = diagnosis.impact
     if together is None:
         return []
     return [
-        f"control impact (configured MPC, noise-free, plant as estimated vs as modelled): all together ISE "
+        f"control impact ({CONTROLLERS.get(controller, controller)}, noise-free, plant as estimated vs as modelled): "
+        "all together ISE "
         f"x{together.ise_ratio:.2f}, input moves x{together.input_movement_ratio:.2f}; "
         "per element: ISE ratio with that mismatch alone (#1 matters most)"
     ]
@@ -95,10 +100,13 @@ def _notes(element: ElementDiagnosis, result: ClassicResult | ParametricResult |
     return [f"{element.name}: {text}" for text in texts]
 
 
-def format_parametric_table(diagnosis: Diagnosis, *, confidence_level: float, injected: Injected | None = None) -> str:
+def format_parametric_table(
+    diagnosis: Diagnosis, *, confidence_level: float, injected: Injected | None = None, controller: str = "mpc"
+) -> str:
     """The parametric method's table: estimates with intervals and verdicts, then the reasons.
 
-    ``confidence_level`` of the intervals [0..1]; ``injected`` adds the truth of a simulated run.
+    ``confidence_level`` of the intervals [0..1]; ``injected`` adds the truth of a simulated run;
+    ``controller`` (``controller.kind``) names the controller the impact simulated.
     """
     level = 100 * confidence_level
     cols = (
@@ -116,7 +124,7 @@ def format_parametric_table(diagnosis: Diagnosis, *, confidence_level: float, in
         lines.append(
             "no model: an empty cell; K [interval] and delay of the plant's interaction there (! one the model lacks)"
         )
-    lines += _impact_lines(diagnosis)
+    lines += _impact_lines(diagnosis, controller)
     lines += notes
     return "\n".join(lines) + "\n"
 
@@ -179,7 +187,9 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
     injected = report.get("injected")
     if diagnosis.method == "parametric":
         level = report["settings"]["parametric"]["confidence_level"]
-        body = format_parametric_table(diagnosis, confidence_level=level, injected=injected)
+        body = format_parametric_table(
+            diagnosis, confidence_level=level, injected=injected, controller=report.get("controller", "mpc")
+        )
     else:
         body = format_classic_table(diagnosis, injected=injected)
     return f"{head}\n\n{body}"

@@ -29,6 +29,7 @@ from ..bag.offline import (
 from ..bag.reader import Bag
 from ..bag.storage import BagError
 from ..config import PmrConfig
+from ..config.controller_block import foreign_controller
 from ..config.schema import parameter
 from ..contract.layout import read_signal
 from ..contract.samples import sample_index
@@ -291,6 +292,8 @@ def _checked_config(
     namespace = bag_namespace(bag) if namespace is None else namespace
     bag.require(required_topics(namespace))
     config, origin = bag_configuration(bag, config_path)
+    if origin != "bag" and bag.run_config() is None:  # another controller's bag: not this tool's MPC
+        config = foreign_controller(config)
     check_system(bag, config, origin, namespace)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))
