@@ -142,7 +142,7 @@ def diagnose_table(args: argparse.Namespace) -> int:
     if found.notes:
         report["impact_note"] = " ".join(found.notes)
     if diagnosis.status == "ok":
-        sys.stdout.write(format_table(diagnosis, report))
+        sys.stdout.write(format_table(diagnosis, report, wide=args.wide))
         _print_cleaning(data)
         for note in found.notes:
             print(f"note: {note}")

@@ -129,6 +129,7 @@ def _model(v: _Values) -> TransferMatrix:
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
     v.shape = Shape(len(outputs), len(inputs), len(disturbance_names(v, inputs)))
+    _ = [v[f"system.{key}"] for key in ("output_units", "input_units", "disturbance_units", "time_unit")]  # checked
     return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
 
 

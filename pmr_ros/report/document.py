@@ -12,6 +12,8 @@ from ..config import PmrConfig
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
 from ..outputs import write_text
+from .absolute import model_and_plant
+from .system_units import units_of
 
 __all__ = ["build_report", "injected_mismatch", "write_json"]
 
@@ -36,7 +38,9 @@ def build_report(
 
     The diagnosis's JSON form (:func:`~pmr_ros.core.results.codec.diagnosis_to_json`:
     status, reason, samples, method, ``elements``) with the tool, command, system,
-    settings and, for simulated runs, the ``injected`` truth.
+    settings, the system's ``units``, per element ``model_vs_plant`` (absolute K,
+    tau, D of the model and of the estimated plant, :mod:`.absolute`) and, for
+    simulated runs, the ``injected`` truth.
     """
     report: dict[str, Any] = {
         "tool": "pmr_ros",
@@ -54,6 +58,11 @@ def build_report(
         },
     }
     report.update(diagnosis_to_json(diagnosis))
+    units = units_of(config)
+    report["units"] = units.to_json(config.model.output_names, config.model.input_names)
+    values = model_and_plant(diagnosis, units=units, sample_time=config.model.sample_time)
+    for name, entry in report["elements"].items():
+        entry["model_vs_plant"] = values[name]  # absolute K, tau, D of the model and the estimated plant, in units
     if scenario is not None:
         report["injected"] = injected_mismatch(config, scenario)
     return report

@@ -23,8 +23,10 @@ from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
 from ..outputs import write_bytes, write_text
+from .absolute import absolute_table
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
+from .system_units import units_of
 
 __all__ = ["Figure", "ReportInput", "element_notes", "render_page", "write_html_report"]
 
@@ -95,6 +97,16 @@ def impact_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda row: row["rank"])
 
 
+def _with_units(config: PmrConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The CV and MV names with their units for the axes (``x_D [mol %]``); a name without a unit as it is."""
+    units, model = units_of(config), config.model
+
+    def label(names: tuple[str, ...], given: tuple[str, ...]) -> tuple[str, ...]:
+        return tuple(f"{n} [{u}]" if u else n for n, u in zip(names, given, strict=True))
+
+    return label(model.output_names, units.outputs), label(model.input_names, units.inputs)
+
+
 def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, Any], Figure | None]]]:
     model = page.config.model
     matrix = Figure(
@@ -102,7 +114,7 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
     )
     timeline = Figure(
         "time.png",
-        time_figure(page.data, model.output_names, model.input_names),
+        time_figure(page.data, *_with_units(page.config)),
         "Setpoints r and outputs y per CV, inputs u per MV; shaded: samples excluded from the diagnosis",
     )
     curves = pmr_curves(page.stretches, page.diagnosis, page.config)
@@ -114,7 +126,11 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
         if element.name in curves:
             caption = f"{element.name}: plant-model ratio against frequency"
             figure = Figure(f"{element.name}.png", element_figure(curves[element.name], element), caption)
-        elements.append((element_notes(element), figure))
+        notes = element_notes(element)
+        values = page.report.get("elements", {}).get(element.name, {}).get("model_vs_plant")
+        level = page.config.parametric.confidence_level
+        notes["absolute"] = None if values is None else absolute_table(values, confidence_level=level)
+        elements.append((notes, figure))
     return matrix, timeline, elements
 
 
@@ -134,6 +150,7 @@ def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: l
     report = page.report
     return environment.from_string(TEMPLATE).render(
         title=f"PMR diagnosis: {report.get('system') or 'system'}",
+        sample_time=units_of(page.config).time_text(page.config.model.sample_time),
         report=report,
         diagnosis=page.diagnosis,
         counts=_counts(page.diagnosis),

@@ -36,7 +36,7 @@ TEMPLATE = """<!DOCTYPE html>
 <p class="meta">
  {{ report.get("source", report.get("config")) }} &middot; method {{ diagnosis.method }} &middot;
  {{ diagnosis.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
- sample time {{ report.sample_time }} (model time unit) &middot; pmr_ros {{ report.version }}
+ sample time {{ sample_time }} &middot; pmr_ros {{ report.version }}
 </p>
 {% if report.get("windows") %}
 <p class="note">The last of {{ report.windows|length }} rolling windows ({{ report.monitor.window }} stepped by
@@ -88,6 +88,10 @@ TEMPLATE = """<!DOCTYPE html>
  {% if notes.impact %}<p>Control impact of this mismatch alone: ISE &times;{{ "%.2f"|format(notes.impact.ise_ratio) }},
  input moves &times;{{ "%.2f"|format(notes.impact.input_movement_ratio) }}
  (rank {{ notes.impact.rank }}).</p>{% endif %}
+ {% if notes.absolute %}<table class="absolute">
+ <tr>{% for h in notes.absolute.header %}<th>{{ h }}</th>{% endfor %}</tr>
+ {% for row in notes.absolute.rows %}<tr><td>{{ row[0] }}</td>{% for cell in row[1:] %}<td class="num">{{ cell }}</td>
+ {% endfor %}</tr>{% endfor %}</table>{% endif %}
  {% if notes.reasons %}<p>Why the data cannot tell (add excitation here):</p>
  <ul class="reasons">{% for reason in notes.reasons %}<li>{{ reason }}</li>{% endfor %}</ul>{% endif %}
  {% if notes.warnings %}<ul class="warnings">{% for warning in notes.warnings %}<li>{{ warning }}</li>{% endfor %}</ul>

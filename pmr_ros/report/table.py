@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ImpactResult, ParametricResult
+from .absolute import model_and_plant_rows
 
 __all__ = ["format_classic_table", "format_parametric_table", "format_table", "grouped_notes", "summary_line"]
 
@@ -221,7 +222,7 @@ def format_classic_table(diagnosis: Diagnosis, *, injected: Injected | None = No
     return "\n".join(lines) + "\n"
 
 
-def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
+def format_table(diagnosis: Diagnosis, report: Mapping[str, Any], *, wide: bool = False) -> str:
     """The verdict table of a diagnosis, one line per element, headed by what was diagnosed.
 
     Parameters
@@ -231,7 +232,9 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
     report : mapping
         The JSON report of it (:func:`pmr_ros.report.build_report`), read for the heading only:
         ``system``, ``command``, ``source`` or ``scenario``/``seed``, ``settings.parametric.confidence_level``
-        and ``injected``.
+        and ``injected``; with ``wide`` each element's ``model_vs_plant``.
+    wide : bool
+        Also the table of the model's and the estimated plant's K, tau and D side by side (``--wide``).
     """
     origin = report.get("source") or f"scenario {report['scenario']}, seed {report['seed']}"
     head = (
@@ -248,4 +251,8 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
         )
     else:
         body = format_classic_table(diagnosis, injected=injected)
+    if wide and diagnosis.method == "parametric":
+        values = {name: e["model_vs_plant"] for name, e in report["elements"].items() if "model_vs_plant" in e}
+        level = report["settings"]["parametric"]["confidence_level"]
+        body += "\n" + "\n".join(model_and_plant_rows(values, confidence_level=level)) + "\n"
     return f"{head}\n\n{body}{summary_line(diagnosis)}\n"
