@@ -205,7 +205,8 @@ def test_a_bags_report_has_every_element(capsys, tmp_path):
     code, out, _ = _run(capsys, ["diagnose", str(REFERENCE), "--report", str(tmp_path / "bag")])
     assert code == 0 and "report: " in out
     names = sorted(p.name for p in (tmp_path / "bag" / "figures").iterdir())
-    assert names == ["G11.png", "G12.png", "G21.png", "G22.png", "matrix.png", "time.png"]
+    # the bag was diagnosed with the classic method: no estimated plant, no step responses; y against the model
+    assert names == ["G11.png", "G12.png", "G21.png", "G22.png", "matrix.png", "prediction.png", "time.png"]
 
 
 def test_progress_only_on_a_terminal(monkeypatch):
@@ -257,7 +258,8 @@ def test_the_page_renders_with_its_figures_in_a_headless_browser(export, capsys,
     assert code == 0, err
     page = tmp_path / "report" / "index.html"
     text = page.read_text()
-    assert text.count("data:image/png;base64,") == 6 and 'src="figures/' not in text  # self-contained
+    # matrix, time plot, prediction, four PMR plots and four step responses
+    assert text.count("data:image/png;base64,") == 11 and 'src="figures/' not in text  # self-contained
     image = _screenshot(page, tmp_path / "shot.png", tmp_path)
     assert image.shape[1] == 1200
     # the matrix's four red cells and the figures' informative bands: large areas only the images paint
@@ -290,4 +292,4 @@ def test_default_column_names_seconds_and_the_classic_method_on_a_three_by_three
     assert code == 0, err
     assert "(classic PMR)" in out and "gain ratio" in out and "usable samples: 8192 samples" in out
     figures = sorted(p.name for p in (tmp_path / "report" / "figures").iterdir())
-    assert len(figures) == 9 + 2 and "G33.png" in figures
+    assert len(figures) == 9 + 3 and "G33.png" in figures  # the classic method: no step responses

@@ -2,18 +2,28 @@
 
 from __future__ import annotations
 
+import base64
 import json
+import re
 
 import numpy as np
 import pytest
 import yaml
+from PIL import Image
 from plant_export import DATA_BLOCK, PI_GAIN, PI_RESET_MIN, clean_frame, pi_loop
+from test_report_html import _pixels_near, _screenshot
 
 from pmr_ros.cli import main
 from pmr_ros.config import ConfigError, config_dir, load_config
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import Diagnosis, ElementDiagnosis, ParametricResult
+from pmr_ros.core.sim.true_plant import FoptdPlant
 from pmr_ros.report.absolute import absolute_table, model_and_plant
+from pmr_ros.report.response_figures import plant_steps, predictions
 from pmr_ros.report.system_units import Units, units_of
+
+PLANT_RED = (0xC6, 0x28, 0x28)
+"""The estimated plant's curves (and the mismatch verdict's colour)."""
 
 UNITS = {"output_units": ["mol %", "mol %"], "input_units": "lb/min", "time_unit": "min"}
 """Wood-Berry's units: compositions in mol %, reflux and steam in lb/min, time in minutes."""
@@ -122,3 +132,62 @@ def test_the_page_shows_units_and_absolute_values(tmp_path, capsys):
     assert "sample time 1 min" in html and "(model time unit)" not in html
     assert "<th>K [(mol %)/(lb/min)]</th><th>τ [min]</th><th>D [min] (samples)</th>" in html
     assert html.count("estimated plant [95 % interval]") == 4
+    names = sorted(p.name for p in (page / "figures").iterdir())
+    steps = [f"G{i}{k}_step.png" for i in (1, 2) for k in (1, 2)]
+    assert names == sorted(["G11.png", "G12.png", "G21.png", "G22.png", *steps, "matrix.png", "prediction.png",
+                            "time.png"])  # fmt: skip
+    # every figure embedded and drawn: a PNG of its own size with the plant's red or the measurement's blue in it
+    uris = re.findall(r'src="data:image/png;base64,([^"]+)"', html)
+    assert len(uris) == 11
+    for name in [*steps, "prediction.png"]:
+        image = np.asarray(Image.open(page / "figures" / name).convert("RGB")).astype(int)
+        assert image.shape[0] > 250 and image.shape[1] > 650, name
+        assert _pixels_near(image, PLANT_RED) > 500, name  # the estimated plant's curve
+    assert html.count("data:image/png;base64,") == 11
+    # in a headless browser: the step responses and the prediction paint the plant's red; with those images
+    # broken the page paints far less of it (the verdict matrix and badges keep theirs)
+    shot = _screenshot(page / "index.html", tmp_path / "shot.png", tmp_path)
+    broken = page / "broken.html"
+    text = html
+    for name in [*steps, "prediction.png"]:
+        text = text.replace(base64.b64encode((page / "figures" / name).read_bytes()).decode("ascii"), "AAAA")
+    broken.write_text(text)
+    without = _screenshot(broken, tmp_path / "broken.png", tmp_path)
+    drawn, left = _pixels_near(shot, PLANT_RED, 20), _pixels_near(without, PLANT_RED, 20)
+    assert drawn - left > 4000, (drawn, left)  # measured 8,000 (177,000 against 169,000)
+    inked, blank = (int(np.sum(np.any(image < 200, axis=-1))) for image in (shot, without))
+    assert inked - blank > 15000, (inked, blank)  # their curves, axes and labels: measured 38,000
+
+
+def test_the_estimated_plants_step_response_is_the_scaled_foptd_in_closed_form():
+    config = load_config()
+    element = ElementDiagnosis("G11", 0, 0, config.model.element_models()["G11"][2], "parametric",
+                               parametric=_fit(20.0, 10.0, 2))  # fmt: skip
+    plant, band = plant_steps(element, config.model.element(0, 0), 120)
+    k = np.arange(120)
+    gain, tau, delay = 12.8 * 1.2, 16.7 * 1.1, 1 + 2  # Ts = 1 min
+    expected = np.where(k >= delay, gain * (1 - np.exp(-(k - delay) / tau)), 0.0)
+    np.testing.assert_allclose(plant, expected, rtol=1e-9, atol=1e-12)
+
+    # a positive gain: the lowest response is the low gain's, slow; the highest the high gain's, fast
+    def foptd(g, t):
+        return np.where(k >= delay, g * (1 - np.exp(-(k - delay) / t)), 0.0)
+
+    np.testing.assert_allclose(band[0], foptd(12.8 * 1.18, 16.7 * 1.14), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(band[1], foptd(12.8 * 1.22, 16.7 * 1.06), rtol=1e-9, atol=1e-12)
+
+
+def test_the_prediction_of_the_true_plant_is_its_measurement():
+    config = load_config()
+    truth = config.plant("full")
+    rng = np.random.default_rng(3)
+    u = np.repeat(rng.uniform(-1, 1, size=(40, 2)), 25, axis=0)
+    u[:25] = 0.0  # from rest, as the state-space plant starts
+    process = FoptdPlant(truth, np.zeros(2), 0)
+    y = np.empty((u.shape[0], 2))
+    for j, uk in enumerate(u):
+        y[j] = process.output()
+        process.advance(uk)
+    found = predictions(Record(np.zeros_like(y), u, y), config.model, truth)
+    np.testing.assert_allclose(found["plant"], y, atol=1e-9)  # lfilter per element against one state space
+    assert np.max(np.abs(found["model"] - y)) > 0.5  # the model is not the plant

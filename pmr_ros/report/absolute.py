@@ -100,7 +100,7 @@ def model_and_plant_rows(values: dict[str, dict[str, Any]], *, confidence_level:
     level = f"{100 * confidence_level:.0f} %"
     lines = [
         f"model against estimated plant ([{level} interval]; D in the time unit, samples in parentheses):",
-        f"{'element':8s} {'unit of K':14s} {'K model':>10s} {'K plant [interval]':32s} {'tau model':>10s} "
+        f"{'element':8s} {'unit of K':18s} {'K model':>10s} {'K plant [interval]':32s} {'tau model':>10s} "
         f"{'tau plant [interval]':32s} {'D model':>10s} {'D plant':>12s}",
     ]
     for name, entry in values.items():
@@ -108,7 +108,7 @@ def model_and_plant_rows(values: dict[str, dict[str, Any]], *, confidence_level:
         d_model = "-" if not m else f"{m['delay']:g} ({m['delay_samples']})"
         d_plant = "-" if p["delay"] is None else f"{p['delay']:g} ({p['delay_samples']})"
         lines.append(
-            f"{name:8s} {unit['gain'] or '-':14s} {_number(m.get('gain')):>10s} "
+            f"{name:8s} {unit['gain'] or '-':18s} {_number(m.get('gain')):>10s} "
             f"{_number(p['gain'], p['gain_interval']):32s} {_number(m.get('time_constant')):>10s} "
             f"{_number(p['time_constant'], p['time_constant_interval']):32s} {d_model:>10s} {d_plant:>12s}"
         )

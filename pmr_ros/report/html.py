@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import PmrConfig
+from ..core.loop.update import NotCorrectable, corrected_model
 from ..core.pmr.curves import pmr_curves
 from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
@@ -26,6 +27,7 @@ from ..outputs import write_bytes, write_text
 from .absolute import absolute_table
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
+from .response_figures import prediction_figure, step_figure
 from .system_units import units_of
 
 __all__ = ["Figure", "ReportInput", "element_notes", "render_page", "write_html_report"]
@@ -130,8 +132,48 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
         values = page.report.get("elements", {}).get(element.name, {}).get("model_vs_plant")
         level = page.config.parametric.confidence_level
         notes["absolute"] = None if values is None else absolute_table(values, confidence_level=level)
+        notes["step"] = _step(page, element)
         elements.append((notes, figure))
     return matrix, timeline, elements
+
+
+def _step(page: ReportInput, element: ElementDiagnosis) -> Figure | None:
+    """The element's step response, model against estimated plant (a D element's model is not the MPC's G: none)."""
+    model = page.config.model
+    if element.column >= model.n_inputs:
+        return None
+    units = units_of(page.config)
+    integrating = element.model.kind == "integrating"
+    labels = {"time": units.time, "gain": units.gain(element.row, element.column, integrating=integrating)}
+    level = page.config.parametric.confidence_level
+    png = step_figure(element, model.element(element.row, element.column), labels=labels, level=level)
+    caption = (
+        f"{element.name}: response to a unit step of {model.input_names[element.column]}, the model's and the "
+        f"estimated plant's, shaded: the responses over the {100 * level:.0f} % intervals of gain and time constant"
+    )
+    return None if png is None else Figure(f"{element.name}_step.png", png, caption)
+
+
+def _prediction(page: ReportInput) -> Figure | None:
+    """Per CV, measured y against the model's and the corrected model's prediction on the longest stretch."""
+    if page.diagnosis.status != "ok" or not page.stretches:
+        return None
+    longest = max(page.stretches, key=lambda r: r.y.shape[0])
+    plant = None
+    if page.diagnosis.method == "parametric":
+        try:
+            plant = corrected_model(page.config.model, page.diagnosis).model
+        except NotCorrectable:
+            plant = None
+    labels = _with_units(page.config)[0]
+    png = prediction_figure(longest, page.config.model, plant, labels=labels, time_unit=units_of(page.config).time)
+    caption = (
+        "Measured y per CV against the prediction from the measured inputs u: the model's (dashed) and the estimated "
+        "plant's (the model with each mismatched element at its estimate), over the end of the longest clean "
+        "stretch; below each, the model's residual y - prediction (what the inputs do not explain: setpoint-driven "
+        "mismatch, unmeasured disturbances, noise)"
+    )
+    return None if png is None else Figure("prediction.png", png, caption)
 
 
 def _counts(diagnosis: Diagnosis) -> dict[str, int]:
@@ -142,7 +184,9 @@ def _counts(diagnosis: Diagnosis) -> dict[str, int]:
     return counts
 
 
-def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: list) -> str:
+def render_page(
+    page: ReportInput, matrix: Figure, timeline: Figure, elements: list, prediction: Figure | None = None
+) -> str:
     """The HTML text of the report."""
     import jinja2
 
@@ -157,6 +201,7 @@ def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: l
         colours=COLOURS,
         matrix=matrix,
         timeline=timeline,
+        prediction=prediction,
         elements=elements,
         steps=page.data.steps,
         data=page.data,
@@ -178,8 +223,11 @@ def write_html_report(directory: str | Path, page: ReportInput) -> Path:
     directory = Path(directory)
     (directory / "figures").mkdir(parents=True, exist_ok=True)
     matrix, timeline, elements = _figures(page)
-    for figure in [matrix, timeline, *(f for _, f in elements if f is not None)]:
-        write_bytes(directory / "figures" / figure.name, figure.png)
+    prediction = _prediction(page)
+    steps = [notes["step"] for notes, _ in elements]
+    for figure in [matrix, timeline, prediction, *(f for _, f in elements), *steps]:
+        if figure is not None:
+            write_bytes(directory / "figures" / figure.name, figure.png)
     index = directory / "index.html"
-    write_text(index, render_page(page, matrix, timeline, elements))  # atomic: never a partial page
+    write_text(index, render_page(page, matrix, timeline, elements, prediction))  # atomic: never a partial page
     return index

@@ -28,6 +28,8 @@ TEMPLATE = """<!DOCTYPE html>
  .element { border-left: 6px solid; padding-left: 1em; margin: 1.4em 0; }
  .reasons li { color: #8d6e00; }
  .warnings li { color: #616161; }
+ .pair { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }
+ .pair figure { flex: 1 1 480px; }
  .note { background: #f5f5f5; padding: 0.6em 1em; border-radius: 0.4em; font-size: 0.92em; }
 </style>
 </head>
@@ -96,8 +98,12 @@ TEMPLATE = """<!DOCTYPE html>
  <ul class="reasons">{% for reason in notes.reasons %}<li>{{ reason }}</li>{% endfor %}</ul>{% endif %}
  {% if notes.warnings %}<ul class="warnings">{% for warning in notes.warnings %}<li>{{ warning }}</li>{% endfor %}</ul>
  {% endif %}
+ <div class="pair">
  {% if figure %}<figure><img src="{{ figure.data_uri }}" alt="{{ figure.caption }}">
  <figcaption>{{ figure.caption }}</figcaption></figure>{% endif %}
+ {% if notes.step %}<figure><img src="{{ notes.step.data_uri }}" alt="{{ notes.step.caption }}">
+ <figcaption>{{ notes.step.caption }}</figcaption></figure>{% endif %}
+ </div>
 </section>
 {% endfor %}
 
@@ -110,6 +116,9 @@ TEMPLATE = """<!DOCTYPE html>
 </table>
 <figure><img src="{{ timeline.data_uri }}" alt="{{ timeline.caption }}"><figcaption>{{ timeline.caption }}.
 </figcaption></figure>
+{% if prediction %}<h2 id="prediction">Measured against predicted</h2>
+<figure><img src="{{ prediction.data_uri }}" alt="{{ prediction.caption }}"><figcaption>{{ prediction.caption }}.
+</figcaption></figure>{% endif %}
 </body>
 </html>
 """
