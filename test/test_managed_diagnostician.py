@@ -6,6 +6,7 @@ import pytest
 
 pytest.importorskip("rclpy")
 
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from rclpy.lifecycle import TransitionCallbackReturn  # noqa: E402
 from ros_fixtures import spin_until  # noqa: E402
 
@@ -94,3 +95,23 @@ def test_activate_gives_verdicts_and_deactivate_silence(ros):
     ros.spin_for(2.0)  # longer than the republish period (1 s): a live node would have published
     assert len(received) == heard, "output after deactivate"
     assert node.trigger_cleanup() == TransitionCallbackReturn.SUCCESS and node.config is None
+
+
+def test_an_active_diagnostician_goes_stale_when_the_data_stop(ros):
+    flat = _flat(**{"diagnostician.stale_timeout_s": 1.0})
+    node = ros.add(ManagedDiagnosticianNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
+    listener = ros.create_node("listener")
+    received = []
+    t = topic("diagnostics")
+    listener.create_subscription(message_class(t), t.name, received.append, qos_profile(t.qos))
+    assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS
+    assert node.trigger_activate() == TransitionCallbackReturn.SUCCESS
+
+    def stale():
+        decoded = [diagnosis_from_array(m) for m in received]
+        return any(set(i.get("levels", {}).values()) == {"STALE"} for _, i in decoded)
+
+    # no data at all: every element STALE within a few stale timeouts (the watchdog runs at a quarter of it)
+    assert spin_until(ros.executor, stale, 10.0), [diagnosis_from_array(m)[1] for m in received[-1:]]
+    statuses = received[-1].status
+    assert statuses and all(s.level == DiagnosticStatus.STALE for s in statuses)
