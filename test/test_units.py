@@ -45,6 +45,9 @@ def test_units_are_declared_per_channel_or_one_for_all():
     assert units == Units(("mol %", "mol %"), ("lb/min", "lb/min"), (), "min")
     assert units.gain(0, 1) == "(mol %)/(lb/min)" and units.time_text(1.0) == "1 min"
     assert Units(("degC",), ("%",), (), "min").gain(0, 0, integrating=True) == "degC/%/min"
+    with_dv = Units(("degC",), ("%",), ("t/h",), "min")
+    assert with_dv.gain(0, 1) == "degC/(t/h)"  # a D element: the DV's unit
+    assert with_dv.to_json(("T",), ("valve",), ("feed",))["disturbances"] == {"feed": "t/h"}
     plain = units_of(load_config())
     assert plain.gain(0, 0) == "" and plain.time_text(1.0) == "1 (model time unit)"
     with pytest.raises(ConfigError, match=r"system.output_units = \['mol %'\]: needs 2 entries"):

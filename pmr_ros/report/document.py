@@ -59,7 +59,8 @@ def build_report(
     }
     report.update(diagnosis_to_json(diagnosis))
     units = units_of(config)
-    report["units"] = units.to_json(config.model.output_names, config.model.input_names)
+    dvs = config.disturbance_model.input_names if config.disturbance_model is not None else ()
+    report["units"] = units.to_json(config.model.output_names, config.model.input_names, dvs)
     values = model_and_plant(diagnosis, units=units, sample_time=config.model.sample_time)
     for name, entry in report["elements"].items():
         entry["model_vs_plant"] = values[name]  # absolute K, tau, D of the model and the estimated plant, in units

@@ -51,13 +51,17 @@ class Units:
         """``1 min``, or ``1 (model time unit)`` when the time unit is not given."""
         return f"{value:g} {self.time}" if self.time else f"{value:g} (model time unit)"
 
-    def to_json(self, output_names: tuple[str, ...], input_names: tuple[str, ...]) -> dict[str, Any]:
+    def to_json(
+        self, output_names: tuple[str, ...], input_names: tuple[str, ...], disturbance_names: tuple[str, ...] = ()
+    ) -> dict[str, Any]:
         """``{"time": "min", "outputs": {"x_D": "mol %"}, "inputs": {...}}`` (DVs under ``disturbances``)."""
         out: dict[str, Any] = {
             "time": self.time,
             "outputs": dict(zip(output_names, self.outputs, strict=True)),
             "inputs": dict(zip(input_names, self.inputs, strict=True)),
         }
+        if disturbance_names:
+            out["disturbances"] = dict(zip(disturbance_names, self.disturbances, strict=True))
         return out
 
 
