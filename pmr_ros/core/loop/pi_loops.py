@@ -89,13 +89,8 @@ class ControllerSettings:
     """
 
     kind: str = "mpc"
-    pi: PiTuning | None = field(default=None, compare=False)
+    pi: PiTuning | None = field(default=None, compare=False)  # (its limit arrays have no truth value)
     why_external: str = ""
-
-    @property
-    def label(self) -> str:
-        """The controller in words, for the report (``configured MPC``, ``configured PI loops``)."""
-        return {"mpc": "configured MPC", "pi": "configured PI loops"}.get(self.kind, "external controller")
 
 
 def _pid_increment(tuning: PiTuning, sample_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
