@@ -112,7 +112,7 @@ def test_the_json_and_the_wide_table_show_model_against_plant(tmp_path, capsys):
         "inputs": {"reflux": "lb/min", "steam": "lb/min"},
     }
     for name, element in doc["elements"].items():
-        pair, fit = element["model_vs_plant"], element["parametric"]
+        pair, fit = doc["model_vs_plant"][name], element["parametric"]
         expected = pair["model"]["gain"] * (1 + fit["gain_mismatch_pct"] / 100)
         np.testing.assert_allclose(pair["plant"]["gain"], expected, rtol=1e-12, err_msg=name)
         row = next(line for line in out.splitlines() if line.startswith(f"{name} ") and "(mol %)/(lb/min)" in line)

@@ -38,8 +38,9 @@ def build_report(
 
     The diagnosis's JSON form (:func:`~pmr_ros.core.results.codec.diagnosis_to_json`:
     status, reason, samples, method, ``elements``) with the tool, command, system,
-    settings, the system's ``units``, per element ``model_vs_plant`` (absolute K,
-    tau, D of the model and of the estimated plant, :mod:`.absolute`) and, for
+    settings, the system's ``units``, ``model_vs_plant`` per element name (absolute K,
+    tau, D of the model and of the estimated plant, :mod:`.absolute`; beside
+    ``elements``, which stay the diagnosis's own JSON) and, for
     simulated runs, the ``injected`` truth.
     """
     report: dict[str, Any] = {
@@ -61,9 +62,7 @@ def build_report(
     units = units_of(config)
     dvs = config.disturbance_model.input_names if config.disturbance_model is not None else ()
     report["units"] = units.to_json(config.model.output_names, config.model.input_names, dvs)
-    values = model_and_plant(diagnosis, units=units, sample_time=config.model.sample_time)
-    for name, entry in report["elements"].items():
-        entry["model_vs_plant"] = values[name]  # absolute K, tau, D of the model and the estimated plant, in units
+    report["model_vs_plant"] = model_and_plant(diagnosis, units=units, sample_time=config.model.sample_time)
     if scenario is not None:
         report["injected"] = injected_mismatch(config, scenario)
     return report

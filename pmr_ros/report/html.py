@@ -129,7 +129,7 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
             caption = f"{element.name}: plant-model ratio against frequency"
             figure = Figure(f"{element.name}.png", element_figure(curves[element.name], element), caption)
         notes = element_notes(element)
-        values = page.report.get("elements", {}).get(element.name, {}).get("model_vs_plant")
+        values = page.report.get("model_vs_plant", {}).get(element.name)
         level = page.config.parametric.confidence_level
         notes["absolute"] = None if values is None else absolute_table(values, confidence_level=level)
         notes["step"] = _step(page, element)

@@ -232,7 +232,7 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any], *, wide: bool 
     report : mapping
         The JSON report of it (:func:`pmr_ros.report.build_report`), read for the heading only:
         ``system``, ``command``, ``source`` or ``scenario``/``seed``, ``settings.parametric.confidence_level``
-        and ``injected``; with ``wide`` each element's ``model_vs_plant``.
+        and ``injected``; with ``wide`` its ``model_vs_plant``.
     wide : bool
         Also the table of the model's and the estimated plant's K, tau and D side by side (``--wide``).
     """
@@ -252,7 +252,7 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any], *, wide: bool 
     else:
         body = format_classic_table(diagnosis, injected=injected)
     if wide and diagnosis.method == "parametric":
-        values = {name: e["model_vs_plant"] for name, e in report["elements"].items() if "model_vs_plant" in e}
+        values = report.get("model_vs_plant", {})
         level = report["settings"]["parametric"]["confidence_level"]
         body += "\n" + "\n".join(model_and_plant_rows(values, confidence_level=level)) + "\n"
     return f"{head}\n\n{body}{summary_line(diagnosis)}\n"
