@@ -230,13 +230,16 @@ class NodeSetOptions:
 class _Watch:
     """Progress of the plant: when the run started, and whether it stalled."""
 
-    def __init__(self, plant: Any, samples: int, stall_timeout_s: float) -> None:
+    def __init__(self, plant: Any, samples: int, stall_timeout_s: float, diagnostician: Any = None) -> None:
         self.plant, self.samples, self.timeout = plant, samples, stall_timeout_s
+        self.diagnostician = diagnostician
         self.started: float | None = None
         self.last_progress, self.last_sample = time.monotonic(), plant.sample
 
     def check(self) -> None:
-        """Note progress; raise :class:`NodeSetError` when there was none for the timeout."""
+        """Note progress (the diagnostician told when the plant finished); raise :class:`NodeSetError` on a stall."""
+        if self.plant.finished and self.diagnostician is not None and not self.diagnostician.run_complete:
+            self.diagnostician.finish_run()  # its silence watchdog stops: no stale warning after the run
         now = time.monotonic()
         if self.plant.sample != self.last_sample:
             self.started = self.started if self.started is not None else now
@@ -305,7 +308,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
             executor = make_executor(options.executor_kind, context)
             for node in nodes:
                 executor.add_node(node)
-            watch = _Watch(plant, config.run.samples, options.stall_timeout_s)
+            watch = _Watch(plant, config.run.samples, options.stall_timeout_s, diagnostician)
             _spin_until_done(executor, nodes, listener, watch, stop)
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
             record_out = (

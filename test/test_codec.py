@@ -44,7 +44,7 @@ from pmr_ros.core.results.codec import (
     result_from_csv_fields,
     status_key_values,
 )
-from pmr_ros.report.table import format_classic_table, format_parametric_table, format_table
+from pmr_ros.report.table import format_classic_table, format_parametric_table, format_table, summary_line
 from pmr_ros.sweep import store
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -321,7 +321,7 @@ def test_the_table_renders_the_object_of_either_method():
     assert "G12      no model: K +0.42 [+0.4,+0.44]!" in body and "+3 (97 %)" in body
     assert "G11: coherence low above 0.3 rad/sample" in body and "G22: too few samples" in body
     level = {"settings": {"parametric": {"confidence_level": 0.9}}}
-    assert format_table(parametric, _heading(**level)).endswith(body)
+    assert format_table(parametric, _heading(**level)).endswith(body + summary_line(parametric) + "\n")
     empty = Diagnosis.insufficient(method="classic", models={"G11": (0, 0, FOPTD)}, reason="too short", samples=5)
     assert format_table(empty, _heading(source="plant.csv")) == (
         "wood_berry: run (classic PMR), plant.csv, 5 samples\nINSUFFICIENT DATA: too short\n"

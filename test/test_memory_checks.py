@@ -143,7 +143,10 @@ def mismatched_export(tmp_path_factory):
     csv = folder / "export.csv"
     clean_frame(simulate(config, samples=8192, seed=1, scenario="full")).to_csv(csv, index=False)
     params = yaml.safe_load((config_dir() / "wood_berry.yaml").read_text())
-    params["/**"]["ros__parameters"].update({"data": DATA_BLOCK, "impact": {"samples": 10_000_000}})
+    # the export's controller named (an export is no MPC of ours by default: no impact at all)
+    params["/**"]["ros__parameters"].update(
+        {"data": DATA_BLOCK, "impact": {"samples": 10_000_000}, "controller": {"kind": "mpc"}}
+    )
     path = folder / "params.yaml"
     path.write_text(yaml.safe_dump(params))
     return csv, path, load_config(path)

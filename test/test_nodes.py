@@ -362,6 +362,19 @@ def test_a_topic_that_stops_turns_the_verdicts_stale(harness):
     assert h.received[-1].status[0].level == DiagnosticStatus.STALE
 
 
+def test_no_stale_warning_once_the_run_is_complete(harness):
+    """A run that ended is silent on purpose: the watchdog stops, no 'no r on /pmr/setpoint for ...' follows it."""
+    h = harness
+    h.send_samples(range(0, 600))
+    stale_timeout = h.config.diagnostician.stale_timeout_s
+    h.diag.finish_run()
+    published, warned = len(h.received), len(h.diag.warnings)  # (a pause while feeding may have warned before)
+    spin_until(h.executor, lambda: False, 6 * stale_timeout + 1.0)  # several watchdog periods of silence
+    assert list(h.diag.warnings)[warned:] == []
+    later = [diagnosis_from_array(m) for m in h.received[published:]]
+    assert all(_levels(i) != {"STALE"} for _, i in later)  # the last verdicts are republished as they were
+
+
 def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
     options = NodeSetOptions(

@@ -12,11 +12,12 @@ import sys
 import numpy as np
 import pytest
 from PIL import Image
-from plant_export import DATA_BLOCK, as_parquet_frame, dirty_frame, pi_loop
+from plant_export import DATA_BLOCK, PI_GAIN, PI_RESET_MIN, as_parquet_frame, dirty_frame, pi_loop
 from shipped import system_only_params
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
+from pmr_ros.config.controller_block import FOREIGN
 from pmr_ros.core.pmr.curves import band_radius, estimate_sigma, fitted_ratio, pmr_curves
 from pmr_ros.core.pmr.diagnosis import diagnose
 from pmr_ros.core.pmr.implicit import implicit_estimate
@@ -127,6 +128,9 @@ def export(tmp_path_factory):
     as_parquet_frame(frame).to_parquet(folder / "historian.parquet")
     data = "    data:\n" + "".join(f"      {key}: {json.dumps(value)}\n" for key, value in DATA_BLOCK.items())
     (folder / "column.yaml").write_text(SYSTEM_ONLY + data)
+    controller = {"kind": "pi", "gain": PI_GAIN.tolist(), "integral_time": PI_RESET_MIN.tolist()}
+    block = "    controller:\n" + "".join(f"      {key}: {json.dumps(value)}\n" for key, value in controller.items())
+    (folder / "pi.yaml").write_text(SYSTEM_ONLY + data + block)  # the export's own PI loops named
     return folder
 
 
@@ -138,7 +142,7 @@ def _run(capsys, argv):
 
 def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, tmp_path):
     code, out, err = _run(capsys, ["diagnose", str(export / "historian.parquet"), "--config",
-                                   str(export / "column.yaml"), "--json", str(tmp_path / "r.json"),
+                                   str(export / "pi.yaml"), "--json", str(tmp_path / "r.json"),
                                    "--write-model", str(tmp_path / "corrected.yaml"),
                                    "--report", str(tmp_path / "page")])  # fmt: skip
     assert code == 0, err
@@ -150,12 +154,27 @@ def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, t
     corrected = load_config(tmp_path / "corrected.yaml")  # the corrected model keeps the tag mapping
     np.testing.assert_allclose(corrected.model.gain[1, 0], 6.6 * 0.85, rtol=0.02)
     assert corrected.data.input_columns == ("FC201.OP", "FC202.OP")
-    # the page ranks the mismatches by what they do to control, as the JSON does
+    # the page ranks the mismatches by what they do to control with the export's PI loops, as the JSON does
+    assert "control impact (configured PI loops, noise-free" in out and report["controller"] == "pi"
     html = (tmp_path / "page" / "index.html").read_text()
-    assert "Which mismatch matters for control" in html
+    assert "Which mismatch matters for control" in html and "configured PI loops simulated" in html
     first = min(report["elements"].values(), key=lambda e: e["impact"]["rank"])
     assert re.search(rf'<td>1</td><td><a href="#{first["element"]}">', html)
     assert f"ISE &times;{first['impact']['ise_ratio']:.2f}" in html
+
+
+def test_an_export_without_a_controller_block_gets_no_impact_and_says_why(export, capsys, tmp_path):
+    code, out, err = _run(capsys, ["diagnose", str(export / "historian.csv"), "--config",
+                                   str(export / "column.yaml"), "--json", str(tmp_path / "r.json"),
+                                   "--report", str(tmp_path / "page")])  # fmt: skip
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["controller"] == "external" and report["impact"] is None
+    assert all(e["impact"] is None for e in report["elements"].values())
+    notes = [line for line in out.splitlines() if "control impact" in line]
+    assert notes == [f"note: {FOREIGN}"]
+    html = (tmp_path / "page" / "index.html").read_text()
+    assert "Which mismatch matters for control" in html and "did not come from pmr-ros&#39;s node set" in html
 
 
 def test_bad_exports_end_with_one_line_and_a_non_zero_exit(export, capsys, tmp_path):
@@ -186,7 +205,8 @@ def test_a_bags_report_has_every_element(capsys, tmp_path):
     code, out, _ = _run(capsys, ["diagnose", str(REFERENCE), "--report", str(tmp_path / "bag")])
     assert code == 0 and "report: " in out
     names = sorted(p.name for p in (tmp_path / "bag" / "figures").iterdir())
-    assert names == ["G11.png", "G12.png", "G21.png", "G22.png", "matrix.png", "time.png"]
+    # the bag was diagnosed with the classic method: no estimated plant, no step responses; y against the model
+    assert names == ["G11.png", "G12.png", "G21.png", "G22.png", "matrix.png", "prediction.png", "time.png"]
 
 
 def test_progress_only_on_a_terminal(monkeypatch):
@@ -238,7 +258,8 @@ def test_the_page_renders_with_its_figures_in_a_headless_browser(export, capsys,
     assert code == 0, err
     page = tmp_path / "report" / "index.html"
     text = page.read_text()
-    assert text.count("data:image/png;base64,") == 6 and 'src="figures/' not in text  # self-contained
+    # matrix, time plot, prediction, four PMR plots and four step responses
+    assert text.count("data:image/png;base64,") == 11 and 'src="figures/' not in text  # self-contained
     image = _screenshot(page, tmp_path / "shot.png", tmp_path)
     assert image.shape[1] == 1200
     # the matrix's four red cells and the figures' informative bands: large areas only the images paint
@@ -271,4 +292,4 @@ def test_default_column_names_seconds_and_the_classic_method_on_a_three_by_three
     assert code == 0, err
     assert "(classic PMR)" in out and "gain ratio" in out and "usable samples: 8192 samples" in out
     figures = sorted(p.name for p in (tmp_path / "report" / "figures").iterdir())
-    assert len(figures) == 9 + 2 and "G33.png" in figures
+    assert len(figures) == 9 + 3 and "G33.png" in figures  # the classic method: no step responses

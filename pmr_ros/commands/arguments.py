@@ -13,7 +13,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["FORCE", "JSON", "QUIET", "SYSTEM_FILE", "Option", "add_options", "config_option", "option"]
+__all__ = ["FORCE", "JSON", "QUIET", "SYSTEM_FILE", "WIDE", "Option", "add_options", "config_option", "option"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,14 @@ def config_option(help_text: str = SYSTEM_FILE) -> Option:
 
 JSON = option("--json", metavar="FILE", help="also write the report as JSON")
 """``--json FILE``, of the commands that diagnose."""
+
+WIDE = option(
+    "--wide",
+    action="store_true",
+    help="also print each element's model and estimated plant side by side: K, tau, D with intervals, in the "
+    "system's units (system.output_units, input_units, time_unit)",
+)
+"""``--wide``, of the commands that print the verdict table."""
 
 FORCE = option("--force", action="store_true", help="overwrite what is at the output")
 """``--force``; each command says in its help what it overwrites (:meth:`Option.but`)."""

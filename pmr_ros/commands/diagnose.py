@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from ..outputs import check_outputs
 from ..service.closing import close_and_write
 from . import EXIT_INSUFFICIENT, CommandError, add_method_argument, add_namespace_argument, positive_int, writable_file
-from .arguments import JSON, add_options, config_option
+from .arguments import JSON, WIDE, add_options, config_option
 from .model_output import add_model_arguments, check_model_output
 from .monitor_options import MONITOR_OPTIONS
 
@@ -59,6 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         [
             config_option("ROS 2 params file with the controller's model (default: the bag's recorded configuration)"),
             JSON,
+            WIDE,
         ],
     )
     add_report_argument(p)
@@ -252,9 +253,11 @@ def diagnose_bag_command(args: argparse.Namespace) -> int:
             result.config, result.final_diagnosis, model_path=getattr(args, "write_model", None), notes=notes
         )
         report = offline_report(result, bag, diagnosis)
+        if notes:
+            report["impact_note"] = " ".join(notes)
     except BagError as exc:
         raise CommandError(str(exc)) from None
-    sys.stdout.write(format_table(diagnosis, report))
+    sys.stdout.write(format_table(diagnosis, report, wide=args.wide))
     print_data_notes(result, bag)
     for note in notes:
         print(f"note: {note}")

@@ -138,13 +138,15 @@ def diagnose_table(args: argparse.Namespace) -> int:
     finally:
         close()
     diagnosis, data, stretches = found.diagnosis, found.data, found.stretches
-    report = _data_report(config, diagnosis, data, str(args.bag))
+    report = _data_report(found.config, diagnosis, data, str(args.bag))
+    if found.notes:
+        report["impact_note"] = " ".join(found.notes)
     if diagnosis.status == "ok":
-        sys.stdout.write(format_table(diagnosis, report))
+        sys.stdout.write(format_table(diagnosis, report, wide=args.wide))
         _print_cleaning(data)
         for note in found.notes:
             print(f"note: {note}")
-    _write_outputs(args, report, ReportInput(report, diagnosis, stretches, data, config))
+    _write_outputs(args, report, ReportInput(report, diagnosis, stretches, data, found.config))
     if diagnosis.status != "ok":
         usable = int(data.usable.sum())
         raise CommandError(

@@ -28,7 +28,7 @@ from . import (
     writable_file,
 )
 from .adapt import adaptation_lines, check_adapt
-from .arguments import JSON, add_options
+from .arguments import JSON, WIDE, add_options
 from .model_output import add_model_arguments, check_model_output
 from .preflight import check_model_memory, not_run, run_samples_shortfall
 from .record import add_storage_arguments, start_recording
@@ -55,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     add_system_arguments(p)
     add_method_argument(p)
-    add_options(p, [JSON])
+    add_options(p, [JSON, WIDE])
     p.add_argument("--batch", action="store_true", help="run the pure numerical core instead of the ROS 2 node set")
     p.add_argument(
         "--visible",
@@ -181,7 +181,7 @@ def handle(args: argparse.Namespace) -> int:
         diagnosis, report = not_run(config, short)
     else:
         diagnosis, report = _batch_run(args, config, notes) if args.batch else _node_set_run(args, config, notes)
-    sys.stdout.write(format_table(diagnosis, report))
+    sys.stdout.write(format_table(diagnosis, report, wide=args.wide))
     for note in notes:
         print(f"note: {note}")
     for line in adaptation_lines(report):

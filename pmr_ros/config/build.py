@@ -23,6 +23,7 @@ from ..core.pmr.parametric import ParametricSettings
 from ..core.sim.excitation import ExcitationSettings, PrbsSettings, primitive_polynomial_count
 from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
+from .controller_block import controller_settings
 from .data import DataSettings, check_data_settings, data_settings
 from .errors import ConfigError
 from .general_elements import GENERAL_KINDS, block_elements, block_numbers
@@ -129,6 +130,7 @@ def _model(v: _Values) -> TransferMatrix:
         )
     outputs, inputs = v["system.output_names"], v["system.input_names"]
     v.shape = Shape(len(outputs), len(inputs), len(disturbance_names(v, inputs)))
+    _ = [v[f"system.{key}"] for key in ("output_units", "input_units", "disturbance_units", "time_unit")]  # checked
     return _matrix(v, SYSTEM_BLOCK, outputs=outputs, inputs=inputs, name=v["system.name"])
 
 
@@ -395,6 +397,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         explicit_disturbance_plant=None if dv_model is None else _disturbance_model(v, model, PLANT_BLOCK),
         disturbance_signal=disturbance_signal(v),
         manual=manual_settings(v, model.input_names),
+        controller=controller_settings(v, checked.get("controller", {}), model),
         warnings=tuple(v.warnings),
         given=frozenset(f"{block}.{key}" for block, values in checked.items() for key in values),
     )

@@ -31,7 +31,9 @@ class DataSettings:
     time_column : str
         Column of the time stamps.
     time_format : str
-        ``iso``, ``seconds`` or ``detected``.
+        ``iso``, ``seconds``, ``detected`` or a strptime pattern (with a ``%``).
+    timezone : str
+        The IANA zone of stamps written without one; ``""``: UTC (said in the cleaning summary).
     time_unit_s : float
         Seconds in one time unit of the model [s].
     grid_tolerance : float
@@ -70,6 +72,7 @@ class DataSettings:
     mode_on_values: tuple[float | str, ...]
     disturbance_columns: tuple[str, ...] = ()
     mode_columns: tuple[str, ...] = ()
+    timezone: str = ""
 
     @property
     def modes(self) -> tuple[str, ...]:
@@ -152,8 +155,10 @@ def check_data_settings(
     Raises
     ------
     ConfigError
-        Both mode spellings given; DV columns that do not match ``system.disturbance_names``.
+        Both mode spellings given; DV columns that do not match ``system.disturbance_names``; a
+        ``time_format`` that is no keyword nor strptime pattern; an unknown ``timezone``.
     """
+    _check_time_settings(settings, source_of)
     if settings.mode_columns and settings.mode_column:
         raise ConfigError(
             source_of("data.mode_columns"),
@@ -179,3 +184,31 @@ def check_data_settings(
         for i, column in enumerate(settings.setpoint_columns)
         if column and modes[i] == ZONE
     )
+
+
+TIME_FORMATS = ("detected", "iso", "seconds")
+"""The ``data.time_format`` keywords; anything else must be a strptime pattern."""
+
+
+def _check_time_settings(settings: DataSettings, source_of: Callable[[str], str]) -> None:
+    """``data.time_format`` a keyword or a pattern with a ``%`` directive; ``data.timezone`` a zone Python knows."""
+    form = settings.time_format
+    if form not in TIME_FORMATS and "%" not in form:
+        raise ConfigError(
+            source_of("data.time_format"),
+            "data.time_format",
+            form,
+            f"must be one of {', '.join(TIME_FORMATS)} or a strptime pattern such as '%d-%b-%y %H:%M:%S'",
+        )
+    if settings.timezone:
+        from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+        try:
+            ZoneInfo(settings.timezone)
+        except (ZoneInfoNotFoundError, ValueError):
+            raise ConfigError(
+                source_of("data.timezone"),
+                "data.timezone",
+                settings.timezone,
+                "is not a time zone name (an IANA name such as Europe/Berlin, America/Chicago or UTC)",
+            ) from None

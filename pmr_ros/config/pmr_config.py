@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.loop.adaptation import AdaptSettings
 from ..core.loop.impact import ImpactSettings
+from ..core.loop.pi_loops import ControllerSettings
 from ..core.mpc.controller import MpcTuning
 from ..core.pmr.classic import PmrSettings
 from ..core.pmr.data_quality import QualitySettings
@@ -116,6 +117,8 @@ class PmrConfig:
         How the simulated DVs move (the ``disturbance_signal`` block).
     manual : ManualSettings
         The simulated manual stretches (``run.manual_stretches``).
+    controller : ControllerSettings
+        What runs the plant, for the control impact (the ``controller`` block).
     warnings : tuple of str
         Values accepted but worth a word (a time constant an integrating element ignores).
     given : frozenset of str
@@ -146,6 +149,7 @@ class PmrConfig:
     explicit_disturbance_plant: TransferMatrix | None = None
     disturbance_signal: DisturbanceSignalSettings = field(default_factory=DisturbanceSignalSettings)
     manual: ManualSettings = field(default_factory=ManualSettings)
+    controller: ControllerSettings = field(default_factory=ControllerSettings)
     warnings: tuple[str, ...] = ()
     given: frozenset[str] = frozenset()
 

@@ -48,6 +48,7 @@ KINDS = (
     "values",
     "strings",
     "stretches",
+    "labels",
 )
 """Parameter types of the declaration (see its header comment)."""
 

@@ -191,6 +191,21 @@ class ValueChecks:
         out = np.array(items, dtype=object)
         return out if self.per in ("outputs", "inputs", "disturbances") else out.reshape(rows, cols)
 
+    def _check_labels(self, value: Any, source: str, shape: Shape | None) -> tuple[str, ...]:
+        """One text per channel of ``per`` (a unit: repeats allowed), one for all, or [] for none."""
+        if shape is None:
+            raise ValueError(f"{self.name}: a per-channel parameter needs the system's shape")
+        length = shape.channels(self.per)
+        items = [value] * length if isinstance(value, str) else value
+        if items == []:
+            return ()
+        if not isinstance(items, list) or len(items) != length:
+            raise self._error(source, value, f"needs {length} entries (one per {self.per[:-1]}), one for all, or []")
+        for j, item in enumerate(items):
+            if not isinstance(item, str) or not item.isprintable():
+                raise self._error(source, item, "must be one line of text (a unit: degC, %, t/h)", f"{self.name}[{j}]")
+        return tuple(items)
+
     def _check_strings(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         """One string per element (row-major), or one string for every element."""
         if shape is None:

@@ -40,6 +40,10 @@ SIMULATION_TRUTH = ("mismatch", "plant")
 INDENT = "    "
 
 
+UNIT_KEYS = ("output_units", "input_units", "disturbance_units", "time_unit")
+"""The ``system`` block's units, kept in a corrected model's file."""
+
+
 def tf_strings(model: TransferMatrix) -> tuple[list[str], list[str]]:
     """``system.numerator`` and ``system.denominator`` of a model: each tf element's coefficients, '' elsewhere.
 
@@ -150,6 +154,11 @@ def model_params_text(
     dvs = {k: v for k, v in dict(settings.get("system", {})).items() if k.startswith("disturbance_") and v != []}
     if dvs.get("disturbance_names"):
         dumped = yaml.safe_dump(dvs, sort_keys=False, default_flow_style=None, width=120)
+        lines += [f"{INDENT}  {line}" for line in dumped.splitlines()]
+    # the units stay the system's: the corrected model's numbers are in them
+    units = {k: v for k, v in dict(settings.get("system", {})).items() if k in UNIT_KEYS and v not in ([], "none")}
+    if units:
+        dumped = yaml.safe_dump(units, sort_keys=False, default_flow_style=None, width=120, allow_unicode=True)
         lines += [f"{INDENT}  {line}" for line in dumped.splitlines()]
     rest = {k: v for k, v in settings.items() if k != "system" and k not in SIMULATION_TRUTH}
     if rest:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import PmrConfig
-from ..config.data import configured_disturbances, output_modes
+from ..config.data import DataSettings, configured_disturbances, output_modes
 from ..core.sim.memory import available_bytes, format_bytes
 from .bad_data import DataError
 from .clean import CleaningStep, PlantData, at_limit, frozen
@@ -46,7 +46,7 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     _check_disturbances(columns, configured_disturbances(config), str(path))
     raw = read_table(path, columns, settings.bad_values, progress=progress)
     spec = GridSpec(config.model.sample_time * settings.time_unit_s, settings.grid_tolerance, str(path), columns.time)
-    raw, parsed, far = _without_far_rows(raw, spec, settings.time_format)
+    raw, parsed, far = _without_far_rows(raw, spec, settings)
     table = np.column_stack([raw.values[c] for c in columns.value_columns])
     grid = place_on_grid(parsed.seconds, table, spec)
     _check_grid_memory(grid, table.shape[1], spec)
@@ -67,7 +67,8 @@ def load_plant_data(path: str | Path, config: PmrConfig, *, progress: Progress |
     }
     steps = _steps(raw, grid, columns, stuck=stuck, limited=limited)
     steps = _with_outlier_step(steps, outlier_step(outliers, columns.value_columns, settings.outlier_mad))
-    steps = (steps[0], far, *steps[1:-1], *mode_steps(modes, columns.signals["u"]), steps[-1])
+    head = (steps[0], *_zone_step(parsed, raw.rows), far)
+    steps = (*head, *steps[1:-1], *mode_steps(modes, columns.signals["u"]), steps[-1])
     data = PlantData(
         str(path),
         parsed.start,
@@ -94,9 +95,12 @@ def _check_disturbances(columns: ColumnMap, names: tuple[str, ...], path: str) -
         )
 
 
-def _without_far_rows(raw: RawTable, spec: GridSpec, time_format: str) -> tuple[RawTable, ParsedTime, CleaningStep]:
+def _without_far_rows(
+    raw: RawTable, spec: GridSpec, settings: DataSettings
+) -> tuple[RawTable, ParsedTime, CleaningStep]:
     """The table without rows whose stamp lies far outside the rest (:mod:`.far_stamps`), its times, the step."""
-    parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+    when = {"path": spec.path, "column": spec.column, "timezone": settings.timezone}
+    parsed = parse_time(raw.time, settings.time_format, **when)
     far = far_stamps(parsed.seconds / spec.sample_time_s)
     detail = ""
     if far.any():
@@ -109,7 +113,7 @@ def _without_far_rows(raw: RawTable, spec: GridSpec, time_format: str) -> tuple[
             values={c: v[keep] for c, v in raw.values.items()},
             mode=None if raw.mode is None else raw.mode[keep],
         )
-        parsed = parse_time(raw.time, time_format, path=spec.path, column=spec.column)
+        parsed = parse_time(raw.time, settings.time_format, **when)
     step = CleaningStep("time stamps far outside the rest (a typo?) -> rows dropped", int(far.sum()), "rows", detail)
     return raw, parsed, step
 
@@ -155,13 +159,28 @@ def _per_column(counts: dict[str, int]) -> str:
     return ", ".join(f"{column} {n}" for column, n in counts.items() if n)
 
 
+def _zone_step(parsed: ParsedTime, rows: int) -> tuple[CleaningStep, ...]:
+    """The assumption made of stamps without a zone, as a step of the summary (none when they had one)."""
+    if not parsed.assumed_zone:
+        return ()
+    if parsed.assumed_zone == "UTC":
+        return (CleaningStep("time stamps have no zone: taken as UTC", rows, "rows", "data.timezone names another"),)
+    return (CleaningStep(f"time stamps have no zone: taken as {parsed.assumed_zone} (data.timezone)", rows, "rows"),)
+
+
+def _columns_detail(in_file: int, used: int) -> str:
+    """``10 columns: 8 used, 2 ignored`` (the file's columns and those the data block names)."""
+    in_file = max(in_file, used)
+    return f"{in_file} columns: {used} used, {in_file - used} ignored"
+
+
 def _steps(
     raw: RawTable, grid: Grid, columns: ColumnMap, *, stuck: np.ndarray, limited: np.ndarray
 ) -> tuple[CleaningStep, ...]:
     watched = [*columns.signals["y"], *columns.signals["u"], *columns.signals.get("dv", ())]
     grid_detail = f"largest offset {grid.largest_offset:.3f} samples" if grid.moved else ""
     return (
-        CleaningStep("rows read", raw.rows, "rows", f"{len(columns.all)} columns"),
+        CleaningStep("rows read", raw.rows, "rows", _columns_detail(raw.file_columns, len(dict.fromkeys(columns.all)))),
         CleaningStep("time stamps moved onto the sample grid", grid.moved, "rows", grid_detail),
         CleaningStep("duplicated rows dropped", grid.duplicates, "rows"),
         CleaningStep("time gaps (grid points without a row) -> missing", grid.gaps, "samples"),

@@ -3,8 +3,9 @@
 Only the columns the configuration names are read.  Cells equal to one of
 ``data.bad_values`` (a sentinel such as -9999, a string such as ``Bad``, an
 empty cell) and non-finite numbers become missing (NaN) and are counted per
-column; any other text in a signal column is refused with its row, since
-guessing what it means could make a wrong verdict.  Large files are read in
+column; any other text in a signal column is refused, every such string of
+the file named at once with its count and first row, since guessing what it
+means could make a wrong verdict.  Large files are read in
 chunks, with a progress callback.
 """
 
@@ -56,6 +57,8 @@ class RawTable:
         Column to cells that were a bad value (sentinel, bad string, empty cell, null).
     non_finite : dict
         Column to cells that were NaN or +-inf.
+    file_columns : int
+        Columns in the file, those read and those ignored.
     """
 
     path: str
@@ -65,6 +68,7 @@ class RawTable:
     mode: np.ndarray | None = None
     bad: dict[str, int] = field(default_factory=dict)
     non_finite: dict[str, int] = field(default_factory=dict)
+    file_columns: int = 0
 
 
 def table_format(path: str | Path) -> str | None:
@@ -150,6 +154,8 @@ class _Columns:
         self.times: list[Any] = []
         self.modes: list[np.ndarray] = []
         self.rows = 0
+        self.strings: dict[str, dict[str, list[int]]] = {}  # column -> non-numeric text -> its rows (1-based)
+        self.file_columns = 0
 
     def take(self, frame: Any) -> None:
         """One chunk (a pandas DataFrame of the wanted columns)."""
@@ -185,22 +191,53 @@ class _Columns:
         x = pd.to_numeric(text.where(~bad, "nan"), errors="coerce").to_numpy(dtype=float, copy=True)
         bad |= np.isin(x, self.cells.numbers)
         unparsed = np.isnan(x) & ~bad & ~text.str.lower().isin(NAN_TEXT).to_numpy()
-        if unparsed.any():
-            j = int(np.flatnonzero(unparsed)[0])
-            raise DataError(
-                self.path,
-                f"column {column!r} ({self.columns.origin(column)}), row {self.rows + j + 1}",
-                "is not a number nor one of data.bad_values (add it there to read it as missing)",
-                text.iloc[j],
-            )
+        for j in np.flatnonzero(unparsed):  # every one counted: the whole file is read before it is refused
+            self.strings.setdefault(column, {}).setdefault(text.iloc[j], []).append(self.rows + int(j) + 1)
         return x, bad
+
+    def refuse_strings(self) -> None:
+        """Refuse the file when a signal column held text that is no number nor a bad value, naming every string.
+
+        Raises
+        ------
+        DataError
+            One line: per column, its distinct strings with their counts and first rows.
+        """
+        if not self.strings:
+            return
+        parts = [
+            f"column {column!r} ({self.columns.origin(column)}): {_strings_text(found)}"
+            for column, found in self.strings.items()
+        ]
+        raise DataError(
+            self.path,
+            "; ".join(parts),
+            "not numbers nor data.bad_values (add them there to read them as missing)",
+        )
 
     def table(self) -> RawTable:
         pd = _pandas(self.path)
         values = {c: np.concatenate(p) if p else np.empty(0) for c, p in self.parts.items()}
         time = pd.concat(self.times, ignore_index=True) if self.times else pd.Series([], dtype=object)
         mode = np.concatenate(self.modes) if self.modes else None
-        return RawTable(str(self.path), self.rows, time, values, mode, self.bad, self.non_finite)
+        return RawTable(str(self.path), self.rows, time, values, mode, self.bad, self.non_finite, self.file_columns)
+
+
+STRINGS_SHOWN = 10
+"""Distinct non-numeric strings named per column; the others are counted."""
+
+
+def _strings_text(found: dict[str, list[int]]) -> str:
+    """``3 non-numeric strings: 'I/O Timeout' ×12 (first row 57), 'Bad Input' ×3 (first row 880), ...``."""
+    ranked = sorted(found.items(), key=lambda item: (-len(item[1]), item[1][0]))
+    shown = [f"{_shorten(text)!r} ×{len(rows)} (first row {rows[0]})" for text, rows in ranked[:STRINGS_SHOWN]]
+    more = f" and {len(ranked) - STRINGS_SHOWN} more" if len(ranked) > STRINGS_SHOWN else ""
+    kinds = f"{len(found)} non-numeric string{'s' if len(found) > 1 else ''}"
+    return f"{kinds}: {', '.join(shown)}{more}"
+
+
+def _shorten(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _separator(path: Path) -> tuple[str, str]:
@@ -222,11 +259,13 @@ def _read_csv(path: Path, columns: ColumnMap, cells: _BadCells, progress: Progre
         columns.check(header, path)
         total = path.stat().st_size
         out = _Columns(path, columns, cells)
+        out.file_columns = len(header)
         with path.open("rb") as handle:
             for chunk in pd.read_csv(handle, usecols=columns.all, chunksize=CHUNK_ROWS, **options):
                 out.take(chunk)
                 if progress is not None:
                     progress(min(handle.tell(), total), total)
+        out.refuse_strings()
     except UnicodeDecodeError as exc:
         raise DataError(
             path,
@@ -256,10 +295,12 @@ def _read_parquet(path: Path, columns: ColumnMap, cells: _BadCells, progress: Pr
         columns.check(parquet.schema_arrow.names, path)
         total = parquet.metadata.num_rows
         out = _Columns(path, columns, cells)
+        out.file_columns = len(parquet.schema_arrow.names)
         for batch in parquet.iter_batches(batch_size=CHUNK_ROWS, columns=columns.all):
             out.take(batch.to_pandas())
             if progress is not None:
                 progress(out.rows, total)
+        out.refuse_strings()
     except DataError:
         raise
     except Exception as exc:  # pyarrow's errors (ArrowInvalid, OSError ...) share no base class worth naming

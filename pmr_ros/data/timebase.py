@@ -33,11 +33,14 @@ class ParsedTime:
         The first stamp as read (ISO text, or the number of seconds).
     iso : bool
         Whether the stamps were date-times.
+    assumed_zone : str
+        The zone stamps written without one were taken in (``UTC`` or ``data.timezone``); "" when they had one.
     """
 
     seconds: np.ndarray
     start: str
     iso: bool
+    assumed_zone: str = ""
 
 
 def _bad_stamp(path: str | Path, column: str, row: int, value: Any, reason: str) -> DataError:
@@ -45,7 +48,7 @@ def _bad_stamp(path: str | Path, column: str, row: int, value: Any, reason: str)
     return DataError(path, f"column {column!r} (data.time_column), row {row + 1}", reason, value)
 
 
-def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> ParsedTime:
+def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str, timezone: str = "") -> ParsedTime:
     """The time column as seconds.
 
     Parameters
@@ -53,7 +56,10 @@ def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> 
     raw : pandas.Series
         The column as read.
     time_format : str
-        ``iso``, ``seconds`` or ``detected`` (numbers: seconds; else ISO 8601).
+        ``iso``, ``seconds``, ``detected`` (numbers: seconds; else ISO 8601)
+        or a strptime pattern (``%d-%b-%y %H:%M:%S``).
+    timezone : str, optional
+        The zone of date-times written without one (IANA name); "" UTC.
 
     Raises
     ------
@@ -70,14 +76,57 @@ def parse_time(raw: Any, time_format: str, *, path: str | Path, column: str) -> 
             j = int(np.flatnonzero(bad)[0])
             raise _bad_stamp(path, column, j, raw.iloc[j], "is not a number of seconds (data.time_format)")
         return ParsedTime(seconds - seconds[0], f"{seconds[0]:g} s", iso=False)
-    stamps = pd.to_datetime(raw, utc=True, format="ISO8601", errors="coerce")
+    pattern = "%" in time_format
+    stamps, zone = _date_times(raw, time_format if pattern else "ISO8601", timezone)
     bad = stamps.isna().to_numpy()
     if bad.any():
         j = int(np.flatnonzero(bad)[0])
-        raise _bad_stamp(path, column, j, raw.iloc[j], "is not an ISO 8601 date-time (e.g. 2024-03-01T12:00:00Z)")
+        reason = "is not an ISO 8601 date-time (e.g. 2024-03-01T12:00:00Z)"
+        if pattern:
+            reason = f"does not match data.time_format {time_format!r}"
+        if _parses(raw.iloc[j], time_format if pattern else "ISO8601"):
+            reason = f"does not exist or is ambiguous in {zone} (a daylight-saving change): export in UTC"
+        raise _bad_stamp(path, column, j, raw.iloc[j], reason)
     # from the differences, not the integers: Arrow stamps arrive in s, ms, us or ns (the dtype's unit)
     seconds = (stamps - stamps.iloc[0]).dt.total_seconds().to_numpy(dtype=float, copy=True)
-    return ParsedTime(seconds, stamps.iloc[0].isoformat(), iso=True)
+    return ParsedTime(seconds, stamps.iloc[0].isoformat(), iso=True, assumed_zone=zone)
+
+
+def _parses(value: Any, form: str) -> bool:
+    """Whether one stamp parses on its own (then only its zone can have made it invalid)."""
+    import pandas as pd
+
+    try:
+        return pd.notna(pd.to_datetime(value, format=form))
+    except (ValueError, TypeError, OverflowError):
+        return False
+
+
+def _date_times(raw: Any, form: str, timezone: str) -> tuple[Any, str]:
+    """The stamps in UTC (NaT where one does not parse), and the zone taken for stamps without one ("" none).
+
+    Stamps with a zone or offset are converted from it; stamps without one are
+    taken in ``timezone`` (UTC when empty).
+    """
+    import warnings
+
+    import pandas as pd
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # pandas 2 warns of mixed offsets (pandas 3 raises): aware stamps
+            local = pd.to_datetime(raw, format=form, errors="coerce")
+    except (ValueError, TypeError):
+        local = None
+    naive = local is not None and local.dtype != object and local.dt.tz is None
+    if not naive:
+        return pd.to_datetime(raw, utc=True, format=form, errors="coerce"), ""
+    zone = timezone or "UTC"
+    try:
+        placed = local.dt.tz_localize(zone, ambiguous="infer", nonexistent="NaT")
+    except (ValueError, TypeError):  # a repeated hour the order cannot resolve
+        placed = local.dt.tz_localize(zone, ambiguous="NaT", nonexistent="NaT")
+    return placed.dt.tz_convert("UTC"), zone
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -120,6 +120,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._created = time.monotonic()
         self._busy_at = 0.0  # when the worker was last seen diagnosing [s of monotonic time]
         self._stale_reported: float | None = None
+        self.run_complete = False  # the run is over (finish_run): its silence is no stale signal
         self.model_since = 0
         self.last_proposal: str | None = None
         self._impact_note = ""
@@ -129,7 +130,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._proposal_pub = self.contract_publisher("proposed_model")
         self._model_sub = self.contract_subscription("active_model", self._on_active_model)
         self.progress = ProgressReporter(self, self._signals, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
-        self._subs = [self.contract_subscription(_SIGNAL_TOPIC[s], self._callback(s)) for s in self._signals]
+        self._subs = [self.contract_subscription(_SIGNAL_TOPIC[s], partial(self._on_signal, s)) for s in self._signals]
         self._own_timers: list[Any] = []
         self._start_timers()
 
@@ -199,12 +200,6 @@ class PmrDiagnosticianNode(ConfiguredNode):
         )
 
     # -- input ---------------------------------------------------------------
-    def _callback(self, signal: str) -> Callable[[Any], None]:
-        def on_message(msg: Any) -> None:
-            self._on_signal(signal, msg)
-
-        return on_message
-
     def _warn(self, text: str) -> None:
         self.warnings.append(text)
         self.get_logger().warning(text)
@@ -285,12 +280,17 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._warn("no conflicting sample for a while: the window restarted after the last one")
         return None
 
+    def finish_run(self) -> None:
+        """The run is over (its plant finished): the silence watchdog stops, no stale warning follows the run."""
+        self.run_complete = True
+
     def _check_silence(self) -> None:
+        if self.run_complete:
+            return
         now = time.monotonic()
         if self.busy:
-            # a diagnosis is running: lockstep producers wait for it, or the run is over (the last window is
-            # diagnosed after the last sample); silence counts from when it is done, as on a machine under load
-            # the final diagnosis alone took longer than stale_timeout_s
+            # a diagnosis is running: lockstep producers wait for it, or the last window is diagnosed; silence counts
+            # from when it is done (on a machine under load the final diagnosis alone outlasted stale_timeout_s)
             self._busy_at = now
             return
         limit = self.config.diagnostician.stale_timeout_s

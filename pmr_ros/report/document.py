@@ -12,6 +12,8 @@ from ..config import PmrConfig
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
 from ..outputs import write_text
+from .absolute import model_and_plant
+from .system_units import units_of
 
 __all__ = ["build_report", "injected_mismatch", "write_json"]
 
@@ -36,7 +38,10 @@ def build_report(
 
     The diagnosis's JSON form (:func:`~pmr_ros.core.results.codec.diagnosis_to_json`:
     status, reason, samples, method, ``elements``) with the tool, command, system,
-    settings and, for simulated runs, the ``injected`` truth.
+    settings, the system's ``units``, ``model_vs_plant`` per element name (absolute K,
+    tau, D of the model and of the estimated plant, :mod:`.absolute`; beside
+    ``elements``, which stay the diagnosis's own JSON) and, for
+    simulated runs, the ``injected`` truth.
     """
     report: dict[str, Any] = {
         "tool": "pmr_ros",
@@ -47,12 +52,17 @@ def build_report(
         "scenario": scenario,
         "seed": seed,
         "sample_time": config.model.sample_time,
+        "controller": config.controller.kind,
         "settings": {
             "pmr": asdict(config.pmr),
             "parametric": asdict(config.parametric) if diagnosis.method == "parametric" else None,
         },
     }
     report.update(diagnosis_to_json(diagnosis))
+    units = units_of(config)
+    dvs = config.disturbance_model.input_names if config.disturbance_model is not None else ()
+    report["units"] = units.to_json(config.model.output_names, config.model.input_names, dvs)
+    report["model_vs_plant"] = model_and_plant(diagnosis, units=units, sample_time=config.model.sample_time)
     if scenario is not None:
         report["injected"] = injected_mismatch(config, scenario)
     return report

@@ -175,7 +175,9 @@ def time_figure(data: PlantData, output_names: tuple[str, ...], input_names: tup
     for j, name in enumerate(output_names):
         ax = axes[j, 0]
         if data.columns["r"][j]:  # a zone CV without a setpoint column: no r drawn
-            ax.plot(*decimate(hours, data.signals["r"][:, j]), color="black", lw=0.8, label="r")
+            # the setpoint distinct from the measurement: orange, dashed, drawn over it
+            ax.plot(*decimate(hours, data.signals["r"][:, j]), color="#e65100", lw=1.1, ls="--", label="r (setpoint)",
+                    zorder=3)  # fmt: skip
         ax.plot(*decimate(hours, data.signals["y"][:, j]), color="#1565c0", lw=0.6, label="y")
         ax.set_ylabel(name, rotation=0, ha="right")
     for k, name in enumerate(input_names):

@@ -18,13 +18,17 @@ from pathlib import Path
 from typing import Any
 
 from ..config import PmrConfig
+from ..core.loop.update import NotCorrectable, corrected_model
 from ..core.pmr.curves import pmr_curves
 from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
 from ..outputs import write_bytes, write_text
+from .absolute import absolute_table
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
+from .response_figures import prediction_figure, step_figure
+from .system_units import units_of
 
 __all__ = ["Figure", "ReportInput", "element_notes", "render_page", "write_html_report"]
 
@@ -95,6 +99,16 @@ def impact_rows(diagnosis: Diagnosis) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda row: row["rank"])
 
 
+def _with_units(config: PmrConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The CV and MV names with their units for the axes (``x_D [mol %]``); a name without a unit as it is."""
+    units, model = units_of(config), config.model
+
+    def label(names: tuple[str, ...], given: tuple[str, ...]) -> tuple[str, ...]:
+        return tuple(f"{n} [{u}]" if u else n for n, u in zip(names, given, strict=True))
+
+    return label(model.output_names, units.outputs), label(model.input_names, units.inputs)
+
+
 def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, Any], Figure | None]]]:
     model = page.config.model
     matrix = Figure(
@@ -102,7 +116,7 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
     )
     timeline = Figure(
         "time.png",
-        time_figure(page.data, model.output_names, model.input_names),
+        time_figure(page.data, *_with_units(page.config)),
         "Setpoints r and outputs y per CV, inputs u per MV; shaded: samples excluded from the diagnosis",
     )
     curves = pmr_curves(page.stretches, page.diagnosis, page.config)
@@ -114,8 +128,52 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
         if element.name in curves:
             caption = f"{element.name}: plant-model ratio against frequency"
             figure = Figure(f"{element.name}.png", element_figure(curves[element.name], element), caption)
-        elements.append((element_notes(element), figure))
+        notes = element_notes(element)
+        values = page.report.get("model_vs_plant", {}).get(element.name)
+        level = page.config.parametric.confidence_level
+        notes["absolute"] = None if values is None else absolute_table(values, confidence_level=level)
+        notes["step"] = _step(page, element)
+        elements.append((notes, figure))
     return matrix, timeline, elements
+
+
+def _step(page: ReportInput, element: ElementDiagnosis) -> Figure | None:
+    """The element's step response, model against estimated plant (a D element's model is not the MPC's G: none)."""
+    model = page.config.model
+    if element.column >= model.n_inputs:
+        return None
+    units = units_of(page.config)
+    integrating = element.model.kind == "integrating"
+    labels = {"time": units.time, "gain": units.gain(element.row, element.column, integrating=integrating)}
+    level = page.config.parametric.confidence_level
+    png = step_figure(element, model.element(element.row, element.column), labels=labels, level=level)
+    caption = (
+        f"{element.name}: response to a unit step of {model.input_names[element.column]}, the model's and the "
+        f"estimated plant's, shaded: the responses over the {100 * level:.0f} % intervals of gain and time constant"
+    )
+    return None if png is None else Figure(f"{element.name}_step.png", png, caption)
+
+
+def _prediction(page: ReportInput) -> Figure | None:
+    """Per CV, measured y against the model's and the corrected model's prediction on the longest stretch."""
+    if page.diagnosis.status != "ok" or not page.stretches:
+        return None
+    longest = max(page.stretches, key=lambda r: r.y.shape[0])
+    plant = None
+    if page.diagnosis.method == "parametric":
+        try:
+            plant = corrected_model(page.config.model, page.diagnosis).model
+        except NotCorrectable:
+            plant = None
+    labels = _with_units(page.config)[0]
+    png = prediction_figure(longest, page.config.model, plant, labels=labels, time_unit=units_of(page.config).time)
+    caption = (
+        "Measured y per CV against the prediction from the measured inputs u: the model's (dashed) and the estimated "
+        "plant's (the model with each mismatched element at its estimate), over the end of the longest clean "
+        "stretch; below each, the model's residual y - prediction (what the inputs do not explain: setpoint-driven "
+        "mismatch, unmeasured disturbances, noise)"
+    )
+    return None if png is None else Figure("prediction.png", png, caption)
 
 
 def _counts(diagnosis: Diagnosis) -> dict[str, int]:
@@ -126,7 +184,9 @@ def _counts(diagnosis: Diagnosis) -> dict[str, int]:
     return counts
 
 
-def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: list) -> str:
+def render_page(
+    page: ReportInput, matrix: Figure, timeline: Figure, elements: list, prediction: Figure | None = None
+) -> str:
     """The HTML text of the report."""
     import jinja2
 
@@ -134,12 +194,14 @@ def render_page(page: ReportInput, matrix: Figure, timeline: Figure, elements: l
     report = page.report
     return environment.from_string(TEMPLATE).render(
         title=f"PMR diagnosis: {report.get('system') or 'system'}",
+        sample_time=units_of(page.config).time_text(page.config.model.sample_time),
         report=report,
         diagnosis=page.diagnosis,
         counts=_counts(page.diagnosis),
         colours=COLOURS,
         matrix=matrix,
         timeline=timeline,
+        prediction=prediction,
         elements=elements,
         steps=page.data.steps,
         data=page.data,
@@ -161,8 +223,11 @@ def write_html_report(directory: str | Path, page: ReportInput) -> Path:
     directory = Path(directory)
     (directory / "figures").mkdir(parents=True, exist_ok=True)
     matrix, timeline, elements = _figures(page)
-    for figure in [matrix, timeline, *(f for _, f in elements if f is not None)]:
-        write_bytes(directory / "figures" / figure.name, figure.png)
+    prediction = _prediction(page)
+    steps = [notes["step"] for notes, _ in elements]
+    for figure in [matrix, timeline, prediction, *(f for _, f in elements), *steps]:
+        if figure is not None:
+            write_bytes(directory / "figures" / figure.name, figure.png)
     index = directory / "index.html"
-    write_text(index, render_page(page, matrix, timeline, elements))  # atomic: never a partial page
+    write_text(index, render_page(page, matrix, timeline, elements, prediction))  # atomic: never a partial page
     return index

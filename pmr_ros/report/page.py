@@ -28,6 +28,8 @@ TEMPLATE = """<!DOCTYPE html>
  .element { border-left: 6px solid; padding-left: 1em; margin: 1.4em 0; }
  .reasons li { color: #8d6e00; }
  .warnings li { color: #616161; }
+ .pair { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }
+ .pair figure { flex: 1 1 480px; }
  .note { background: #f5f5f5; padding: 0.6em 1em; border-radius: 0.4em; font-size: 0.92em; }
 </style>
 </head>
@@ -36,7 +38,7 @@ TEMPLATE = """<!DOCTYPE html>
 <p class="meta">
  {{ report.get("source", report.get("config")) }} &middot; method {{ diagnosis.method }} &middot;
  {{ diagnosis.samples }} samples diagnosed in {{ stretches }} unbroken stretch(es) &middot;
- sample time {{ report.sample_time }} (model time unit) &middot; pmr_ros {{ report.version }}
+ sample time {{ sample_time }} &middot; pmr_ros {{ report.version }}
 </p>
 {% if report.get("windows") %}
 <p class="note">The last of {{ report.windows|length }} rolling windows ({{ report.monitor.window }} stepped by
@@ -57,9 +59,11 @@ TEMPLATE = """<!DOCTYPE html>
 
 {% if impact %}
 <h2 id="impact">Which mismatch matters for control</h2>
-<p class="note">The configured MPC simulated (noise-free, the configured setpoint excitation) on the plant as
+<p class="note">The {{ "configured PI loops" if report.get("controller") == "pi" else "configured MPC" }} simulated
+ (noise-free, the configured setpoint excitation) on the plant as
  estimated, against the same loop on the plant as modelled: the ratio of the integrated squared tracking error (ISE)
- and of the squared input moves, both weighted as the MPC weighs them. 1 means the mismatch does not matter for
+ and of the squared input moves, {{ "every controlled CV and every MV alike" if report.get("controller") == "pi"
+ else "both weighted as the MPC weighs them" }}. 1 means the mismatch does not matter for
  control; the estimates stand for the plant, their intervals are not propagated.</p>
 <table><tr><th>rank</th><th>element</th><th>ISE ratio, this mismatch alone</th><th>input moves ratio</th></tr>
 {% for row in impact %}<tr><td>{{ row.rank }}</td><td><a href="#{{ row.name }}">{{ row.name }}</a></td>
@@ -67,6 +71,9 @@ TEMPLATE = """<!DOCTYPE html>
 {% if impact_all %}<tr><td></td><td>all together</td><td>{{ "%.2f"|format(impact_all.ise_ratio) }}</td>
  <td>{{ "%.2f"|format(impact_all.input_movement_ratio) }}</td></tr>{% endif %}
 </table>
+{% elif report.get("impact_note") %}
+<h2 id="impact">Which mismatch matters for control</h2>
+<p class="note">{{ report.impact_note }}</p>
 {% endif %}
 
 <h2 id="elements">Element by element</h2>
@@ -83,12 +90,20 @@ TEMPLATE = """<!DOCTYPE html>
  {% if notes.impact %}<p>Control impact of this mismatch alone: ISE &times;{{ "%.2f"|format(notes.impact.ise_ratio) }},
  input moves &times;{{ "%.2f"|format(notes.impact.input_movement_ratio) }}
  (rank {{ notes.impact.rank }}).</p>{% endif %}
+ {% if notes.absolute %}<table class="absolute">
+ <tr>{% for h in notes.absolute.header %}<th>{{ h }}</th>{% endfor %}</tr>
+ {% for row in notes.absolute.rows %}<tr><td>{{ row[0] }}</td>{% for cell in row[1:] %}<td class="num">{{ cell }}</td>
+ {% endfor %}</tr>{% endfor %}</table>{% endif %}
  {% if notes.reasons %}<p>Why the data cannot tell (add excitation here):</p>
  <ul class="reasons">{% for reason in notes.reasons %}<li>{{ reason }}</li>{% endfor %}</ul>{% endif %}
  {% if notes.warnings %}<ul class="warnings">{% for warning in notes.warnings %}<li>{{ warning }}</li>{% endfor %}</ul>
  {% endif %}
+ <div class="pair">
  {% if figure %}<figure><img src="{{ figure.data_uri }}" alt="{{ figure.caption }}">
  <figcaption>{{ figure.caption }}</figcaption></figure>{% endif %}
+ {% if notes.step %}<figure><img src="{{ notes.step.data_uri }}" alt="{{ notes.step.caption }}">
+ <figcaption>{{ notes.step.caption }}</figcaption></figure>{% endif %}
+ </div>
 </section>
 {% endfor %}
 
@@ -101,6 +116,9 @@ TEMPLATE = """<!DOCTYPE html>
 </table>
 <figure><img src="{{ timeline.data_uri }}" alt="{{ timeline.caption }}"><figcaption>{{ timeline.caption }}.
 </figcaption></figure>
+{% if prediction %}<h2 id="prediction">Measured against predicted</h2>
+<figure><img src="{{ prediction.data_uri }}" alt="{{ prediction.caption }}"><figcaption>{{ prediction.caption }}.
+</figcaption></figure>{% endif %}
 </body>
 </html>
 """

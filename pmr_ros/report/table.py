@@ -8,12 +8,14 @@ simulated run, the injected mismatch.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Any
 
 from ..core.results import ClassicResult, Diagnosis, ElementDiagnosis, ImpactResult, ParametricResult
+from .absolute import model_and_plant_rows
 
-__all__ = ["format_classic_table", "format_parametric_table", "format_table"]
+__all__ = ["format_classic_table", "format_parametric_table", "format_table", "grouped_notes", "summary_line"]
 
 MARKS = {"ok": "", "mismatch": "!", "inconclusive": "?"}
 """Table marks of a parameter's verdict."""
@@ -65,12 +67,17 @@ def _impact(impact: ImpactResult | None) -> str:
     return f"x{impact.ise_ratio:.2f} (#{impact.rank})" if impact.rank else f"x{impact.ise_ratio:.2f}"
 
 
-def _impact_lines(diagnosis: Diagnosis) -> list[str]:
+CONTROLLERS = {"mpc": "configured MPC", "pi": "configured PI loops"}
+"""The simulated controller of the impact in words, by ``controller.kind``."""
+
+
+def _impact_lines(diagnosis: Diagnosis, controller: str = "mpc") -> list[str]:
     together = diagnosis.impact
     if together is None:
         return []
     return [
-        f"control impact (configured MPC, noise-free, plant as estimated vs as modelled): all together ISE "
+        f"control impact ({CONTROLLERS.get(controller, controller)}, noise-free, plant as estimated vs as modelled): "
+        "all together ISE "
         f"x{together.ise_ratio:.2f}, input moves x{together.input_movement_ratio:.2f}; "
         "per element: ISE ratio with that mismatch alone (#1 matters most)"
     ]
@@ -88,17 +95,75 @@ def _interaction_line(element: ElementDiagnosis, p: ParametricResult) -> str:
     return f"{element.name:8s} {text:53s} {delay:16s} {element.verdict:13s} {_impact(element.impact):11s}"
 
 
-def _notes(element: ElementDiagnosis, result: ClassicResult | ParametricResult | None) -> list[str]:
-    """The element's reasons, its method's reasons and warnings, then its data-quality warnings."""
+def _notes(element: ElementDiagnosis, result: ClassicResult | ParametricResult | None) -> list[tuple[str, str]]:
+    """``(element, text)``: the element's reasons, its method's reasons and warnings, then its data-quality warnings."""
     texts = [*element.reasons, *(result.reasons if result is not None else ())]
     texts += [*getattr(result, "warnings", ()), *element.warnings]
-    return [f"{element.name}: {text}" for text in texts]
+    return [(element.name, text) for text in texts]
 
 
-def format_parametric_table(diagnosis: Diagnosis, *, confidence_level: float, injected: Injected | None = None) -> str:
+NAMES_SHOWN = 6
+"""Elements named on a grouped note's line; the others are counted."""
+
+_FIGURE = re.compile(r"(?<![A-Za-z_\d.])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+"""A figure in a note; not the digits of a name (u4, G1_4, XI101.PV): notes on different channels stay apart."""
+
+
+def _names(names: list[str]) -> str:
+    shown = ", ".join(names[:NAMES_SHOWN])
+    return shown + (f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else "")
+
+
+def grouped_notes(notes: list[tuple[str, str]]) -> list[str]:
+    """One line per kind of note, with how many elements it concerns and which, in order of first appearance.
+
+    Notes of one kind differ only in their figures (``row 3 mixes time constants 1.9x apart``, ``row 15 ... 2.1x``),
+    not in the channels they name: a kind whose texts are all equal shows the text, else its first text as an
+    example.
+
+    Examples
+    --------
+    >>> grouped_notes([("G11", "u1 at a limit"), ("G21", "u1 at a limit"), ("G12", "row 1 slow")])
+    ['G11, G21 (2 elements): u1 at a limit', 'G12: row 1 slow']
+    """
+    kinds: dict[str, list[tuple[str, str]]] = {}
+    for name, text in notes:
+        kinds.setdefault(_FIGURE.sub("#", text), []).append((name, text))
+    lines = []
+    for members in kinds.values():
+        names = list(dict.fromkeys(name for name, _ in members))
+        name, text = members[0]
+        if len({text for _, text in members}) > 1:
+            text = f"{text} (e.g. {name}; figures per element in --json)"
+        lines.append(f"{_names(names)} ({len(names)} elements): {text}" if len(names) > 1 else f"{names[0]}: {text}")
+    return lines
+
+
+def summary_line(diagnosis: Diagnosis) -> str:
+    """``summary: 1 mismatch, 0 inconclusive, 3 ok of 4 modeled elements``: the verdict counts in one line.
+
+    Empty cells are counted apart, with those where an interaction the model lacks was found.
+    """
+    counts = {"mismatch": 0, "inconclusive": 0, "ok": 0}
+    empty = lacking = 0
+    for element in diagnosis:
+        if element.model.kind == "none":
+            empty += 1
+            lacking += element.verdict == "mismatch"
+        else:
+            counts[element.verdict] = counts.get(element.verdict, 0) + 1
+    told = ", ".join(f"{n} {verdict}" for verdict, n in counts.items())
+    line = f"summary: {told} of {sum(counts.values())} modeled elements"
+    return line + (f"; {empty} empty cells, {lacking} with an interaction the model lacks" if empty else "")
+
+
+def format_parametric_table(
+    diagnosis: Diagnosis, *, confidence_level: float, injected: Injected | None = None, controller: str = "mpc"
+) -> str:
     """The parametric method's table: estimates with intervals and verdicts, then the reasons.
 
-    ``confidence_level`` of the intervals [0..1]; ``injected`` adds the truth of a simulated run.
+    ``confidence_level`` of the intervals [0..1]; ``injected`` adds the truth of a simulated run;
+    ``controller`` (``controller.kind``) names the controller the impact simulated.
     """
     level = 100 * confidence_level
     cols = (
@@ -116,8 +181,8 @@ def format_parametric_table(diagnosis: Diagnosis, *, confidence_level: float, in
         lines.append(
             "no model: an empty cell; K [interval] and delay of the plant's interaction there (! one the model lacks)"
         )
-    lines += _impact_lines(diagnosis)
-    lines += notes
+    lines += _impact_lines(diagnosis, controller)
+    lines += grouped_notes(notes)
     return "\n".join(lines) + "\n"
 
 
@@ -153,11 +218,11 @@ def format_classic_table(diagnosis: Diagnosis, *, injected: Injected | None = No
         "gain ratio = K/Khat from M(0); tau index = -100 x slope of M(w)/M(0) on (0, tau_band], > 0: plant slower; "
         "delay = D - Dhat [samples]"
     )
-    lines += notes
+    lines += grouped_notes(notes)
     return "\n".join(lines) + "\n"
 
 
-def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
+def format_table(diagnosis: Diagnosis, report: Mapping[str, Any], *, wide: bool = False) -> str:
     """The verdict table of a diagnosis, one line per element, headed by what was diagnosed.
 
     Parameters
@@ -167,7 +232,9 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
     report : mapping
         The JSON report of it (:func:`pmr_ros.report.build_report`), read for the heading only:
         ``system``, ``command``, ``source`` or ``scenario``/``seed``, ``settings.parametric.confidence_level``
-        and ``injected``.
+        and ``injected``; with ``wide`` its ``model_vs_plant``.
+    wide : bool
+        Also the table of the model's and the estimated plant's K, tau and D side by side (``--wide``).
     """
     origin = report.get("source") or f"scenario {report['scenario']}, seed {report['seed']}"
     head = (
@@ -179,7 +246,13 @@ def format_table(diagnosis: Diagnosis, report: Mapping[str, Any]) -> str:
     injected = report.get("injected")
     if diagnosis.method == "parametric":
         level = report["settings"]["parametric"]["confidence_level"]
-        body = format_parametric_table(diagnosis, confidence_level=level, injected=injected)
+        body = format_parametric_table(
+            diagnosis, confidence_level=level, injected=injected, controller=report.get("controller", "mpc")
+        )
     else:
         body = format_classic_table(diagnosis, injected=injected)
-    return f"{head}\n\n{body}"
+    if wide and diagnosis.method == "parametric":
+        values = report.get("model_vs_plant", {})
+        level = report["settings"]["parametric"]["confidence_level"]
+        body += "\n" + "\n".join(model_and_plant_rows(values, confidence_level=level)) + "\n"
+    return f"{head}\n\n{body}{summary_line(diagnosis)}\n"

@@ -29,6 +29,7 @@ from ..bag.offline import (
 from ..bag.reader import Bag
 from ..bag.storage import BagError
 from ..config import PmrConfig
+from ..config.controller_block import foreign_controller
 from ..config.schema import parameter
 from ..contract.layout import read_signal
 from ..contract.samples import sample_index
@@ -137,6 +138,10 @@ def _with_impact(recorded: Diagnosis, mine: Diagnosis, config: PmrConfig | None)
     return close_diagnosis(mine, config).diagnosis if has_impact and config is not None else mine
 
 
+def _without_impact(elements: dict[str, Any]) -> dict[str, Any]:
+    return {name: {k: v for k, v in e.items() if k != "impact"} for name, e in elements.items()}
+
+
 def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: PmrConfig | None) -> dict[str, Any]:
     """One recorded verdict against the offline outcome of its window."""
     first, last = verdict.window or (0, 0)
@@ -149,9 +154,11 @@ def _comparison(verdict: RecordedVerdict, mine: WindowOutcome | None, config: Pm
         entry["equal"] = False
         return entry
     offline = _with_impact(verdict.diagnosis, mine.diagnosis, config)
-    entry["differences"] = compare_diagnoses(
-        diagnosis_to_json(verdict.diagnosis)["elements"], diagnosis_to_json(offline)["elements"]
-    )
+    recorded, judged = diagnosis_to_json(verdict.diagnosis)["elements"], diagnosis_to_json(offline)["elements"]
+    if offline.impact is None and all(e.impact is None for e in offline):
+        # no impact offline (impact.samples 0, an external controller): the verdicts are compared, not the figures
+        recorded, judged = _without_impact(recorded), _without_impact(judged)
+    entry["differences"] = compare_diagnoses(recorded, judged)
     entry["equal"] = not entry["differences"]
     return entry
 
@@ -300,6 +307,8 @@ def _checked_config(
     namespace = bag_namespace(bag) if namespace is None else namespace
     bag.require(required_topics(namespace))
     config, origin = bag_configuration(bag, config_path)
+    if origin != "bag" and bag.run_config() is None:  # another controller's bag: not this tool's MPC
+        config = foreign_controller(config)
     check_system(bag, config, origin, namespace)
     if method is not None:
         config = replace(config, pmr=replace(config.pmr, method=method))

@@ -34,6 +34,7 @@ __all__ = [
     "close_diagnosis",
     "close_window",
     "curve_file",
+    "external_note",
     "model_file_text",
 ]
 
@@ -83,18 +84,33 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
         A diagnosis that has its impact already (the live diagnostician's, read
         from /diagnostics) keeps it.  The impact is skipped, with
         :attr:`Closed.impact_note` saying why, when its simulation of the MPC on
-        the estimated plant would not fit in memory (checked before allocating).
+        the estimated plant would not fit in memory (checked before allocating)
+        or the controller is ``external`` (:func:`external_note`).  Kind ``pi``
+        simulates the configured PI loops instead of the MPC.
     """
     try:
         update = corrected_model(config.model, diagnosis, disturbance_model=config.disturbance_model)
     except NotCorrectable as exc:
         return Closed(diagnosis, None, str(exc))
     if config.impact.active and update.changes and diagnosis.impact is None:  # (read from /diagnostics: has it)
-        skipped = impact_shortfall(config, update.model)
+        controller = config.controller
+        if controller.kind == "external":
+            return Closed(diagnosis, update, impact_note=external_note(config))
+        skipped = impact_shortfall(config, update.model) if controller.kind == "mpc" else None
         if skipped is not None:
             return Closed(diagnosis, update, impact_note=skipped)
-        diagnosis = control_impact(diagnosis, loop=config, update=update, samples=config.impact.samples)
+        diagnosis = control_impact(
+            diagnosis, loop=config, update=update, samples=config.impact.samples, controller=controller
+        )
     return Closed(diagnosis, update)
+
+
+def external_note(config: PmrConfig) -> str:
+    """Why the control impact is not computed under ``controller.kind: external``, in one line."""
+    return config.controller.why_external or (
+        "control impact not computed: controller.kind external (the plant's controller is not simulated; "
+        "controller.kind pi with the loops' tuning, or mpc, computes it)"
+    )
 
 
 def _verdict_lines(diagnosis: Diagnosis) -> list[str]:

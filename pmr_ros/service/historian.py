@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..config import PmrConfig
+from ..config.controller_block import foreign_controller
 from ..core.pmr.diagnosis import diagnose_stretches
 from ..core.records import Record
 from ..core.results import Diagnosis
@@ -101,6 +102,7 @@ def diagnose_table(
         configuration with measured disturbances whose data lack them; a
         ``model_path`` the diagnosis cannot give a model for.
     """
+    config = foreign_controller(config)  # an export's controller is not this tool's unless the file names it
     data = read_export(path, config, progress=progress)
     stretches = data.stretches()
     problem = missing_disturbances(stretches, config.disturbance_model)

@@ -1,12 +1,14 @@
-"""Which mismatch matters for control: the configured MPC on the plant as estimated vs as modelled.
+"""Which mismatch matters for control: the configured controller on the plant as estimated vs as modelled.
 
 For each element with a ``mismatch`` verdict the closed loop is simulated
-with the controller as configured (its model Ghat, its tuning, its setpoint
-excitation) on a plant that is Ghat with only that element replaced by its
+with the controller as configured (the MPC: its model Ghat, its tuning; or the
+PI loops of ``controller.kind: pi``, :mod:`.pi_loops`; either with the
+configured setpoint excitation) on a plant that is Ghat with only that element replaced by its
 estimate, and once with every mismatched element replaced; the integrated
 squared tracking error (ISE, weighted by the MPC's output weights) and the
 squared input moves (weighted by its move weights) are compared with the
-same loop on the plant as modelled (Ghat itself).  Assumptions: the loop is
+same loop on the plant as modelled (Ghat itself); PI loops weigh every
+controlled CV's error and every move alike.  Assumptions: the loop is
 linear and noise-free; the configured setpoint excitation stands for the
 operating regime; the estimates stand for the plant (their intervals are not
 propagated); constraints act as configured.  A ratio of 1 means the mismatch
@@ -25,11 +27,12 @@ from ..results import Diagnosis, ImpactResult
 from ..sim.closed_loop import LoopConfig, RunPlan, simulate
 from ..sim.excitation import ExcitationSettings, PrbsSettings
 from ..sim.model import TransferMatrix
-from ..sim.operation import DisturbanceSignalSettings, ManualSettings
+from ..sim.operation import DisturbanceSignalSettings, ManualSettings, setpoint_generator
 from ..sim.true_plant import OutputDisturbance
+from .pi_loops import ControllerSettings, PiTuning, simulate_pi
 from .update import ModelUpdate, with_changes
 
-__all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures"]
+__all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures", "pi_figures"]
 
 UNSTABLE = 1e9
 """An output beyond this many times the setpoint swing counts as a loop gone unstable."""
@@ -118,7 +121,35 @@ class _Loop:
         return None
 
 
-def loop_figures(loop: LoopConfig, plant: TransferMatrix, *, samples: int) -> LoopFigures:
+def _unstable(r: np.ndarray, y: np.ndarray) -> bool:
+    swing = float(np.max(np.abs(r))) or 1.0
+    return not np.all(np.isfinite(y)) or bool(np.max(np.abs(y)) > UNSTABLE * swing)
+
+
+def pi_figures(loop: LoopConfig, tuning: PiTuning, plant: TransferMatrix, *, samples: int) -> LoopFigures:
+    """ISE (controlled CVs) and input movement of the PI loops on ``plant``, following the configured setpoints.
+
+    Parameters
+    ----------
+    loop : LoopConfig
+        Its setpoint excitation (``prbs``) and seed.
+    tuning : PiTuning
+    plant : TransferMatrix
+    samples : int
+    """
+    r = setpoint_generator(loop.prbs, loop.run.seed).sequence(samples)
+    with np.errstate(over="ignore", invalid="ignore"):
+        y, u = simulate_pi(tuning, plant, r)
+    cv = tuning.outputs
+    if _unstable(r[:, cv], y[:, cv]):
+        return LoopFigures(math.inf, math.inf)
+    moves = np.diff(u, axis=0, prepend=np.zeros((1, u.shape[1])))
+    return LoopFigures(float(np.sum((r[:, cv] - y[:, cv]) ** 2)), float(np.sum(moves**2)))
+
+
+def loop_figures(
+    loop: LoopConfig, plant: TransferMatrix, *, samples: int, controller: ControllerSettings | None = None
+) -> LoopFigures:
     """ISE and input movement of the configured loop on ``plant`` (noise-free, from rest).
 
     Parameters
@@ -129,12 +160,15 @@ def loop_figures(loop: LoopConfig, plant: TransferMatrix, *, samples: int) -> Lo
         The plant the controller runs on.
     samples : int
         Closed-loop samples simulated.
+    controller : ControllerSettings, optional
+        Kind ``pi``: its loops run instead of the MPC (:func:`pi_figures`); default the MPC.
     """
+    if controller is not None and controller.kind == "pi" and controller.pi is not None:
+        return pi_figures(loop, controller.pi, plant, samples=samples)
     quiet = _Loop(loop.model, np.zeros(loop.model.n_outputs), loop.prbs, loop.excitation, loop.mpc, loop.run, plant)
     with np.errstate(over="ignore", invalid="ignore"):
         record = simulate(quiet, samples=samples)
-    swing = float(np.max(np.abs(record.r))) or 1.0
-    if not np.all(np.isfinite(record.y)) or np.max(np.abs(record.y)) > UNSTABLE * swing:
+    if _unstable(record.r, record.y):
         return LoopFigures(math.inf, math.inf)
     error = record.r - record.y
     moves = np.diff(record.u, axis=0, prepend=np.zeros((1, record.u.shape[1])))
@@ -149,7 +183,14 @@ def _with_element(model: TransferMatrix, update: ModelUpdate, name: str) -> Tran
     return with_changes(model, [(i, k, change)])
 
 
-def control_impact(diagnosis: Diagnosis, *, loop: LoopConfig, update: ModelUpdate, samples: int) -> Diagnosis:
+def control_impact(
+    diagnosis: Diagnosis,
+    *,
+    loop: LoopConfig,
+    update: ModelUpdate,
+    samples: int,
+    controller: ControllerSettings | None = None,
+) -> Diagnosis:
     """The diagnosis with the control impact of each mismatched element and of all together.
 
     Parameters
@@ -162,6 +203,8 @@ def control_impact(diagnosis: Diagnosis, *, loop: LoopConfig, update: ModelUpdat
         The corrected model and its element changes (:func:`~pmr_ros.core.loop.update.corrected_model`).
     samples : int
         Closed-loop samples per simulation.
+    controller : ControllerSettings, optional
+        The controller simulated (:func:`loop_figures`); default the MPC.
 
     Returns
     -------
@@ -175,12 +218,15 @@ def control_impact(diagnosis: Diagnosis, *, loop: LoopConfig, update: ModelUpdat
     acting = [c for c in update.changes if c.name in loop.model.element_names()]
     if not acting:
         return diagnosis
-    base = loop_figures(loop, loop.model, samples=samples)
-    alone = {c.name: loop_figures(loop, _with_element(loop.model, update, c.name), samples=samples) for c in acting}
+    base = loop_figures(loop, loop.model, samples=samples, controller=controller)
+    alone = {
+        c.name: loop_figures(loop, _with_element(loop.model, update, c.name), samples=samples, controller=controller)
+        for c in acting
+    }
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
     elements = dict(diagnosis.elements)
     for name, figures in alone.items():
         ise, movement = figures.ratio_to(base)
         elements[name] = replace(elements[name], impact=ImpactResult(ise, movement, ranked.index(name) + 1))
-    together = loop_figures(loop, update.model, samples=samples).ratio_to(base)
+    together = loop_figures(loop, update.model, samples=samples, controller=controller).ratio_to(base)
     return replace(diagnosis, elements=elements, impact=ImpactResult(*together, rank=0))

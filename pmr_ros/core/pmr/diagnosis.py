@@ -24,6 +24,7 @@ __all__ = [
     "shortest_useful_stretch",
     "useful_stretches",
     "with_data_quality",
+    "with_filtering_warnings",
 ]
 
 
@@ -31,6 +32,29 @@ def _classic(
     stretches: Sequence[Record], *, model: TransferMatrix, pmr: PmrSettings, parametric: ParametricSettings
 ) -> Diagnosis:
     return diagnose_classic(stretches, model=model, settings=pmr)
+
+
+def with_filtering_warnings(diagnosis: Diagnosis, model: TransferMatrix, *, limit: float) -> Diagnosis:
+    """A classic diagnosis with a warning on each modeled element of a row whose time constants lie > ``limit``x apart.
+
+    The classic PMR reads M(w) of a row through its elements' combined
+    response: time constants far apart blur one element's tau index with the
+    others' (the paper's filtering effect).  The parametric fit does not suffer
+    from it and does not warn.  The warning joins the element's data-quality
+    warnings (figures unknown where none were assessed).
+    """
+    elements = dict(diagnosis.elements)
+    for i in range(model.n_outputs):
+        taus = model.time_constant[i][model.element_type[i] == "foptd"]
+        ratio = float(taus.max() / taus.min()) if taus.size else 1.0
+        if ratio <= limit:
+            continue
+        text = f"row {i + 1} mixes time constants {ratio:.1f}x apart (> {limit:g}: the classic PMR's filtering effect)"
+        for name, e in diagnosis.elements.items():
+            if e.row == i and e.model.kind != "none":
+                known = e.data_quality or DataQuality(None, None, None)
+                elements[name] = replace(e, data_quality=replace(known, warnings=(*known.warnings, text)))
+    return replace(diagnosis, elements=elements)
 
 
 def _parametric(
@@ -216,13 +240,14 @@ def diagnose_stretches(
     diagnosis = METHODS[method](stretches, model=model, pmr=pmr, parametric=parametric)
     if note is not None:
         diagnosis = _with_warning(diagnosis, f"D elements not diagnosed: {note}")
-    if quality is None or diagnosis.status != "ok":
-        return diagnosis
-    used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
-    if not used:  # a diagnosis with verdicts had a stretch long enough for its own, longer, segments
-        return diagnosis
-    figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
-    return with_data_quality(diagnosis, figures, model=model, settings=quality)
+    if quality is not None and diagnosis.status == "ok":
+        used = useful_stretches(stretches, model=model, pmr=pmr, parametric=parametric, method="classic")
+        if used:  # a diagnosis with verdicts had a stretch long enough for its own, longer, segments
+            figures = assess(used, model=model, welch=pmr.welch, settings=quality, as_read=as_read)
+            diagnosis = with_data_quality(diagnosis, figures, model=model, settings=quality)
+    if method == "classic" and diagnosis.status == "ok":
+        diagnosis = with_filtering_warnings(diagnosis, model, limit=parametric.row_time_constant_ratio_warn)
+    return diagnosis
 
 
 def _augmented(

@@ -152,16 +152,12 @@ def _reasons(
     return reasons
 
 
-def _warnings(
-    layout: RowLayout, ratio: float, *, bins: np.ndarray, omega: np.ndarray, settings: ParametricSettings
-) -> tuple[str, ...]:
-    """Remarks on a row that do not stop its verdicts."""
+def _warnings(layout: RowLayout, *, bins: np.ndarray, omega: np.ndarray) -> tuple[str, ...]:
+    """Remarks on a row that do not stop its verdicts.
+
+    (A row mixing time constants troubles the classic PMR, not this fit: the classic method warns of it.)
+    """
     warnings = []
-    if ratio > settings.row_time_constant_ratio_warn:
-        warnings.append(
-            f"row {layout.row + 1} mixes time constants {ratio:.1f}x apart "
-            f"(> {settings.row_time_constant_ratio_warn:g}: the classic PMR's filtering effect)"
-        )
     band = bins[bins > 0]
     skipped = int(band[0]) - 1 if band.size else 0
     if skipped > 0:
@@ -209,7 +205,7 @@ def row_quality(
         coherence_min=classic.coherence_min,
         inputs=[model.input_names[k] for k in layout.columns],
     )
-    warnings = _warnings(layout, ratio, bins=bins, omega=omega, settings=settings)
+    warnings = _warnings(layout, bins=bins, omega=omega)
     # each modeled element's share of the row's instrument-driven output: can it be seen at all?
     modeled = model.present[i, layout.columns]
     driven = np.where(modeled, estimate.power[bins].sum(axis=0), 0.0) if bins.size else np.zeros(modeled.size)
