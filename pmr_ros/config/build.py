@@ -232,15 +232,16 @@ def _mismatch(v: _Values, model: TransferMatrix) -> Mismatch:
 
 
 def _prbs(v: _Values) -> PrbsSettings:
-    return PrbsSettings(
-        register_length=v["prbs.register_length"],
-        clock_period=v["prbs.clock_period"],
-        amplitude=v["prbs.amplitude"],
-        nominal=v["prbs.nominal"],
-        mode=v["prbs.mode"],
-        step_interval_samples=v["prbs.step_interval_samples"],
-        step_amplitude=v["prbs.step_amplitude"],
+    keys = (
+        "register_length",
+        "clock_period",
+        "amplitude",
+        "nominal",
+        "mode",
+        "step_interval_samples",
+        "step_amplitude",
     )
+    return PrbsSettings(**{key: v[f"prbs.{key}"] for key in keys})
 
 
 def _check_prbs_channels(v: _Values, model: TransferMatrix, excitation: ExcitationSettings) -> None:
