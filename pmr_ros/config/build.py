@@ -20,7 +20,7 @@ from ..core.mpc.controller import MpcTuning
 from ..core.pmr.classic import PmrSettings
 from ..core.pmr.data_quality import QualitySettings
 from ..core.pmr.parametric import ParametricSettings
-from ..core.sim.excitation import ExcitationSettings, PrbsSettings, primitive_polynomial_count
+from ..core.sim.excitation import ExcitationSettings
 from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
 from .controller_block import controller_settings
@@ -29,6 +29,7 @@ from .errors import ConfigError
 from .general_elements import GENERAL_KINDS, block_elements, block_numbers
 from .plant_block import plant_block
 from .pmr_config import DiagnosticianSettings, PmrConfig, RunSettings, SimulationSettings
+from .prbs_block import check_prbs_channels, prbs_settings
 from .routine import (
     disturbance_mismatch,
     disturbance_names,
@@ -231,34 +232,6 @@ def _mismatch(v: _Values, model: TransferMatrix) -> Mismatch:
     return Mismatch(v["mismatch.gain_pct"], v["mismatch.time_constant_pct"], np.rint(delay).astype(int))
 
 
-def _prbs(v: _Values) -> PrbsSettings:
-    keys = (
-        "register_length",
-        "clock_period",
-        "amplitude",
-        "nominal",
-        "mode",
-        "step_interval_samples",
-        "step_amplitude",
-    )
-    return PrbsSettings(**{key: v[f"prbs.{key}"] for key in keys})
-
-
-def _check_prbs_channels(v: _Values, model: TransferMatrix, excitation: ExcitationSettings) -> None:
-    """Every PRBS channel (setpoints, then dithered inputs) needs its own primitive polynomial."""
-    degree = v["prbs.register_length"]
-    channels = model.n_outputs + (model.n_inputs if excitation.active else 0)
-    available = primitive_polynomial_count(degree)
-    if channels > available:
-        raise v.error(
-            "prbs.register_length",
-            degree,
-            f"has {available} primitive polynomials, fewer than the {channels} PRBS channels "
-            f"({model.n_outputs} setpoints{f' + {model.n_inputs} dithered inputs' if excitation.active else ''}); "
-            "choose a longer register",
-        )
-
-
 def _mpc(v: _Values, model: TransferMatrix) -> MpcTuning:
     np_h, nc_h = v["mpc.prediction_horizon"], v["mpc.control_horizon"]
     if nc_h > np_h:
@@ -364,7 +337,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     v = _Values(_effective(checked), source, sources or {})
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
-    _check_prbs_channels(v, model, excitation)
+    check_prbs_channels(v, model, excitation)
     mpc = _mpc(v, model)
     dv_model = _disturbance_model(v, model)
     return PmrConfig(
@@ -372,7 +345,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         mismatch=_mismatch(v, model),
         noise_std=v["noise.std"],
         disturbance=OutputDisturbance(v["noise.disturbance_std"], v["noise.disturbance_pole"]),
-        prbs=_prbs(v),
+        prbs=prbs_settings(v),
         excitation=excitation,
         mpc=mpc,
         pmr=_pmr(v),
