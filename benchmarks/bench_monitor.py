@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import sys
 import tempfile
@@ -84,15 +85,17 @@ def _shifted(changes: tuple[Change, ...], start: int) -> tuple[Change, ...]:
 
 
 class PeakMemory:
-    """The largest resident memory of this process and all its descendants together [MB].
+    """The largest resident memory of this process and all its descendants together [MB], and their CPU time [s].
 
-    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.
+    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.  The CPU time
+    (user + system, each process's last sample) is the figure a shared machine does not inflate.
     """
 
     def __init__(self) -> None:
         import threading
 
         self.peak = 0.0
+        self._cpu: dict[int, float] = {}
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._sample, daemon=True)
 
@@ -100,14 +103,22 @@ class PeakMemory:
         import psutil
 
         me = psutil.Process()
+        start = sum(me.cpu_times()[:2])
         while not self._stop.wait(0.2):
             total = me.memory_info().rss
+            self._cpu[me.pid] = sum(me.cpu_times()[:2]) - start
             for child in me.children(recursive=True):
                 try:
                     total += child.memory_info().rss
+                    self._cpu[child.pid] = sum(child.cpu_times()[:2])
                 except psutil.Error:
                     pass
             self.peak = max(self.peak, total / 2**20)
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU time of this process (since entering) and of its descendants while sampled [s]."""
+        return sum(self._cpu.values())
 
     def __enter__(self) -> PeakMemory:
         self._thread.start()
@@ -135,6 +146,10 @@ def year(args: argparse.Namespace) -> None:
     wall = time.perf_counter() - start
     mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"monitor: {len(found.windows)} windows of {args.window} stepped by {args.step} in {wall:.1f} s")
+    print(
+        f"CPU time: {memory.cpu_s:.0f} s in all processes ({memory.cpu_s / len(found.windows):.2f} s a window; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
+    )
     print(
         f"peak memory: {memory.peak:.0f} MB this process and its workers together (this process alone "
         f"{mine:.0f} MB; the record {record_mb:.0f} MB)"
