@@ -32,7 +32,7 @@ import numpy as np
 
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
-from .spectra import RecordSpectra, SegmentSpectra, WelchSettings, row_regressors, segment_spectra
+from .spectra import RecordSpectra, RowSpectra, SegmentSpectra, WelchSettings, row_regressors, segment_spectra
 from .spectra_source import SPECTRA_SOURCE
 
 __all__ = ["PieceCache", "PiecewiseSpectra"]
@@ -65,6 +65,7 @@ class PieceCache:
     def __init__(self, model: TransferMatrix) -> None:
         self.model = model
         self._spans: dict[int, Span] = {}
+        self._window: dict[tuple[Any, ...], PiecewiseSpectra] = {}
         self._store: dict[tuple[Any, ...], Any] = {}
         self.computed = 0
         """Pieces computed so far (instrument transforms of one stretch), for the tests and the benchmark."""
@@ -85,7 +86,7 @@ class PieceCache:
             yield self
         finally:
             SPECTRA_SOURCE.reset(token)
-            self._spans = {}
+            self._spans, self._window = {}, {}
 
     def spectra(
         self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings
@@ -94,7 +95,10 @@ class PieceCache:
         spans = [self._spans.get(id(s)) for s in stretches]
         if model is not self.model or any(span is None for span in spans):
             return None
-        return PiecewiseSpectra(self, stretches, [span for span in spans if span is not None], welch)
+        key = (tuple(spans), welch)  # the parametric fit and the data-quality figures ask for the same
+        if key not in self._window:
+            self._window[key] = PiecewiseSpectra(self, stretches, [span for span in spans if span is not None], welch)
+        return self._window[key]
 
     def _held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
         if key not in self._store:
@@ -135,6 +139,7 @@ class PiecewiseSpectra(RecordSpectra):
     def __init__(self, cache: PieceCache, stretches: Sequence[Record], spans: Sequence[Span], welch: WelchSettings):
         model = cache.model
         self.model, self.settings, self._cache = model, welch, cache
+        self._rows: dict[int, RowSpectra] = {}
         self.moving = moving_instruments(stretches)
         self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
@@ -149,6 +154,12 @@ class PiecewiseSpectra(RecordSpectra):
         self.omega = self._z.omega
         self.segments = self._z.segments
         self.rr = self._z.cross(slice(None), slice(None))
+
+    def row(self, i: int) -> RowSpectra:
+        """:meth:`RecordSpectra.row`, computed once per row (the window's fit and data quality both read it)."""
+        if i not in self._rows:
+            self._rows[i] = super().row(i)
+        return self._rows[i]
 
     def _block(self, x: np.ndarray, i: int) -> np.ndarray:
         """A stretch's block as :meth:`RecordSpectra._row_segments` prepares it: differenced, warm-up dropped."""
