@@ -2,7 +2,7 @@
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py year [--days 365] [--shape 4x8] [--window 14d]
         [--step 1d] [--jobs N] [--cache DIR]
-    PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py fleet [--controllers 20] [--days 2] [--dask]
+    PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py fleet [--controllers 20] [--days 4] [--dask]
 
 ``year``: our own closed loop of an n x m controller (half its cells empty,
 :func:`bench_scale.industrial_system`, no mismatch at first), one day per
@@ -14,7 +14,9 @@ memory of this process and of its largest worker, and the onsets found
 against the injected ones.  ``--cache DIR`` keeps the generated record.
 
 ``fleet``: ``--controllers`` generated controllers of different shapes
-(2x2 .. 4x8), two of them drifting; the wall time of ``diagnose --fleet``'s
+(2x2 .. 4x8), two of them drifting, ``--days`` of data each (4: two days
+are 6 Welch segments of 512 after each day's settling, fewer than the 8 a
+diagnosis needs, and every element would be inconclusive); the wall time of ``diagnose --fleet``'s
 service locally and (``--dask``) on a local Dask cluster, whether the two
 drifting controllers rank first, and whether both summaries agree.
 """
@@ -245,7 +247,7 @@ def main() -> None:
     y.add_argument("--cache", type=Path, default=None)
     f = sub.add_parser("fleet")
     f.add_argument("--controllers", type=int, default=20)
-    f.add_argument("--days", type=int, default=2)
+    f.add_argument("--days", type=int, default=4)
     f.add_argument("--jobs", type=int, default=None)
     f.add_argument("--dask", action="store_true")
     args = parser.parse_args()
