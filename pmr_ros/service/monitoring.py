@@ -15,7 +15,9 @@ from __future__ import annotations
 import os
 import re
 import signal
+import threading
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -210,17 +212,19 @@ def _work(task: tuple[int, int, int]) -> tuple[int, Diagnosis]:
     return task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]), pieces=_WORKER_PIECES)
 
 
-_CLUSTER_PIECES: dict[int, PieceCache] = {}
-"""A Dask worker's pieces, by the id of the job it holds (the scattered record: one per run)."""
+_CLUSTER_PIECES = threading.local()
+"""A Dask worker thread's pieces and the job they belong to (the scattered record: one per run).
+
+Per thread: a worker with several threads runs windows at once, and a cache serves one window at a time."""
 
 
 def cluster_window(job: WindowJob, task: tuple[int, int, int]) -> tuple[tuple[int, int, int], Diagnosis, float]:
     """One window on a Dask worker: ``(task, diagnosis, cpu_s)`` (the shape :func:`run_on_cluster` records)."""
     t0 = time.process_time()
-    if id(job) not in _CLUSTER_PIECES:
-        _CLUSTER_PIECES.clear()
-        _CLUSTER_PIECES[id(job)] = PieceCache(job.config.model)
-    diagnosis = diagnose_window(job, (task[1], task[2]), pieces=_CLUSTER_PIECES[id(job)])
+    held = getattr(_CLUSTER_PIECES, "job", None)
+    if held is None or held() is not job:  # a weak reference: a finished run's record is not kept alive
+        _CLUSTER_PIECES.job, _CLUSTER_PIECES.cache = weakref.ref(job), PieceCache(job.config.model)
+    diagnosis = diagnose_window(job, (task[1], task[2]), pieces=_CLUSTER_PIECES.cache)
     return task, diagnosis, time.process_time() - t0
 
 
