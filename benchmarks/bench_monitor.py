@@ -2,7 +2,7 @@
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py year [--days 365] [--shape 4x8] [--window 14d]
         [--step 1d] [--jobs N] [--cache DIR]
-    PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py fleet [--controllers 20] [--days 2] [--dask]
+    PYTHONPATH=. .venv/bin/python benchmarks/bench_monitor.py fleet [--controllers 20] [--days 4] [--dask]
 
 ``year``: our own closed loop of an n x m controller (half its cells empty,
 :func:`bench_scale.industrial_system`, no mismatch at first), one day per
@@ -14,7 +14,9 @@ memory of this process and of its largest worker, and the onsets found
 against the injected ones.  ``--cache DIR`` keeps the generated record.
 
 ``fleet``: ``--controllers`` generated controllers of different shapes
-(2x2 .. 4x8), two of them drifting; the wall time of ``diagnose --fleet``'s
+(2x2 .. 4x8), two of them drifting, ``--days`` of data each (4: two days
+are 6 Welch segments of 512 after each day's settling, fewer than the 8 a
+diagnosis needs, and every element would be inconclusive); the wall time of ``diagnose --fleet``'s
 service locally and (``--dask``) on a local Dask cluster, whether the two
 drifting controllers rank first, and whether both summaries agree.
 """
@@ -23,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import sys
 import tempfile
@@ -84,15 +87,17 @@ def _shifted(changes: tuple[Change, ...], start: int) -> tuple[Change, ...]:
 
 
 class PeakMemory:
-    """The largest resident memory of this process and all its descendants together [MB].
+    """The largest resident memory of this process and all its descendants together [MB], and their CPU time [s].
 
-    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.
+    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.  The CPU time
+    (user + system, each process's last sample) is the figure a shared machine does not inflate.
     """
 
     def __init__(self) -> None:
         import threading
 
         self.peak = 0.0
+        self._cpu: dict[int, float] = {}
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._sample, daemon=True)
 
@@ -100,14 +105,22 @@ class PeakMemory:
         import psutil
 
         me = psutil.Process()
+        start = sum(me.cpu_times()[:2])
         while not self._stop.wait(0.2):
             total = me.memory_info().rss
+            self._cpu[me.pid] = sum(me.cpu_times()[:2]) - start
             for child in me.children(recursive=True):
                 try:
                     total += child.memory_info().rss
+                    self._cpu[child.pid] = sum(child.cpu_times()[:2])
                 except psutil.Error:
                     pass
             self.peak = max(self.peak, total / 2**20)
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU time of this process (since entering) and of its descendants while sampled [s]."""
+        return sum(self._cpu.values())
 
     def __enter__(self) -> PeakMemory:
         self._thread.start()
@@ -135,6 +148,10 @@ def year(args: argparse.Namespace) -> None:
     wall = time.perf_counter() - start
     mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"monitor: {len(found.windows)} windows of {args.window} stepped by {args.step} in {wall:.1f} s")
+    print(
+        f"CPU time: {memory.cpu_s:.0f} s in all processes ({memory.cpu_s / len(found.windows):.2f} s a window; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
+    )
     print(
         f"peak memory: {memory.peak:.0f} MB this process and its workers together (this process alone "
         f"{mine:.0f} MB; the record {record_mb:.0f} MB)"
@@ -230,7 +247,7 @@ def main() -> None:
     y.add_argument("--cache", type=Path, default=None)
     f = sub.add_parser("fleet")
     f.add_argument("--controllers", type=int, default=20)
-    f.add_argument("--days", type=int, default=2)
+    f.add_argument("--days", type=int, default=4)
     f.add_argument("--jobs", type=int, default=None)
     f.add_argument("--dask", action="store_true")
     args = parser.parse_args()

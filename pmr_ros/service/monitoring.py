@@ -15,7 +15,9 @@ from __future__ import annotations
 import os
 import re
 import signal
+import threading
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -25,6 +27,7 @@ import numpy as np
 from ..config import PmrConfig
 from ..core.monitor import OnsetSettings, onset_entries, trend_onsets, trend_table, window_plan
 from ..core.pmr.diagnosis import diagnose_stretches
+from ..core.pmr.piecewise import PieceCache
 from ..core.records import Record
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
@@ -32,7 +35,15 @@ from ..data import PlantData
 from .historian import limits_given
 from .refusal import ServiceError
 
-__all__ = ["Monitoring", "WindowJob", "diagnose_window", "monitor", "window_entry", "window_stretches"]
+__all__ = [
+    "Monitoring",
+    "WindowJob",
+    "diagnose_window",
+    "monitor",
+    "stretch_spans",
+    "window_entry",
+    "window_stretches",
+]
 
 
 @dataclass(frozen=True)
@@ -53,16 +64,21 @@ class WindowJob:
     usable: np.ndarray
 
 
+def stretch_spans(job: WindowJob, first: int, last: int) -> list[tuple[int, int]]:
+    """The first and last sample (inclusive, in the whole record) of each unbroken usable stretch of ``first..last``."""
+    usable = job.usable[first : last + 1]
+    edges = np.flatnonzero(np.diff(np.concatenate(([False], usable, [False])).astype(np.int8))) + first
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
 def window_stretches(job: WindowJob, first: int, last: int, *, deviations: bool = True) -> list[Record]:
     """The unbroken usable stretches of samples ``first..last`` (inclusive), each one's means removed if ``deviations``.
 
     Each stretch is a slice of the record; only the deviations are new arrays.
     """
-    usable = job.usable[first : last + 1]
-    edges = np.flatnonzero(np.diff(np.concatenate(([False], usable, [False])).astype(np.int8)))
     out = []
-    for a, b in zip(edges[::2] + first, edges[1::2] + first, strict=True):
-        part = {key: values[a:b] for key, values in job.data.signals.items()}
+    for a, b in stretch_spans(job, first, last):
+        part = {key: values[a : b + 1] for key, values in job.data.signals.items()}
         if deviations:
             part = {key: values - values.mean(axis=0) for key, values in part.items()}
         manual = None if job.data.manual is None else job.data.manual[a:b]
@@ -71,20 +87,32 @@ def window_stretches(job: WindowJob, first: int, last: int, *, deviations: bool 
     return out
 
 
-def diagnose_window(job: WindowJob, span: tuple[int, int]) -> Diagnosis:
-    """The diagnosis of one window (one estimate from its unbroken stretches), with its data quality."""
+def diagnose_window(job: WindowJob, span: tuple[int, int], *, pieces: PieceCache | None = None) -> Diagnosis:
+    """The diagnosis of one window (one estimate from its unbroken stretches), with its data quality.
+
+    With ``pieces`` the stretches it shares with the windows before it are not filtered and transformed again
+    (:mod:`pmr_ros.core.pmr.piecewise`; the same diagnosis).
+    """
     first, last = span
     config = job.config
     quality = config.quality if limits_given(config) else config.quality.without_limits()
-    return diagnose_stretches(
-        window_stretches(job, first, last),
-        model=config.model,
-        pmr=config.pmr,
-        parametric=config.parametric,
-        quality=quality,
-        as_read=window_stretches(job, first, last, deviations=False),
-        disturbance_model=config.disturbance_model,
-    )
+    stretches = window_stretches(job, first, last)
+
+    def diagnosed() -> Diagnosis:
+        return diagnose_stretches(
+            stretches,
+            model=config.model,
+            pmr=config.pmr,
+            parametric=config.parametric,
+            quality=quality,
+            as_read=window_stretches(job, first, last, deviations=False),
+            disturbance_model=config.disturbance_model,
+        )
+
+    if pieces is None:
+        return diagnosed()
+    with pieces.window(stretches, stretch_spans(job, first, last)):
+        return diagnosed()
 
 
 _DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
@@ -171,30 +199,43 @@ ONSET_SETTINGS = OnsetSettings(scale_errors=True)
 (the daily operation is not white noise), so the errors are scaled up by the scatter about the best fit."""
 
 _WORKER_JOB: WindowJob | None = None
+_WORKER_PIECES: PieceCache | None = None
 
 
 def _init_worker(job: WindowJob) -> None:
     # Ctrl-C goes to the whole process group; only the main process handles it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    global _WORKER_JOB
-    _WORKER_JOB = job
+    global _WORKER_JOB, _WORKER_PIECES
+    _WORKER_JOB, _WORKER_PIECES = job, PieceCache(job.config.model)
 
 
 def _work(task: tuple[int, int, int]) -> tuple[int, Diagnosis]:
     if _WORKER_JOB is None:
         raise RuntimeError("_work runs in a pool worker that _init_worker set up")
-    return task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]))
+    return task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]), pieces=_WORKER_PIECES)
+
+
+_CLUSTER_PIECES = threading.local()
+"""A Dask worker thread's pieces and the job they belong to (the scattered record: one per run).
+
+Per thread: a worker with several threads runs windows at once, and a cache serves one window at a time."""
 
 
 def cluster_window(job: WindowJob, task: tuple[int, int, int]) -> tuple[tuple[int, int, int], Diagnosis, float]:
     """One window on a Dask worker: ``(task, diagnosis, cpu_s)`` (the shape :func:`run_on_cluster` records)."""
     t0 = time.process_time()
-    diagnosis = diagnose_window(job, (task[1], task[2]))
+    held = getattr(_CLUSTER_PIECES, "job", None)
+    if held is None or held() is not job:  # a weak reference: a finished run's record is not kept alive
+        _CLUSTER_PIECES.job, _CLUSTER_PIECES.cache = weakref.ref(job), PieceCache(job.config.model)
+    diagnosis = diagnose_window(job, (task[1], task[2]), pieces=_CLUSTER_PIECES.cache)
     return task, diagnosis, time.process_time() - t0
 
 
 def _run(job: WindowJob, tasks: list[tuple[int, int, int]], jobs: int, scheduler: str | None) -> list[Diagnosis]:
-    """Every window's diagnosis in window order: here, on a local pool or on the cluster."""
+    """Every window's diagnosis in window order: here, on a local pool or on the cluster.
+
+    A pool worker takes consecutive windows in chunks, so that its pieces serve the next window.
+    """
     found: dict[int, Diagnosis] = {}
     if scheduler is not None:
         from ..sweep.cluster import run_on_cluster
@@ -204,13 +245,14 @@ def _run(job: WindowJob, tasks: list[tuple[int, int, int]], jobs: int, scheduler
 
         run_on_cluster(job, tasks, scheduler, work=cluster_window, record=record)
     elif jobs == 1:
-        found = {task[0]: diagnose_window(job, (task[1], task[2])) for task in tasks}
+        pieces = PieceCache(job.config.model)
+        found = {task[0]: diagnose_window(job, (task[1], task[2]), pieces=pieces) for task in tasks}
     else:
         from ..core.sim.batch import worker_context
 
         pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(job,))
         try:
-            found = dict(pool.imap_unordered(_work, tasks, chunksize=max(1, len(tasks) // (8 * jobs))))
+            found = dict(pool.imap_unordered(_work, tasks, chunksize=max(1, len(tasks) // (4 * jobs))))
             pool.close()
         except BaseException:
             pool.terminate()

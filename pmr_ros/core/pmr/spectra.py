@@ -56,6 +56,7 @@ from scipy.signal import get_window
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .products import hermitian_product
+from .spectra_source import SPECTRA_SOURCE
 
 __all__ = [
     "RecordSpectra",
@@ -386,9 +387,8 @@ class RecordSpectra:
 def record_spectra(stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> RecordSpectra:
     """The instrument spectra of a record, and each output row's regression on demand.
 
-    Every stretch is filtered through the model on its own and its first
-    :meth:`TransferMatrix.settling_samples` are dropped (the filters start
-    from a guessed state); the segments of all stretches are averaged.  The
-    data must have passed :func:`~pmr_ros.core.pmr.checks.check_stretches`.
+    Each stretch filtered through the model on its own, its first :meth:`TransferMatrix.settling_samples` dropped
+    (the filters start from a guessed state), the segments of all averaged; a :data:`SPECTRA_SOURCE` may hold them.
     """
-    return RecordSpectra(stretches, model, welch)
+    source = SPECTRA_SOURCE.get()
+    return (source and source(stretches, model, welch)) or RecordSpectra(stretches, model, welch)

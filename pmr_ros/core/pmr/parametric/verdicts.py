@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import brentq
+from scipy.special import ndtr  # norm.cdf's own function, without scipy.stats' argument handling
 from scipy.stats import norm
 
 from ...results import ParametricResult
@@ -175,7 +176,7 @@ def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *,
     low, high = float(np.min(means - 40.0 * sds)), float(np.max(means + 40.0 * sds))
 
     def quantile(q: float) -> float:
-        return float(brentq(lambda x: float(weights @ norm.cdf((x - means) / sds)) - q, low, high, xtol=1e-12))
+        return float(brentq(lambda x: float(weights @ ndtr((x - means) / sds)) - q, low, high, xtol=1e-12))
 
     tail = (1.0 - level) / 2.0
     return quantile(tail), quantile(1.0 - tail)

@@ -1,0 +1,184 @@
+"""Spectra of overlapping windows from pieces computed once: each unbroken stretch filtered and transformed once.
+
+Rolling windows (14 days stepped by one) share all but one day of their data.
+A window's spectra are built from its unbroken stretches, each on its own
+(:class:`~pmr_ros.core.pmr.spectra.RecordSpectra`: filtered through the model,
+its warm-up dropped, cut into Welch segments); the segments of all stretches
+are then averaged.  A stretch that several windows hold whole -- the same
+samples, the same means removed -- gives every one of them the same segments.
+:class:`PieceCache` keeps, per stretch (its first and last sample in the whole
+record), what every window would compute again: the instruments' segment
+transforms, each row's regressors and their segment transforms.  A window's
+spectra (:class:`PiecewiseSpectra`) join its stretches' pieces in order, so
+they are the very arrays :class:`RecordSpectra` computes, and every product
+and fit after them runs on the same numbers: the same diagnosis to the last
+bit (test_piecewise.py).  Summing each stretch's cross-spectra instead would
+save the window's products too, but the fits carry the rounding of a
+different summation order to 4e-6 relative -- not worth a verdict at an edge.
+
+Only what the current window holds is kept: a worker that runs consecutive
+windows computes one new day per window, and its memory stays one window's.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from ..records import InstrumentSet, Record, moving_instruments, total_samples
+from ..sim.model import TransferMatrix
+from .spectra import RecordSpectra, RowSpectra, SegmentSpectra, WelchSettings, row_regressors, segment_spectra
+from .spectra_source import SPECTRA_SOURCE
+
+__all__ = ["PieceCache", "PiecewiseSpectra"]
+
+Span = tuple[int, int]
+
+
+def _signature(moving: InstrumentSet) -> tuple[bytes, ...]:
+    """A key of the instrument set (which columns are instruments)."""
+    parts = (moving.setpoints, moving.dither, moving.manual)
+    return tuple(np.asarray(p, dtype=bool).tobytes() for p in parts)
+
+
+class PieceCache:
+    """Per stretch of one record, its instruments' and rows' segment transforms and its rows' regressors.
+
+    Parameters
+    ----------
+    model : TransferMatrix
+        The controller's model ``Ghat`` every window is diagnosed with (a
+        diagnosis with another model, e.g. augmented with DVs, is computed as usual).
+
+    Examples
+    --------
+    >>> cache = PieceCache(model)  # doctest: +SKIP
+    >>> with cache.window(stretches, spans):                            # doctest: +SKIP
+    ...     diagnosis = diagnose_stretches(stretches, model=model, ...)
+    """
+
+    def __init__(self, model: TransferMatrix) -> None:
+        self.model = model
+        self._spans: dict[int, Span] = {}
+        self._window: dict[tuple[Any, ...], PiecewiseSpectra] = {}
+        self._store: dict[tuple[Any, ...], Any] = {}
+        self.computed = 0
+        """Pieces computed so far (instrument transforms of one stretch), for the tests and the benchmark."""
+
+    @contextmanager
+    def window(self, stretches: Sequence[Record], spans: Sequence[Span]) -> Iterator[PieceCache]:
+        """Within the block, :func:`~pmr_ros.core.pmr.spectra.record_spectra` of these stretches comes from pieces.
+
+        ``spans`` are the stretches' first and last samples in the whole record
+        (the same span: the same samples, prepared the same way).  Pieces of
+        spans outside this window are dropped first.
+        """
+        self._spans = {id(s): (int(a), int(b)) for s, (a, b) in zip(stretches, spans, strict=True)}
+        held = set(self._spans.values())
+        self._store = {key: value for key, value in self._store.items() if key[0] in held}
+        token = SPECTRA_SOURCE.set(self.spectra)
+        try:
+            yield self
+        finally:
+            SPECTRA_SOURCE.reset(token)
+            self._spans, self._window = {}, {}
+
+    def spectra(
+        self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings
+    ) -> PiecewiseSpectra | None:
+        """The spectra of ``stretches`` from pieces, or None when a stretch or the model is not this window's."""
+        spans = [self._spans.get(id(s)) for s in stretches]
+        if model is not self.model or any(span is None for span in spans):
+            return None
+        key = (tuple(spans), welch)  # the parametric fit and the data-quality figures ask for the same
+        if key not in self._window:
+            self._window[key] = PiecewiseSpectra(self, stretches, [span for span in spans if span is not None], welch)
+        return self._window[key]
+
+    def _held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+        if key not in self._store:
+            self._store[key] = compute()
+        return self._store[key]
+
+    def instruments(self, span: Span, columns: np.ndarray, welch: WelchSettings, moving: InstrumentSet) -> Any:
+        """The segment transforms of one stretch's instrument columns (its warm-up dropped)."""
+
+        def compute() -> SegmentSpectra:
+            self.computed += 1
+            return segment_spectra(columns, welch)
+
+        return self._held((span, "z", welch, _signature(moving)), compute)
+
+    def regressors(self, span: Span, u: np.ndarray, i: int) -> np.ndarray:
+        """Row ``i``'s regressors of one stretch, undifferenced (:func:`~.spectra.row_regressors`)."""
+        return self._held((span, "x", i), lambda: row_regressors(self.model, u, i))
+
+    def row_segments(self, span: Span, i: int, welch: WelchSettings, compute: Callable[[], Any]) -> Any:
+        """The segment transforms of row ``i``'s ``[y_i, x_i]`` of one stretch (``compute()`` gives them)."""
+        return self._held((span, "row", i, welch), compute)
+
+
+def _transformed(transform: Callable[..., np.ndarray], x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``transform`` of a stretch's regressors, and of its inputs where it takes them (a column that filters u)."""
+    takes_inputs = len(inspect.signature(transform).parameters) > 1
+    return transform(x, u) if takes_inputs else transform(x)
+
+
+class PiecewiseSpectra(RecordSpectra):
+    """:class:`RecordSpectra` of a window whose stretches' transforms come from a :class:`PieceCache`.
+
+    Equal to ``RecordSpectra(stretches, model, welch)``: the same segments in
+    the same order, averaged the same way.
+    """
+
+    def __init__(self, cache: PieceCache, stretches: Sequence[Record], spans: Sequence[Span], welch: WelchSettings):
+        model = cache.model
+        self.model, self.settings, self._cache = model, welch, cache
+        self._rows: dict[int, RowSpectra] = {}
+        self.moving = moving_instruments(stretches)
+        self.dithered, self.samples = self.moving.dither, total_samples(stretches)
+        self.differenced = model.integrating_outputs
+        warmup = model.settling_samples()
+        kept = [(s, span) for s, span in zip(stretches, spans, strict=True) if welch.segments(s.samples - warmup) > 0]
+        self._pieces = [(np.asarray(s.u, dtype=float), np.asarray(s.y, dtype=float), span) for s, span in kept]
+        self._warmup = warmup
+        self._data = [(u, y, warmup) for u, y, _ in self._pieces]
+        parts = [cache.instruments(span, self.moving.columns(s)[warmup:], welch, self.moving) for s, span in kept]
+        self._z = SegmentSpectra(parts[0].omega, np.concatenate([p.ffts for p in parts], axis=0), welch)
+        self.equivalent_segments = sum(welch.equivalent_segments(p.segments) for p in parts)
+        self.omega = self._z.omega
+        self.segments = self._z.segments
+        self.rr = self._z.cross(slice(None), slice(None))
+
+    def row(self, i: int) -> RowSpectra:
+        """:meth:`RecordSpectra.row`, computed once per row (the window's fit and data quality both read it)."""
+        if i not in self._rows:
+            self._rows[i] = super().row(i)
+        return self._rows[i]
+
+    def _block(self, x: np.ndarray, i: int) -> np.ndarray:
+        """A stretch's block as :meth:`RecordSpectra._row_segments` prepares it: differenced, warm-up dropped."""
+        if self.differenced[i]:
+            x = np.diff(x, axis=0, prepend=x[:1])
+        return x[self._warmup :]
+
+    def _row_segments(self, i: int, transform: Callable[..., np.ndarray] | None) -> np.ndarray:
+        """:meth:`RecordSpectra._row_segments` with each stretch's regressors and row transforms held."""
+        parts = []
+        for u, y, span in self._pieces:
+            if transform is None:
+                parts.append(self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i)))
+            else:
+                x = self._cache.regressors(span, u, i)
+                parts.append(segment_spectra(self._block(_transformed(transform, x, u), i), self.settings))
+        return np.transpose(np.concatenate([p.ffts for p in parts], axis=0), (1, 0, 2))
+
+    def _row_part(self, u: np.ndarray, y: np.ndarray, span: Span, i: int) -> SegmentSpectra:
+        """One stretch's segment transforms of ``[y_i, x_i1 .. x_in]``."""
+        x = self._cache.regressors(span, u, i)
+        return segment_spectra(self._block(np.column_stack([y[:, i], x]), i), self.settings)

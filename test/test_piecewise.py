@@ -1,0 +1,128 @@
+"""Rolling windows from pieces computed once (:mod:`pmr_ros.core.pmr.piecewise`): the same diagnosis as alone.
+
+A window's spectra joined from its stretches' pieces are the very arrays of
+the window computed alone (the same segments in the same order), so every
+window's diagnosis is that of the window done alone to the last bit: verdicts
+and numbers exactly (stated tolerance: none).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from drifting import DAY, Change, drifting_data
+from scipy.signal import lfilter_zi
+
+from pmr_ros.config import load_config
+from pmr_ros.core.pmr.parametric.ratio import _first_order_zi
+from pmr_ros.core.pmr.parametric.verdicts import mixture_interval
+from pmr_ros.core.pmr.piecewise import PieceCache, PiecewiseSpectra
+from pmr_ros.core.pmr.spectra import RecordSpectra, WelchSettings, record_spectra
+from pmr_ros.core.results.codec import diagnosis_to_json
+from pmr_ros.core.sim.model import Mismatch
+from pmr_ros.service.monitoring import WindowJob, diagnose_window, stretch_spans, window_stretches
+
+
+@pytest.fixture(scope="module")
+def job():
+    """Five days of the Wood-Berry column's closed loop, G22's delay stepping +2 samples on day 2."""
+    config = load_config(None)
+    data = drifting_data(config, days=5, changes=(Change(1, 1, "delay", day=2, size=2),))
+    return WindowJob(config, data, data.usable)
+
+
+def _leaves(value, path=""):
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from _leaves(item, f"{path}.{key}")
+    elif isinstance(value, list | tuple):
+        for index, item in enumerate(value):
+            yield from _leaves(item, f"{path}[{index}]")
+    else:
+        yield path, value
+
+
+def _assert_same_diagnosis(alone, pieced):
+    a, b = dict(_leaves(diagnosis_to_json(alone))), dict(_leaves(diagnosis_to_json(pieced)))
+    assert a.keys() == b.keys()
+    for path, value in a.items():
+        if isinstance(value, float):
+            np.testing.assert_array_equal(b[path], value, err_msg=path)  # NaN equals NaN here
+        else:
+            assert b[path] == value, path  # verdicts, reasons, status
+
+
+def test_rolling_windows_from_pieces_are_the_windows_alone(job):
+    pieces = PieceCache(job.config.model)
+    spans = [(start * DAY, (start + 3) * DAY - 1) for start in range(3)]  # 3-day windows stepped by a day
+    verdicts = set()
+    for span in spans:
+        alone = diagnose_window(job, span)
+        pieced = diagnose_window(job, span, pieces=pieces)
+        _assert_same_diagnosis(alone, pieced)
+        verdicts |= {e.verdict for e in alone.elements.values()}
+    assert "mismatch" in verdicts  # the windows decide something (the delay step), so there is a verdict to keep
+    assert pieces.computed == 3 + 1 + 1  # each day's instruments transformed once: three, then one a window
+
+
+def test_piecewise_spectra_equal_the_record_spectra(job):
+    stretches = window_stretches(job, 0, 3 * DAY - 1)
+    model = job.config.model
+    welch = WelchSettings(segment_length=256)
+    alone = RecordSpectra(stretches, model, welch)
+    pieces = PieceCache(model)
+    with pieces.window(stretches, stretch_spans(job, 0, 3 * DAY - 1)):
+        pieced = record_spectra(stretches, model, welch)
+    assert isinstance(pieced, PiecewiseSpectra)
+    np.testing.assert_array_equal(pieced.rr, alone.rr)  # the same segments in the same order
+    assert pieced.segments == alone.segments and pieced.equivalent_segments == alone.equivalent_segments
+    for i in range(model.n_outputs):
+        row, reference = pieced.row(i), alone.row(i)
+        for name in ("zy", "zx", "yy", "xy", "xx"):
+            np.testing.assert_array_equal(getattr(row, name), getattr(reference, name), err_msg=name)
+
+        def doubled(x):
+            return 2.0 * x
+
+        np.testing.assert_array_equal(pieced.instrument_cross(i, doubled), alone.instrument_cross(i, doubled))
+
+
+def test_data_a_window_does_not_hold_are_computed_as_usual(job):
+    stretches = window_stretches(job, 0, 2 * DAY - 1)
+    model = job.config.model
+    pieces = PieceCache(model)
+    with pieces.window(stretches, stretch_spans(job, 0, 2 * DAY - 1)):
+        other = window_stretches(job, 2 * DAY, 3 * DAY - 1)  # new arrays the window does not know
+        assert type(record_spectra(other, model, WelchSettings())) is RecordSpectra
+        assert pieces.spectra(stretches, model, WelchSettings()) is not None
+        another = model.with_mismatch(Mismatch.zero(model.n_outputs, model.n_inputs))  # e.g. augmented with DVs
+        assert pieces.spectra(stretches, another, WelchSettings()) is None
+    assert type(record_spectra(stretches, model, WelchSettings())) is RecordSpectra  # outside the block: as usual
+
+
+def test_a_window_keeps_only_its_own_pieces(job):
+    model = job.config.model
+    pieces = PieceCache(model)
+    for start in range(3):
+        first, last = start * DAY, (start + 2) * DAY - 1
+        stretches = window_stretches(job, first, last)
+        with pieces.window(stretches, stretch_spans(job, first, last)):
+            record_spectra(stretches, model, WelchSettings()).row(0)
+        held = {key[0] for key in pieces._store}
+        assert held == set(stretch_spans(job, first, last))  # the day before the window was dropped
+
+
+def test_first_order_zi_is_lfilter_zi():
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        a, ah, lin = rng.uniform(0.0, 0.999), rng.uniform(0.0, 0.999), rng.normal()
+        numerator, denominator = lin * (1.0 - a) / (1.0 - ah) * np.array([1.0, -ah]), np.array([1.0, -a])
+        np.testing.assert_array_equal(_first_order_zi(numerator, denominator), lfilter_zi(numerator, denominator))
+    second = (np.array([1.0, 0.5, 0.2]), np.array([1.0, -0.3, 0.1]))
+    np.testing.assert_array_equal(_first_order_zi(*second), lfilter_zi(*second))
+
+
+def test_mixture_interval_of_one_normal_is_its_central_interval():
+    # a mixture of two equal normals is that normal: mean +- 1.96 sd (scipy.stats.norm)
+    low, high = mixture_interval(np.array([1.0, 1.0]), np.array([0.5, 0.5]), np.array([0.3, 0.7]), level=0.95)
+    np.testing.assert_allclose([low, high], [1.0 - 1.959964 * 0.5, 1.0 + 1.959964 * 0.5], rtol=1e-6)
