@@ -81,7 +81,7 @@ def test_piecewise_spectra_equal_the_record_spectra(job):
         for name in ("zy", "zx", "yy", "xy", "xx"):
             np.testing.assert_array_equal(getattr(row, name), getattr(reference, name), err_msg=name)
 
-        def doubled(x):
+        def doubled(x, u):  # the transform takes the row regressors and the inputs
             return 2.0 * x
 
         np.testing.assert_array_equal(pieced.instrument_cross(i, doubled), alone.instrument_cross(i, doubled))

@@ -22,7 +22,6 @@ windows computes one new day per window, and its memory stays one window's.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from functools import partial
@@ -123,12 +122,6 @@ class PieceCache:
         return self._held((span, "row", i, welch), compute)
 
 
-def _transformed(transform: Callable[..., np.ndarray], x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``transform`` of a stretch's regressors, and of its inputs where it takes them (a column that filters u)."""
-    takes_inputs = len(inspect.signature(transform).parameters) > 1
-    return transform(x, u) if takes_inputs else transform(x)
-
-
 class PiecewiseSpectra(RecordSpectra):
     """:class:`RecordSpectra` of a window whose stretches' transforms come from a :class:`PieceCache`.
 
@@ -175,7 +168,7 @@ class PiecewiseSpectra(RecordSpectra):
                 parts.append(self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i)))
             else:
                 x = self._cache.regressors(span, u, i)
-                parts.append(segment_spectra(self._block(_transformed(transform, x, u), i), self.settings))
+                parts.append(segment_spectra(self._block(transform(x, u), i), self.settings))
         return np.transpose(np.concatenate([p.ffts for p in parts], axis=0), (1, 0, 2))
 
     def _row_part(self, u: np.ndarray, y: np.ndarray, span: Span, i: int) -> SegmentSpectra:
