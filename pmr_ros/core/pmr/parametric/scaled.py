@@ -63,7 +63,8 @@ def _response(element: Element, omega: np.ndarray) -> np.ndarray:
     b, a = disc.numerator, disc.denominator
     if b.size <= 16 or omega.size * b.size > _BASIS_SIZE:
         z_inv = np.exp(-1j * omega)
-        return np.polyval(b[::-1], z_inv) / np.polyval(a[::-1], z_inv)
+        with np.errstate(divide="ignore", invalid="ignore"):  # an integrator is infinite at omega 0
+            return np.polyval(b[::-1], z_inv) / np.polyval(a[::-1], z_inv)
     key = omega.tobytes()
     basis = _BASES.get(key)
     if basis is None or basis.shape[1] < b.size:
@@ -71,7 +72,8 @@ def _response(element: Element, omega: np.ndarray) -> np.ndarray:
             _BASES.clear()
         size = min(max(b.size, 2 * (0 if basis is None else basis.shape[1])), _BASIS_SIZE // omega.size)
         basis = _BASES[key] = np.exp(-1j * np.outer(omega, np.arange(size)))
-    return (basis[:, : b.size] @ b) / (basis[:, : a.size] @ a)
+    with np.errstate(divide="ignore", invalid="ignore"):  # an integrator is infinite at omega 0
+        return (basis[:, : b.size] @ b) / (basis[:, : a.size] @ a)
 
 
 _NO_DYNAMICS = 1e-9
