@@ -19,7 +19,7 @@ from typing import Any
 
 from ..config import PmrConfig
 from ..core.loop.update import NotCorrectable, corrected_model
-from ..core.pmr.curves import pmr_curves
+from ..core.pmr.curves import ElementCurves, pmr_curves
 from ..core.records import Record
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
@@ -28,6 +28,7 @@ from .absolute import absolute_table
 from .figures import COLOURS, element_figure, matrix_figure, time_figure
 from .page import TEMPLATE
 from .response_figures import prediction_figure, step_figure
+from .shape_figures import differs_in_shape, shape_figure
 from .system_units import units_of
 
 __all__ = ["Figure", "ReportInput", "element_notes", "render_page", "write_html_report"]
@@ -133,8 +134,23 @@ def _figures(page: ReportInput) -> tuple[Figure, Figure, list[tuple[dict[str, An
         level = page.config.parametric.confidence_level
         notes["absolute"] = None if values is None else absolute_table(values, confidence_level=level)
         notes["step"] = _step(page, element)
+        notes["shape"] = _shape(curves.get(element.name), element)
         elements.append((notes, figure))
     return matrix, timeline, elements
+
+
+def _shape(curves: ElementCurves | None, element: ElementDiagnosis) -> Figure | None:
+    """The plant's estimated frequency response against the best scaled model, for an element that differs in shape."""
+    if curves is None or not differs_in_shape(element):
+        return None
+    png = shape_figure(curves, element)
+    caption = (
+        f"{element.name}: the plant's estimated frequency response (points, shaded: its {100 * curves.level:.0f} % "
+        "band at each frequency) against the best scaled model (red: the model's gain, speed and delay changed) "
+        "and the model as given (dashed); the scaled model does not follow the estimate beyond noise, so the "
+        "plant differs in shape and speed and delay are not read"
+    )
+    return None if png is None else Figure(f"{element.name}_shape.png", png, caption)
 
 
 def _step(page: ReportInput, element: ElementDiagnosis) -> Figure | None:
@@ -224,8 +240,8 @@ def write_html_report(directory: str | Path, page: ReportInput) -> Path:
     (directory / "figures").mkdir(parents=True, exist_ok=True)
     matrix, timeline, elements = _figures(page)
     prediction = _prediction(page)
-    steps = [notes["step"] for notes, _ in elements]
-    for figure in [matrix, timeline, prediction, *(f for _, f in elements), *steps]:
+    extra = [notes[key] for notes, _ in elements for key in ("step", "shape")]
+    for figure in [matrix, timeline, prediction, *(f for _, f in elements), *extra]:
         if figure is not None:
             write_bytes(directory / "figures" / figure.name, figure.png)
     index = directory / "index.html"

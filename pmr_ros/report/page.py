@@ -103,6 +103,8 @@ TEMPLATE = """<!DOCTYPE html>
  <figcaption>{{ figure.caption }}</figcaption></figure>{% endif %}
  {% if notes.step %}<figure><img src="{{ notes.step.data_uri }}" alt="{{ notes.step.caption }}">
  <figcaption>{{ notes.step.caption }}</figcaption></figure>{% endif %}
+ {% if notes.shape %}<figure class="shape"><img src="{{ notes.shape.data_uri }}" alt="{{ notes.shape.caption }}">
+ <figcaption>{{ notes.shape.caption }}</figcaption></figure>{% endif %}
  </div>
 </section>
 {% endfor %}
