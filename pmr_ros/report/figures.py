@@ -92,7 +92,7 @@ def _draw_ratio(axes: Any, curves: ElementCurves, inside: np.ndarray) -> tuple[n
     axes[1].axhline(0.0, color="black", ls=":", lw=1.2)
     if curves.fitted is not None:
         fitted = curves.fitted[1:]
-        axes[0].plot(w, np.abs(fitted), color="#c62828", ls="--", lw=1.6, label="fitted FOPTD ratio")
+        axes[0].plot(w, np.abs(fitted), color="#c62828", ls="--", lw=1.6, label="fitted ratio (model scaled)")
         axes[1].plot(w, np.degrees(np.unwrap(np.angle(fitted))), color="#c62828", ls="--", lw=1.6)
     return magnitude, phase
 

@@ -79,7 +79,8 @@ TEMPLATE = """<!DOCTYPE html>
 <h2 id="elements">Element by element</h2>
 <p class="note">Each figure shows the plant-model ratio G/Ĝ of one element against frequency: the spectral
  estimate (blue) with its {{ "%.0f"|format(level) }} % confidence band (shaded blue; at each frequency on its own),
- the fitted FOPTD ratio (red, dashed) whose numbers give the verdict, and the &ldquo;no mismatch&rdquo; line
+ the fitted ratio (red, dashed: the model element scaled in gain, speed and delay) whose numbers give the
+ verdict, and the &ldquo;no mismatch&rdquo; line
  (|G/Ĝ| = 1, phase 0). Only the informative band (light blue background: where the coherence of the row with
  the setpoints holds) carries information; beyond it the estimate is noise. A gain mismatch moves the curve at low
  frequency, a time-constant mismatch bends it, a delay mismatch turns the phase.</p>
