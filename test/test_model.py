@@ -283,3 +283,27 @@ def test_an_injected_gain_change_of_an_integrating_tf_is_its_ramp_rate_change_wh
     )
     slower = transfer_function("0.055", "9.6, 1, 0", delay_samples=1, sample_time=1.0)
     assert_allclose(plant.element(0, 0).step_response(100), slower.step_response(100), atol=1e-12)
+
+
+def test_with_elements_keeps_the_names_sample_time_and_dv_count():
+    """``with_elements``: other elements in the same frame (what a corrected or mismatched model is built with)."""
+    from pmr_ros.core.sim.lti import Foptd, Integrating
+    from pmr_ros.core.sim.model import TransferMatrix
+
+    model = TransferMatrix.of_elements(
+        [[Foptd(1.0, 5.0, 0, 2.0), Foptd(0.5, 3.0, 1, 2.0)]],
+        sample_time=2.0,
+        output_names=("level",),
+        input_names=("valve", "feed"),
+        name="tank",
+        n_disturbances=1,
+    )
+    other = model.with_elements([[Integrating(0.1, 2, 2.0), Foptd(0.5, 3.0, 1, 2.0)]])
+    assert (other.output_names, other.input_names, other.name, other.n_disturbances) == (
+        ("level",),
+        ("valve", "feed"),
+        "tank",
+        1,
+    )
+    assert other.sample_time == 2.0 and list(other.element_type.ravel()) == ["integrating", "foptd"]
+    assert other.delay_samples[0, 0] == 2

@@ -169,14 +169,7 @@ def with_changes(model: TransferMatrix, changes: Sequence[tuple[int, int, Elemen
     rows = model.element_rows()
     for i, k, change in changes:
         rows[i][k] = change.element if change.element is not None else _simple_element(change.after, model.sample_time)
-    return TransferMatrix.of_elements(
-        rows,
-        sample_time=model.sample_time,
-        output_names=model.output_names,
-        input_names=model.input_names,
-        name=model.name,
-        n_disturbances=model.n_disturbances,
-    )
+    return model.with_elements(rows)
 
 
 def _simple_element(after: ElementModel, sample_time: float) -> Element:

@@ -314,7 +314,12 @@ class TransferMatrix:
         An integrating element's gain change is that of its ramp rate: time
         scaling by alpha divides the ramp rate by alpha, so rho is alpha (1 + dK).
         """
-        rows = [[self._scaled_cell(i, k, mismatch) for k in range(self.n_inputs)] for i in range(self.n_outputs)]
+        return self.with_elements(
+            [[self._scaled_cell(i, k, mismatch) for k in range(self.n_inputs)] for i in range(self.n_outputs)]
+        )
+
+    def with_elements(self, rows: Sequence[Sequence[Element]]) -> TransferMatrix:
+        """A model with the same names, sample time and DV count around other elements ``rows[i][k]``."""
         return TransferMatrix.of_elements(
             rows,
             sample_time=self.sample_time,

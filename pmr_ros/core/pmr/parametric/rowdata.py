@@ -8,6 +8,7 @@ finite-segment bias of the instruments removed (:mod:`.bias`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -68,27 +69,18 @@ class RowData:
         noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
         bins, omega, segments = self.bins, self.omega, self.equivalent_segments
-        system = row_system(
-            spectra,
-            self.factor,
-            columns=self.columns,
-            noise=noise,
-            bins=bins,
-            omega=omega,
-            equivalent_segments=segments,
-        )
+        shared: dict[str, Any] = {
+            "columns": self.columns,
+            "noise": noise,
+            "bins": bins,
+            "omega": omega,
+            "equivalent_segments": segments,
+        }
+        system = row_system(spectra, self.factor, **shared)
         if not (debiased and self.unbiased):
             return system
         # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
-        residual = residual_moments(
-            self.spectra,
-            self.factor,
-            columns=self.columns,
-            noise=noise,
-            bins=bins,
-            omega=omega,
-            equivalent_segments=segments,
-        )
+        residual = residual_moments(self.spectra, self.factor, **shared)
         return without_instrument_bias(
             system,
             residual,
