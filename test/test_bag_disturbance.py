@@ -44,6 +44,19 @@ def _joint_state(k: int, values: np.ndarray, names: tuple[str, ...]):
     )
 
 
+def _write_routine_bag(path, record) -> None:
+    """A bag of ``record``'s r, u, y and DVs (names of DV_MODEL), one message a sample and topic, 1 s apart."""
+    from test_data_routine_diagnosis import DV_MODEL
+
+    signals = {"setpoint": record.r, "manipulated_input": record.u, "measured_output": record.y}
+    signals["disturbance"] = record.dv
+    names = {**CHANNELS, "disturbance": DV_MODEL.input_names}
+    with BagWriter(path, topics={k: t for k, t in recorded_topics().items() if k in signals}) as writer:
+        for k in range(record.y.shape[0]):
+            for key, values in signals.items():
+                writer.write_message(topic(key).resolved(), k * 10**9 + 1, _joint_state(k, values[k], names[key]))
+
+
 def _bag(path, *, with_dv: bool = True, gap: int | None = None) -> dict[str, np.ndarray]:
     """Write ``SAMPLES`` samples of every signal (DVs as random steps); the values written, by contract key."""
     rng = np.random.default_rng(4)
@@ -142,13 +155,7 @@ def test_a_routine_runs_bag_is_diagnosed_with_its_d_elements_as_the_record(tmp_p
     config = replace(wood_berry, disturbance_model=DV_MODEL, diagnostician=window)
     routine = routine_loop.Routine(dither=np.zeros(2), dv_amplitude=0.3, setpoint_steps=1.0)
     record = routine_loop.routine_run(config, config.model, routine, samples=samples, seed=2, disturbances=DV_PLANT)
-    signals = {"setpoint": record.r, "manipulated_input": record.u, "measured_output": record.y}
-    signals["disturbance"] = record.dv
-    names = {**CHANNELS, "disturbance": DV_MODEL.input_names}
-    with BagWriter(tmp_path / "bag", topics={k: t for k, t in recorded_topics().items() if k in signals}) as writer:
-        for k in range(samples):
-            for key, values in signals.items():
-                writer.write_message(topic(key).resolved(), k * 10**9 + 1, _joint_state(k, values[k], names[key]))
+    _write_routine_bag(tmp_path / "bag", record)
     outcome = evaluate_window(replay_bag(open_bag(tmp_path / "bag"), config).aligner, config)
     direct = diagnose_stretches(
         [replace(record, dither=None)],
@@ -198,13 +205,7 @@ def test_rolling_windows_of_a_bag_carry_its_dvs_as_the_whole_bag_does(tmp_path):
     samples = 8192
     routine = routine_loop.Routine(dither=np.zeros(2), dv_amplitude=0.3, setpoint_steps=1.0)
     record = routine_loop.routine_run(config, config.model, routine, samples=samples, seed=2, disturbances=DV_PLANT)
-    signals = {"setpoint": record.r, "manipulated_input": record.u, "measured_output": record.y}
-    signals["disturbance"] = record.dv
-    names = {**CHANNELS, "disturbance": DV_MODEL.input_names}
-    with BagWriter(tmp_path / "bag", topics={k: t for k, t in recorded_topics().items() if k in signals}) as writer:
-        for k in range(samples):
-            for key, values in signals.items():
-                writer.write_message(topic(key).resolved(), k * 10**9 + 1, _joint_state(k, values[k], names[key]))
+    _write_routine_bag(tmp_path / "bag", record)
     data, judged = bag_record(open_bag(tmp_path / "bag"), str(path))
     np.testing.assert_allclose(data.signals["dv"], record.dv, rtol=0, atol=1e-12)
     assert data.usable.all()
