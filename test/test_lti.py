@@ -325,3 +325,27 @@ def test_build_element_makes_every_kind():
 def test_build_element_refuses_in_one_line(kind, extra, match):
     with pytest.raises(ElementError, match=match):
         build_element(kind, name="G12", sample_time=1.0, delay_samples=0, **extra)
+
+
+def test_cell_element_builds_each_cell_of_a_block_as_build_element_does():
+    """``cell_element``: the fields of cell (i, k) of row-major block matrices, the delay from time units."""
+    import numpy as np
+    from numpy.testing import assert_allclose
+
+    from pmr_ros.core.sim.elements import build_element, cell_element
+
+    fields = {
+        "element_type": np.array([["foptd", "tf"]], dtype=object),
+        "gain": np.array([[2.0, 0.0]]),
+        "time_constant": np.array([[6.0, 0.0]]),
+        "delay": np.array([[4.0, 2.0]]),
+        "numerator": np.array([["", "-0.5, 1"]], dtype=object),
+        "denominator": np.array([["", "20, 12, 1"]], dtype=object),
+        "sample_time": 2.0,
+    }
+    lag = cell_element(fields, 0, 0, name="G11")
+    same = build_element("foptd", name="G11", sample_time=2.0, delay_samples=2, gain=2.0, time_constant=6.0)
+    assert_allclose(lag.step_response(20), same.step_response(20), atol=1e-15)
+    inverse = cell_element(fields, 0, 1, name="G12")
+    assert inverse.kind == "tf" and inverse.delay_samples == 1
+    assert_allclose(inverse.steady_state_gain, 1.0, rtol=1e-12)  # (-0.5 s + 1) / (20 s^2 + 12 s + 1) at s = 0

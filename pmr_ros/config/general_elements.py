@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..core.sim.elements import build_element
+from ..core.sim.elements import cell_element
 from ..core.sim.lti import Element, ElementError
 from ..core.sim.model import TransferMatrix
 from .errors import ConfigError
@@ -135,18 +135,7 @@ def general_matrix(
             label = element_label(j, shape)
             curve = None if kinds[i, k] != "step_response" else _curve(block, curves, (outputs[i], inputs[k]), error)
             try:
-                rows[i].append(
-                    build_element(
-                        str(kinds[i, k]),
-                        name=label,
-                        sample_time=ts,
-                        delay_samples=int(round(float(fields["delay"][i, k]) / ts)),
-                        gain=float(fields["gain"][i, k]),
-                        time_constant=float(fields["time_constant"][i, k]),
-                        tf=(str(fields["numerator"][i, k]), str(fields["denominator"][i, k])),
-                        curve=curve,
-                    )
-                )
+                rows[i].append(cell_element(fields, i, k, name=label, curve=curve))
             except ElementError as exc:
                 raise error(*_element_error(block, j, label, fields, exc)) from None
     return TransferMatrix.of_elements(rows, sample_time=ts, output_names=outputs, input_names=inputs, name=name)

@@ -20,7 +20,7 @@ import numpy as np
 from ..config.errors import ConfigError
 from ..config.files import read_parameter_file
 from ..config.schema import Shape, blocks, closest_name, element_label, parameter
-from ..core.sim.elements import build_element
+from ..core.sim.elements import cell_element
 from ..core.sim.lti import Element, ElementError, Empty
 from ..core.sim.step_curve import dead_time_samples
 from .curve_files import read_curves
@@ -173,16 +173,7 @@ def _element(path: Path, values: dict[str, Any], curves: CurveSet | None, i: int
     if kind == "step_response" and curves is not None:
         io, ik = _pair(path, curves, values["output_names"][i], values["input_names"][k])
         curve = (curves.curves[io, ik], bool(curves.ramp[io, ik]))
-    return build_element(
-        kind,
-        name=label,
-        sample_time=ts,
-        delay_samples=int(round(whole)),
-        gain=float(values["gain"][i, k]),
-        time_constant=float(values["time_constant"][i, k]),
-        tf=(str(values["numerator"][i, k]), str(values["denominator"][i, k])),
-        curve=curve,
-    )
+    return cell_element(values, i, k, name=label, curve=curve)
 
 
 def load_model(path: str | Path) -> LoadedModel:

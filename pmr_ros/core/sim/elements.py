@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from .lti import Element, ElementError, Empty, Foptd, Integrating
 from .rational import transfer_function
 from .step_curve import StepResponse
 
-__all__ = ["ELEMENT_KINDS", "build_element"]
+__all__ = ["ELEMENT_KINDS", "build_element", "cell_element"]
 
 ELEMENT_KINDS = ("foptd", "integrating", "none", "tf", "step_response")
 """Every element type (``system.element_type``)."""
@@ -72,3 +73,43 @@ def build_element(
         stated = float(gain) if gain else None
         return StepResponse(tuple(curve[0]), delay_samples, sample_time, ramp=curve[1], stated_gain=stated, name=name)
     raise ElementError(f"{name}: element type {kind!r} is not one of {', '.join(ELEMENT_KINDS)}")
+
+
+def cell_element(
+    fields: Mapping[str, Any], i: int, k: int, *, name: str, curve: tuple[Sequence[float], bool] | None = None
+) -> Element:
+    """:func:`build_element` of cell (i, k) of a block's row-major field matrices.
+
+    Parameters
+    ----------
+    fields : mapping
+        ``element_type``, ``gain``, ``time_constant``, ``delay`` [time unit],
+        ``numerator`` and ``denominator`` (arrays of shape (n_outputs, n_inputs))
+        and ``sample_time`` [time unit], as a ``system`` or ``plant`` block gives them.
+    i, k : int
+        Row and column, from 0.
+    name : str
+        The element's label, for messages.
+    curve : (sequence of float, bool), optional
+        The cell's step-response curve and ramp flag (``step_response`` cells).
+
+    Returns
+    -------
+    Element
+
+    Raises
+    ------
+    ElementError
+        As :func:`build_element`.
+    """
+    ts = float(fields["sample_time"])
+    return build_element(
+        str(fields["element_type"][i, k]),
+        name=name,
+        sample_time=ts,
+        delay_samples=int(round(float(fields["delay"][i, k]) / ts)),
+        gain=float(fields["gain"][i, k]),
+        time_constant=float(fields["time_constant"][i, k]),
+        tf=(str(fields["numerator"][i, k]), str(fields["denominator"][i, k])),
+        curve=curve,
+    )
