@@ -43,6 +43,8 @@ __all__ = ["check_tree", "parse_config"]
 
 SYSTEM_BLOCK = "system"
 PLANT_BLOCK = "plant"
+PLANT_DISTURBANCE_KEYS = {"disturbance_gain", "disturbance_numerator", "disturbance_element_type"}
+"""Any of them gives the plant block its own DV elements (else they are the model's)."""
 
 
 def _did_you_mean(name: str, known: list[str]) -> str:
@@ -102,6 +104,7 @@ class _Values:
         self.tree, self.source, self.sources = tree, source, sources
         self.shape: Shape | None = None
         self.warnings: list[str] = []
+        self.plant_keys = frozenset(tree.get(PLANT_BLOCK, {}))  # as given: the optional block has no defaults
 
     def raw(self, name: str) -> Any:
         block, key = name.split(".", 1)
@@ -174,7 +177,7 @@ def _matrix(
     shape = v.shape
     label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
     kinds = v[f"{block}.{prefix}element_type"]
-    general = not prefix and bool(np.isin(kinds, GENERAL_KINDS).any())
+    general = bool(np.isin(kinds, GENERAL_KINDS).any())
     gain, tau = (
         block_numbers(v, f"{block}.{prefix}gain", kinds),
         block_numbers(v, f"{block}.{prefix}time_constant", kinds),
@@ -196,6 +199,7 @@ def _matrix(
             block,
             {"element_type": kinds, "gain": gain, "time_constant": tau, "delay": delay},
             names=(outputs, inputs, name),
+            prefix=prefix,
         )
     return TransferMatrix(gain, tau, np.rint(whole) * ts, ts, outputs, inputs, name, element_type=kinds)
 
@@ -218,7 +222,7 @@ def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any])
 def _disturbance_model(v: _Values, model: TransferMatrix, block: str = SYSTEM_BLOCK) -> TransferMatrix | None:
     """The DV elements of ``block`` (the feedforward model, or the plant's true ones); None without DVs."""
     names = disturbance_names(v, model.input_names)
-    if not names or (block == PLANT_BLOCK and "disturbance_gain" not in v.tree.get(PLANT_BLOCK, {})):
+    if not names or (block == PLANT_BLOCK and not PLANT_DISTURBANCE_KEYS & v.plant_keys):
         return None
     if block == PLANT_BLOCK:
         plant_block(v.tree[PLANT_BLOCK], model, error=v.error, disturbance_names=names)

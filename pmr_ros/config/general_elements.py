@@ -83,15 +83,17 @@ def _curve(block: str, curves: Any, names: tuple[str, str], error: ErrorMaker) -
     return curves.curves[io, ik].tolist(), bool(curves.ramp[io, ik])
 
 
-def _element_error(block: str, j: int, label: str, fields: BlockFields, exc: ElementError) -> tuple[str, Any, str]:
+def _element_error(
+    block: str, j: int, label: str, fields: BlockFields, exc: ElementError, *, prefix: str = ""
+) -> tuple[str, Any, str]:
     """``(field, value, reason)`` of an element that does not build: the field the message is about."""
     i, k = divmod(j, fields["element_type"].shape[1])
     reason = str(exc).removeprefix(f"{label}: ")
     kind = fields["element_type"][i, k]
     if kind == "step_response":
-        return f"{block}.delay[{j}] ({label})", float(fields["delay"][i, k]), f"{reason} (model_file)"
+        return f"{block}.{prefix}delay[{j}] ({label})", float(fields["delay"][i, k]), f"{reason} (model_file)"
     key = "denominator" if reason.startswith(("denominator", "unstable")) else "numerator"
-    return f"{block}.{key}[{j}] ({label})", str(fields[key][i, k]), reason
+    return f"{block}.{prefix}{key}[{j}] ({label})", str(fields[key][i, k]), reason
 
 
 def general_matrix(
@@ -101,6 +103,7 @@ def general_matrix(
     names: tuple[tuple[str, ...], tuple[str, ...], str],
     source: str,
     error: ErrorMaker,
+    prefix: str = "",
 ) -> TransferMatrix:
     """The block's elements of any type as a :class:`TransferMatrix` (delays checked whole before).
 
@@ -116,6 +119,9 @@ def general_matrix(
         The params file (``model_file`` is relative to it).
     error : callable
         ``error(field, value, reason)`` -> the :class:`ConfigError` to raise.
+    prefix : str
+        ``disturbance_``: the block's DV elements (``D11`` ..., fields ``disturbance_numerator`` ...);
+        their curves are the pairs (CV, DV) of the same ``model_file``.
 
     Raises
     ------
@@ -125,19 +131,20 @@ def general_matrix(
     """
     outputs, inputs, name = names
     kinds, ts = fields["element_type"], float(fields["sample_time"])
-    shape = Shape(*kinds.shape)
+    shape = Shape(kinds.shape[0], kinds.shape[1], kinds.shape[1])
+    per = "disturbance_elements" if prefix else ""
     curves = _curves(block, fields, source, error)
     rows: list[list[Element]] = []
     for i in range(kinds.shape[0]):
         rows.append([])
         for k in range(kinds.shape[1]):
             j = i * kinds.shape[1] + k
-            label = element_label(j, shape)
+            label = element_label(j, shape, per)
             curve = None if kinds[i, k] != "step_response" else _curve(block, curves, (outputs[i], inputs[k]), error)
             try:
                 rows[i].append(cell_element(fields, i, k, name=label, curve=curve))
             except ElementError as exc:
-                raise error(*_element_error(block, j, label, fields, exc)) from None
+                raise error(*_element_error(block, j, label, fields, exc, prefix=prefix)) from None
     return TransferMatrix.of_elements(rows, sample_time=ts, output_names=outputs, input_names=inputs, name=name)
 
 
@@ -154,26 +161,38 @@ class _Values(Protocol):
 
 
 def block_numbers(v: _Values, name: str, kinds: np.ndarray) -> np.ndarray:
-    """A gain or time-constant matrix; zeros when left out of a block of tf, step_response and empty elements alone."""
+    """A gain or time-constant matrix; zeros when left out of a block of tf, step_response and empty elements alone.
+
+    A DV gain left at its declared ``[]`` counts as left out.
+    """
     block, key = name.split(".", 1)
-    if key not in v.tree.get(block, {}) and not np.isin(kinds, ("foptd", "integrating")).any():
+    given = v.tree.get(block, {}).get(key, [])
+    if (isinstance(given, list) and not given) and not np.isin(kinds, ("foptd", "integrating")).any():
         return np.zeros(kinds.shape)
     return np.asarray(v[name], dtype=float)
 
 
 def block_elements(
-    v: _Values, block: str, fields: BlockFields, *, names: tuple[tuple[str, ...], tuple[str, ...], str]
+    v: _Values,
+    block: str,
+    fields: BlockFields,
+    *,
+    names: tuple[tuple[str, ...], tuple[str, ...], str],
+    prefix: str = "",
 ) -> TransferMatrix:
     """:func:`general_matrix` of ``block`` (its ``numerator``, ``denominator`` and ``model_file`` read here).
 
-    The tree's ``model_file`` becomes the absolute path of the file read, so
-    the nodes and a written model read the same file wherever they run.
+    ``prefix="disturbance_"``: the DV elements (``disturbance_numerator`` ...,
+    the same ``model_file``).  The tree's ``model_file`` becomes the absolute
+    path of the file read, so the nodes and a written model read the same file
+    wherever they run.
     """
-    for key in ("numerator", "denominator", "model_file"):
-        fields[key] = v[f"{block}.{key}"]
+    for key in ("numerator", "denominator"):
+        fields[key] = v[f"{block}.{prefix}{key}"]
+    fields["model_file"] = v[f"{block}.model_file"]
     fields["sample_time"] = v["system.sample_time"]
     source = v.source_of(f"{block}.model_file")
-    model = general_matrix(fields, block=block, names=names, source=source, error=v.error)
+    model = general_matrix(fields, block=block, names=names, source=source, error=v.error, prefix=prefix)
     if fields["model_file"]:
         v.tree[block]["model_file"] = str(model_file_path(fields["model_file"], source).resolve())
     return model
