@@ -100,8 +100,15 @@ def _effective(tree: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
 class _Values:
     """Checked access to the effective tree's values, naming each value's source."""
 
-    def __init__(self, tree: dict[str, dict[str, Any]], source: str, sources: Mapping[str, str]) -> None:
+    def __init__(
+        self,
+        tree: dict[str, dict[str, Any]],
+        source: str,
+        sources: Mapping[str, str],
+        curve_sets: Mapping[str, Any] | None = None,
+    ) -> None:
         self.tree, self.source, self.sources = tree, source, sources
+        self.curve_sets = curve_sets or {}
         self.shape: Shape | None = None
         self.warnings: list[str] = []
         self.plant_keys = frozenset(tree.get(PLANT_BLOCK, {}))  # as given: the optional block has no defaults
@@ -319,7 +326,9 @@ def _data(v: _Values, model: TransferMatrix) -> DataSettings:
     return data
 
 
-def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = None) -> PmrConfig:
+def parse_config(
+    tree: Any, source: str, *, sources: Mapping[str, str] | None = None, curves: Mapping[str, Any] | None = None
+) -> PmrConfig:
     """Validate a nested parameter tree into a :class:`PmrConfig`.
 
     Parameters
@@ -330,6 +339,9 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         Named in error messages (the file).
     sources : mapping, optional
         Dotted name to another source of that value (e.g. ``command line (--seed)``).
+    curves : mapping, optional
+        ``system.model_file`` / ``plant.model_file`` to the :class:`~pmr_ros.models.CurveSet`
+        of that file, read already (a bag's embedded copy): the file itself is not read.
 
     Raises
     ------
@@ -338,7 +350,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     """
     source = str(source)
     checked = check_tree(tree, source)
-    v = _Values(_effective(checked), source, sources or {})
+    v = _Values(_effective(checked), source, sources or {}, curves)
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     check_prbs_channels(v, model, excitation)

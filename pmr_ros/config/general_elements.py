@@ -11,7 +11,7 @@ absolute path, so the nodes and a written model find the same file.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -50,8 +50,8 @@ def model_file_path(model_file: str, source: str) -> Path:
     return (base.parent if base.suffix.lower() in (".yaml", ".yml") else Path.cwd()) / path
 
 
-def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> Any:
-    """The curve file of the block's step_response elements, or None when it has none."""
+def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker, given: Any = None) -> Any:
+    """The curve file of the block's step_response elements (``given``: its curves, not read), or None."""
     if not np.any(fields["element_type"] == "step_response"):
         return None
     from ..models.curve_files import read_curves
@@ -60,7 +60,7 @@ def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> 
     if not fields["model_file"]:
         raise error(f"{block}.model_file", None, "missing: step_response elements read their curves there")
     try:
-        curves = read_curves(model_file_path(fields["model_file"], source))
+        curves = given if given is not None else read_curves(model_file_path(fields["model_file"], source))
     except ModelFileError as exc:
         raise error(f"{block}.model_file", fields["model_file"], str(exc)) from None
     if not np.isclose(curves.sample_time, fields["sample_time"], rtol=1e-9, atol=0.0):
@@ -104,6 +104,7 @@ def general_matrix(
     source: str,
     error: ErrorMaker,
     prefix: str = "",
+    curves: Any = None,
 ) -> TransferMatrix:
     """The block's elements of any type as a :class:`TransferMatrix` (delays checked whole before).
 
@@ -122,6 +123,8 @@ def general_matrix(
     prefix : str
         ``disturbance_``: the block's DV elements (``D11`` ..., fields ``disturbance_numerator`` ...);
         their curves are the pairs (CV, DV) of the same ``model_file``.
+    curves : CurveSet, optional
+        The curves of ``model_file`` already read (a bag's embedded copy): the file is not read.
 
     Raises
     ------
@@ -133,7 +136,7 @@ def general_matrix(
     kinds, ts = fields["element_type"], float(fields["sample_time"])
     shape = Shape(kinds.shape[0], kinds.shape[1], kinds.shape[1])
     per = "disturbance_elements" if prefix else ""
-    curves = _curves(block, fields, source, error)
+    curves = _curves(block, fields, source, error, curves)
     rows: list[list[Element]] = []
     for i in range(kinds.shape[0]):
         rows.append([])
@@ -152,6 +155,7 @@ class _Values(Protocol):
     """What :mod:`.build` gives: checked values by dotted name, the effective tree, sources and errors."""
 
     tree: dict[str, dict[str, Any]]
+    curve_sets: Mapping[str, Any]
 
     def __getitem__(self, name: str) -> Any: ...
 
@@ -183,7 +187,8 @@ def block_elements(
     """:func:`general_matrix` of ``block`` (its ``numerator``, ``denominator`` and ``model_file`` read here).
 
     ``prefix="disturbance_"``: the DV elements (``disturbance_numerator`` ...,
-    the same ``model_file``).  The tree's ``model_file`` becomes the absolute
+    the same ``model_file``).  ``v.curve_sets`` may hold the curves of
+    ``block.model_file`` already (a bag's embedded copy).  The tree's ``model_file`` becomes the absolute
     path of the file read, so the nodes and a written model read the same file
     wherever they run.
     """
@@ -192,7 +197,8 @@ def block_elements(
     fields["model_file"] = v[f"{block}.model_file"]
     fields["sample_time"] = v["system.sample_time"]
     source = v.source_of(f"{block}.model_file")
-    model = general_matrix(fields, block=block, names=names, source=source, error=v.error, prefix=prefix)
+    given = v.curve_sets.get(f"{block}.model_file")
+    model = general_matrix(fields, block=block, names=names, source=source, error=v.error, prefix=prefix, curves=given)
     if fields["model_file"]:
         v.tree[block]["model_file"] = str(model_file_path(fields["model_file"], source).resolve())
     return model
