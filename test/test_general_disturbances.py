@@ -218,3 +218,39 @@ def test_a_corrected_model_written_keeps_the_dv_curves_in_its_curve_file(tmp_pat
     for i in range(2):
         assert_allclose(again.disturbance_model.element(i, 0).step_response(n), curves[i, 2], rtol=5e-7)
         assert_allclose(again.model.element(i, 1).step_response(n), 1.1 * curves[i, 1], rtol=5e-7)
+
+
+def test_a_mdl_with_a_feedforward_imports_it_as_a_dv_and_exports_it_back_identically(tmp_path, capsys):
+    from test_mdl import EXAMPLE_MDL
+
+    from pmr_ros.models import read_mdl
+
+    (tmp_path / "unit.mdl").write_text(EXAMPLE_MDL)
+    model, back = tmp_path / "m.yaml", tmp_path / "back.mdl"
+    assert main(["model", "import", str(tmp_path / "unit.mdl"), "-o", str(model), "--disturbances", "FF-103"]) == 0
+    assert "2x2 step-response model and 1 measured disturbance(s)" in capsys.readouterr().err
+    config = load_config(model)
+    assert config.model.input_names == ("FIC-101", "TIC-102")
+    dv = config.disturbance_model
+    assert dv is not None and dv.input_names == ("FF-103",)
+    assert list(dv.element_type.ravel()) == ["none", "step_response"]  # FF-103 -> AI-201 is an empty pair
+    d21 = dv.element(1, 0)
+    assert d21.integrating and d21.delay_samples == 1  # LI-202 is a ramp CV; one leading zero of Ts 2
+    assert_allclose(d21.step_response(6), [0.0, -0.01, -0.03, -0.05, -0.07, -0.09], rtol=1e-15)
+    assert main(["model", "export", str(model), "-o", str(back)]) == 0
+    assert read_mdl(tmp_path / "unit.mdl").same_as(read_mdl(back))  # the DV back as the third independent
+    assert main(["model", "import", str(back), "-o", str(tmp_path / "m2.yaml"), "--disturbances", "FF-103"]) == 0
+    first, second = (p.read_text().split("    system:\n")[1] for p in (model, tmp_path / "m2.yaml"))
+    assert first.replace('"unit.mdl"', '"back.mdl"').replace('"unit"', '"back"') == second
+
+
+def test_a_feedforward_tag_that_is_no_independent_is_one_line(tmp_path, capsys):
+    from test_mdl import EXAMPLE_MDL
+
+    (tmp_path / "unit.mdl").write_text(EXAMPLE_MDL)
+    argv = ["model", "import", str(tmp_path / "unit.mdl"), "-o", str(tmp_path / "m.yaml")]
+    assert main([*argv, "--disturbances", "FF-104"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'FF-104' is no independent of the file (it has FIC-101, TIC-102, FF-103)" in err
+    assert main([*argv, "--disturbances", "FIC-101,TIC-102,FF-103"]) == 2
+    assert "every independent is a disturbance" in capsys.readouterr().err
