@@ -254,3 +254,25 @@ def test_a_feedforward_tag_that_is_no_independent_is_one_line(tmp_path, capsys):
     assert err.count("\n") == 1 and "'FF-104' is no independent of the file (it has FIC-101, TIC-102, FF-103)" in err
     assert main([*argv, "--disturbances", "FIC-101,TIC-102,FF-103"]) == 2
     assert "every independent is a disturbance" in capsys.readouterr().err
+
+
+def test_a_csv_curve_file_holds_dv_pairs_as_its_other_columns(tmp_path):
+    from pmr_ros.models import write_csv_curves
+
+    n = 60
+    curve = 0.4 * (1 - np.exp(-np.arange(1, n + 1) / 7.0))
+    curves = np.zeros((2, 3, n))
+    curves[:, :2] = np.array([[1.0, -2.0], [0.5, 1.5]])[:, :, None] * curve
+    curves[1, 2] = curve  # x_B|feed; x_D|feed has no column (an empty pair)
+    names = (("x_D", "x_B"), ("reflux", "steam", "feed"))
+    write_csv_curves(CurveSet(1.0, *names, curves, np.zeros((2, 3), bool), curves[:, :, -1]), tmp_path / "c.csv")
+    assert "x_B|feed" in (tmp_path / "c.csv").read_text().splitlines()[0]
+    system = (
+        "    system:\n      sample_time: 1.0\n      output_names: [x_D, x_B]\n      input_names: [reflux, steam]\n"
+        "      delay: [0.0, 0.0, 0.0, 0.0]\n      element_type: step_response\n      model_file: c.csv\n"
+        "      disturbance_names: [feed]\n      disturbance_element_type: [none, step_response]\n"
+    )
+    config = load_config(_write(tmp_path, "/**:\n  ros__parameters:\n" + system))
+    dv = config.disturbance_model
+    assert dv is not None and list(dv.element_type.ravel()) == ["none", "step_response"]
+    assert_allclose(dv.element(1, 0).step_response(n), curve, rtol=1e-15)  # repr: lossless
