@@ -326,6 +326,11 @@ def _data(v: _Values, model: TransferMatrix) -> DataSettings:
     return data
 
 
+def _simulation(v: _Values) -> SimulationSettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("simulation.")]
+    return SimulationSettings(**{key: v[f"simulation.{key}"] for key in keys})
+
+
 def parse_config(
     tree: Any, source: str, *, sources: Mapping[str, str] | None = None, curves: Mapping[str, Any] | None = None
 ) -> PmrConfig:
@@ -368,13 +373,7 @@ def parse_config(
         parametric=_parametric(v),
         quality=_quality(v, mpc),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
-        simulation=SimulationSettings(
-            real_time_rate_hz=v["simulation.real_time_rate_hz"],
-            wait_for_subscribers=v["simulation.wait_for_subscribers"],
-            startup_timeout_s=v["simulation.startup_timeout_s"],
-            discovery_settle_s=v["simulation.discovery_settle_s"],
-            max_samples_ahead=v["simulation.max_samples_ahead"],
-        ),
+        simulation=_simulation(v),
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
         adapt=AdaptSettings(ise_rise_tolerance_pct=v["adapt.ise_rise_tolerance_pct"]),

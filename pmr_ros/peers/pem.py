@@ -270,10 +270,8 @@ def pem_diagnosis(
     Returns
     -------
     dict
-        Element name to :class:`PeerOutcome`, row-major; empty cells inconclusive (not fitted).  A tf
-        element of first order is judged as the FOPTD (or integrating) element it is; a row that holds
-        any other tf or step_response element is not fitted, every element of it inconclusive with
-        the reason (:data:`NOT_FOPTD`, :func:`foptd_stand_in`).
+        Element name to :class:`PeerOutcome`, row-major; empty cells inconclusive (not fitted), and every
+        element of a row with a tf or step_response element not of first order (:data:`NOT_FOPTD`).
 
     Raises
     ------
