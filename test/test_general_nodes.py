@@ -37,3 +37,20 @@ def test_the_node_set_runs_curves_on_a_tf_plant_as_the_batch_does(tmp_path, monk
     assert np.array_equal(run.record.u, batch.u)
     assert np.array_equal(run.record.y, batch.y)
     assert list(config.plant().element_type.ravel()) == ["tf"] * 4
+
+
+def test_the_node_set_runs_a_tf_dv_model_as_the_batch_does(tmp_path):
+    from test_general_disturbances import CONFIG
+
+    (tmp_path / "dv.yaml").write_text(CONFIG + "    mismatch:\n      disturbance_gain_pct: [20.0, 0.0]\n")
+    config = load_config(tmp_path / "dv.yaml")
+    assert config.disturbance_model is not None and config.disturbance_model.element_type[0, 0] == "tf"
+    with claimed_domain() as domain, pytest.MonkeyPatch.context() as mp:
+        for key, value in ros_environment(domain).items():
+            mp.setenv(key, value)
+        short = replace(config, run=replace(config.run, samples=600, scenario="full"))
+        run = run_node_set(short, NodeSetOptions(domain_id=domain, record=True))
+    batch = simulate(short)
+    assert run.record is not None and batch.dv is not None and np.ptp(batch.dv) > 1.5  # the DV moves the plant
+    assert np.array_equal(run.record.u, batch.u)  # the MPC's feedforward from the tf DV model, sample for sample
+    assert np.array_equal(run.record.y, batch.y)

@@ -85,9 +85,9 @@ def test_the_plant_block_may_give_the_true_dv_elements(tmp_path):
             "must be > 0",
         ),
         (
-            {"system": {"disturbance_element_type": ["foptd", "tf", "foptd", "foptd"]}},
+            {"system": {"disturbance_element_type": ["foptd", "fopdt", "foptd", "foptd"]}},
             "system.disturbance_element_type[1] (D12)",
-            "must be one of foptd, integrating, none",
+            "must be one of foptd, integrating, none, tf, step_response",
         ),
         ({"disturbance_signal": {"kind": ["steps", "jumps"]}}, "disturbance_signal.kind[1]", "steps, walk, prbs"),
         ({"mismatch": {"disturbance_gain_pct": [1.0, 2.0]}}, "mismatch.disturbance_gain_pct", "needs 4 entries"),

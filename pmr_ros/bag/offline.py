@@ -203,6 +203,8 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
 
     The recorded configuration, unless ``config_path`` is given (a params file
     with at least the ``system`` block; the rest takes the declared defaults).
+    A recorded configuration's step-response curves are the copies the bag
+    holds (:mod:`.embedded_curves`), not the files its paths name.
 
     Raises
     ------
@@ -218,7 +220,9 @@ def bag_configuration(bag: Bag, config_path: str | None = None) -> tuple[PmrConf
         raise BagError(
             f"{bag.path}: the bag holds no run configuration; pass --config FILE with the controller's model"
         )
-    return parse_config(recorded.params, f"{bag.path} (recorded configuration)"), "bag"
+    # the curve files as the run had them, from the bag: the recorded paths may not exist here
+    curves = recorded.curve_sets()
+    return parse_config(recorded.params, f"{bag.path} (recorded configuration)", curves=curves), "bag"
 
 
 def recorded_verdicts(bag: Bag, config: PmrConfig, namespace: str = "/") -> list[RecordedVerdict]:

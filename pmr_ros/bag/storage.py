@@ -39,6 +39,9 @@ CUSTOM_DATA_KEYS = (
 )
 """Keys of the run's configuration in ``metadata.yaml`` ``custom_data`` (all strings)."""
 
+MODEL_FILES_KEY = "pmr_ros.model_files"
+"""``custom_data`` key of the curve files' texts (:mod:`.embedded_curves`), present when the run had any."""
+
 STORAGES = ("mcap", "sqlite3")
 """Storage plugins a bag can be written with; MCAP is rosbag2's default since Iron."""
 
@@ -97,11 +100,39 @@ class RunConfig:
         The params file the run was configured from.
     version : str
         pmr_ros version that recorded the bag.
+    model_files : dict
+        The text of each curve file the parameters name, by the parameter's
+        dotted name (``system.model_file``); left empty, the files are read at
+        construction (:func:`~pmr_ros.bag.embedded_curves.model_file_texts`),
+        so the bag keeps the curves the run had wherever it is read later.
     """
 
     params: dict
     source: str = ""
     version: str = field(default=__version__)
+    model_files: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.model_files:
+            from .embedded_curves import model_file_texts
+
+            object.__setattr__(self, "model_files", model_file_texts(self.params))
+
+    def curve_sets(self) -> dict[str, Any]:
+        """The embedded curve files read, by dotted name: :func:`pmr_ros.config.parse_config`'s ``curves``.
+
+        Raises
+        ------
+        BagError
+            An embedded file that does not read (one line naming it).
+        """
+        from ..models.curve_set import ModelFileError
+        from .embedded_curves import embedded_curve_sets
+
+        try:
+            return embedded_curve_sets(self.params, self.model_files)
+        except ModelFileError as exc:
+            raise BagError(f"the curve file recorded in the bag does not read: {exc}") from None
 
     @property
     def scenario(self) -> str:
@@ -124,10 +155,12 @@ class RunConfig:
 
     def to_text(self) -> str:
         """The document published on the ``run_config`` topic (YAML)."""
+        files = {"pmr_ros_model_files": self.model_files} if self.model_files else {}
         return yaml.safe_dump(
             {
                 "pmr_ros_run_config": {"version": self.version, "source": self.source},
                 "/**": {"ros__parameters": self.params},
+                **files,
             },
             sort_keys=False,
         )
@@ -135,7 +168,10 @@ class RunConfig:
     def custom_data(self) -> dict[str, str]:
         """``metadata.yaml`` custom_data entries (rosbag2 allows strings only)."""
         values = (self.version, self.source, self.scenario, str(self.seed), str(self.samples), self.params_yaml())
-        return dict(zip(CUSTOM_DATA_KEYS, values, strict=True))
+        out = dict(zip(CUSTOM_DATA_KEYS, values, strict=True))
+        if self.model_files:
+            out[MODEL_FILES_KEY] = yaml.safe_dump(self.model_files, sort_keys=False)
+        return out
 
     @classmethod
     def from_text(cls, text: str) -> RunConfig:
@@ -149,7 +185,8 @@ class RunConfig:
             raise BagError(f"the recorded run configuration is not a pmr_ros params document ({cause})") from None
         if not isinstance(params, dict):
             raise BagError("the recorded run configuration has no parameter mapping under '/**: ros__parameters'")
-        return cls(params, str(head.get("source", "")), str(head.get("version", "")))
+        files = _texts(doc.get("pmr_ros_model_files"), "the recorded run configuration's pmr_ros_model_files")
+        return cls(params, str(head.get("source", "")), str(head.get("version", "")), files)
 
     @classmethod
     def from_custom_data(cls, custom: dict[str, str]) -> RunConfig | None:
@@ -162,4 +199,24 @@ class RunConfig:
         except (yaml.YAMLError, TypeError, KeyError) as exc:
             cause = " ".join(f"{type(exc).__name__}: {exc}".split())
             raise BagError(f"metadata.yaml custom_data pmr_ros.params is not a params file ({cause})") from None
-        return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""))
+        where = f"metadata.yaml custom_data {MODEL_FILES_KEY}"
+        try:
+            files = _texts(load_yaml_text(custom[MODEL_FILES_KEY]) if custom.get(MODEL_FILES_KEY) else {}, where)
+        except yaml.YAMLError:
+            raise BagError(f"{where} is not YAML") from None
+        return cls(params, custom.get("pmr_ros.source", ""), custom.get("pmr_ros.version", ""), files)
+
+
+def _texts(value: Any, where: str) -> dict[str, str]:
+    """The embedded curve files' mapping (dotted name -> text) as recorded; {} when absent.
+
+    Raises
+    ------
+    BagError
+        It is not a mapping of names to texts.
+    """
+    if value is None or value == {}:
+        return {}
+    if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(t, str) for k, t in value.items()):
+        raise BagError(f"{where} is not a mapping of parameter names to file texts")
+    return dict(value)

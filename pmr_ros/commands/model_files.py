@@ -29,6 +29,13 @@ def register(sub) -> None:
     imp.add_argument("model_file", metavar="FILE", help="DMCplus .mdl or .csv step-response curves")
     imp.add_argument("-o", "--output", required=True, metavar="MODEL.yaml", help="the params file to write")
     imp.add_argument("--name", help="system.name (default: the file's name)")
+    imp.add_argument(
+        "--disturbances",
+        metavar="TAG,...",
+        default="",
+        help="independents of the file that are measured disturbances (DMCplus feedforward variables): "
+        "system.disturbance_names with their D elements; the other independents are the MVs",
+    )
     imp.set_defaults(handler=handle_import)
     exp = actions.add_parser("export", help="a params file (any element types) -> a .mdl or .csv curve file")
     exp.add_argument("params", metavar="MODEL.yaml", help="params file with a system block")
@@ -61,17 +68,23 @@ def handle_import(args: argparse.Namespace) -> int:
         curves = read_curves(args.model_file)
     except ModelFileError as exc:
         raise CommandError(str(exc)) from None
-    text = import_params_text(
-        curves,
-        model_file=relative_model_file(args.model_file, args.output),
-        name=args.name or Path(args.model_file).stem,
-        source=Path(args.model_file).name,
-    )
+    disturbances = tuple(tag.strip() for tag in args.disturbances.split(",") if tag.strip())
+    try:
+        text = import_params_text(
+            curves,
+            model_file=relative_model_file(args.model_file, args.output),
+            name=args.name or Path(args.model_file).stem,
+            source=Path(args.model_file).name,
+            disturbances=disturbances,
+        )
+    except ModelFileError as exc:
+        raise CommandError(f"--disturbances {args.disturbances}: {exc}") from None
     write_params_file(args.output, text)
     n_out, n_in, n = curves.curves.shape
+    dvs = f" and {len(disturbances)} measured disturbance(s)" if disturbances else ""
     print(
-        f"pmr-ros model: {n_out}x{n_in} step-response model of {n} coefficients (Ts {curves.sample_time:g}) "
-        f"from {args.model_file} written to {args.output}",
+        f"pmr-ros model: {n_out}x{n_in - len(disturbances)} step-response model{dvs} of {n} coefficients "
+        f"(Ts {curves.sample_time:g}) from {args.model_file} written to {args.output}",
         file=sys.stderr,
     )
     return 0

@@ -43,6 +43,8 @@ __all__ = ["check_tree", "parse_config"]
 
 SYSTEM_BLOCK = "system"
 PLANT_BLOCK = "plant"
+PLANT_DISTURBANCE_KEYS = {"disturbance_gain", "disturbance_numerator", "disturbance_element_type"}
+"""Any of them gives the plant block its own DV elements (else they are the model's)."""
 
 
 def _did_you_mean(name: str, known: list[str]) -> str:
@@ -98,10 +100,18 @@ def _effective(tree: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
 class _Values:
     """Checked access to the effective tree's values, naming each value's source."""
 
-    def __init__(self, tree: dict[str, dict[str, Any]], source: str, sources: Mapping[str, str]) -> None:
+    def __init__(
+        self,
+        tree: dict[str, dict[str, Any]],
+        source: str,
+        sources: Mapping[str, str],
+        curve_sets: Mapping[str, Any] | None = None,
+    ) -> None:
         self.tree, self.source, self.sources = tree, source, sources
+        self.curve_sets = curve_sets or {}
         self.shape: Shape | None = None
         self.warnings: list[str] = []
+        self.plant_keys = frozenset(tree.get(PLANT_BLOCK, {}))  # as given: the optional block has no defaults
 
     def raw(self, name: str) -> Any:
         block, key = name.split(".", 1)
@@ -174,7 +184,7 @@ def _matrix(
     shape = v.shape
     label = (lambda j: element_label(j, shape, per)) if shape is not None else (lambda j: "")
     kinds = v[f"{block}.{prefix}element_type"]
-    general = not prefix and bool(np.isin(kinds, GENERAL_KINDS).any())
+    general = bool(np.isin(kinds, GENERAL_KINDS).any())
     gain, tau = (
         block_numbers(v, f"{block}.{prefix}gain", kinds),
         block_numbers(v, f"{block}.{prefix}time_constant", kinds),
@@ -196,6 +206,7 @@ def _matrix(
             block,
             {"element_type": kinds, "gain": gain, "time_constant": tau, "delay": delay},
             names=(outputs, inputs, name),
+            prefix=prefix,
         )
     return TransferMatrix(gain, tau, np.rint(whole) * ts, ts, outputs, inputs, name, element_type=kinds)
 
@@ -218,7 +229,7 @@ def _explicit_plant(v: _Values, model: TransferMatrix, given: Mapping[str, Any])
 def _disturbance_model(v: _Values, model: TransferMatrix, block: str = SYSTEM_BLOCK) -> TransferMatrix | None:
     """The DV elements of ``block`` (the feedforward model, or the plant's true ones); None without DVs."""
     names = disturbance_names(v, model.input_names)
-    if not names or (block == PLANT_BLOCK and "disturbance_gain" not in v.tree.get(PLANT_BLOCK, {})):
+    if not names or (block == PLANT_BLOCK and not PLANT_DISTURBANCE_KEYS & v.plant_keys):
         return None
     if block == PLANT_BLOCK:
         plant_block(v.tree[PLANT_BLOCK], model, error=v.error, disturbance_names=names)
@@ -315,7 +326,14 @@ def _data(v: _Values, model: TransferMatrix) -> DataSettings:
     return data
 
 
-def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = None) -> PmrConfig:
+def _simulation(v: _Values) -> SimulationSettings:
+    keys = [f.split(".", 1)[1] for f in parameters() if f.startswith("simulation.")]
+    return SimulationSettings(**{key: v[f"simulation.{key}"] for key in keys})
+
+
+def parse_config(
+    tree: Any, source: str, *, sources: Mapping[str, str] | None = None, curves: Mapping[str, Any] | None = None
+) -> PmrConfig:
     """Validate a nested parameter tree into a :class:`PmrConfig`.
 
     Parameters
@@ -326,6 +344,9 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         Named in error messages (the file).
     sources : mapping, optional
         Dotted name to another source of that value (e.g. ``command line (--seed)``).
+    curves : mapping, optional
+        ``system.model_file`` / ``plant.model_file`` to the :class:`~pmr_ros.models.CurveSet`
+        of that file, read already (a bag's embedded copy): the file itself is not read.
 
     Raises
     ------
@@ -334,7 +355,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
     """
     source = str(source)
     checked = check_tree(tree, source)
-    v = _Values(_effective(checked), source, sources or {})
+    v = _Values(_effective(checked), source, sources or {}, curves)
     model = _model(v)
     excitation = ExcitationSettings(v["excitation.mv_dither_amplitude"], v["excitation.mv_dither_clock_period"])
     check_prbs_channels(v, model, excitation)
@@ -352,13 +373,7 @@ def parse_config(tree: Any, source: str, *, sources: Mapping[str, str] | None = 
         parametric=_parametric(v),
         quality=_quality(v, mpc),
         run=RunSettings(samples=v["run.samples"], seed=v["run.seed"], scenario=v["run.scenario"]),
-        simulation=SimulationSettings(
-            real_time_rate_hz=v["simulation.real_time_rate_hz"],
-            wait_for_subscribers=v["simulation.wait_for_subscribers"],
-            startup_timeout_s=v["simulation.startup_timeout_s"],
-            discovery_settle_s=v["simulation.discovery_settle_s"],
-            max_samples_ahead=v["simulation.max_samples_ahead"],
-        ),
+        simulation=_simulation(v),
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
         adapt=AdaptSettings(ise_rise_tolerance_pct=v["adapt.ise_rise_tolerance_pct"]),

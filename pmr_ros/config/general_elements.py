@@ -11,7 +11,7 @@ absolute path, so the nodes and a written model find the same file.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -50,8 +50,8 @@ def model_file_path(model_file: str, source: str) -> Path:
     return (base.parent if base.suffix.lower() in (".yaml", ".yml") else Path.cwd()) / path
 
 
-def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> Any:
-    """The curve file of the block's step_response elements, or None when it has none."""
+def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker, given: Any = None) -> Any:
+    """The curve file of the block's step_response elements (``given``: its curves, not read), or None."""
     if not np.any(fields["element_type"] == "step_response"):
         return None
     from ..models.curve_files import read_curves
@@ -60,7 +60,7 @@ def _curves(block: str, fields: BlockFields, source: str, error: ErrorMaker) -> 
     if not fields["model_file"]:
         raise error(f"{block}.model_file", None, "missing: step_response elements read their curves there")
     try:
-        curves = read_curves(model_file_path(fields["model_file"], source))
+        curves = given if given is not None else read_curves(model_file_path(fields["model_file"], source))
     except ModelFileError as exc:
         raise error(f"{block}.model_file", fields["model_file"], str(exc)) from None
     if not np.isclose(curves.sample_time, fields["sample_time"], rtol=1e-9, atol=0.0):
@@ -83,15 +83,17 @@ def _curve(block: str, curves: Any, names: tuple[str, str], error: ErrorMaker) -
     return curves.curves[io, ik].tolist(), bool(curves.ramp[io, ik])
 
 
-def _element_error(block: str, j: int, label: str, fields: BlockFields, exc: ElementError) -> tuple[str, Any, str]:
+def _element_error(
+    block: str, j: int, label: str, fields: BlockFields, exc: ElementError, *, prefix: str = ""
+) -> tuple[str, Any, str]:
     """``(field, value, reason)`` of an element that does not build: the field the message is about."""
     i, k = divmod(j, fields["element_type"].shape[1])
     reason = str(exc).removeprefix(f"{label}: ")
     kind = fields["element_type"][i, k]
     if kind == "step_response":
-        return f"{block}.delay[{j}] ({label})", float(fields["delay"][i, k]), f"{reason} (model_file)"
+        return f"{block}.{prefix}delay[{j}] ({label})", float(fields["delay"][i, k]), f"{reason} (model_file)"
     key = "denominator" if reason.startswith(("denominator", "unstable")) else "numerator"
-    return f"{block}.{key}[{j}] ({label})", str(fields[key][i, k]), reason
+    return f"{block}.{prefix}{key}[{j}] ({label})", str(fields[key][i, k]), reason
 
 
 def general_matrix(
@@ -101,6 +103,8 @@ def general_matrix(
     names: tuple[tuple[str, ...], tuple[str, ...], str],
     source: str,
     error: ErrorMaker,
+    prefix: str = "",
+    curves: Any = None,
 ) -> TransferMatrix:
     """The block's elements of any type as a :class:`TransferMatrix` (delays checked whole before).
 
@@ -116,6 +120,11 @@ def general_matrix(
         The params file (``model_file`` is relative to it).
     error : callable
         ``error(field, value, reason)`` -> the :class:`ConfigError` to raise.
+    prefix : str
+        ``disturbance_``: the block's DV elements (``D11`` ..., fields ``disturbance_numerator`` ...);
+        their curves are the pairs (CV, DV) of the same ``model_file``.
+    curves : CurveSet, optional
+        The curves of ``model_file`` already read (a bag's embedded copy): the file is not read.
 
     Raises
     ------
@@ -125,19 +134,20 @@ def general_matrix(
     """
     outputs, inputs, name = names
     kinds, ts = fields["element_type"], float(fields["sample_time"])
-    shape = Shape(*kinds.shape)
-    curves = _curves(block, fields, source, error)
+    shape = Shape(kinds.shape[0], kinds.shape[1], kinds.shape[1])
+    per = "disturbance_elements" if prefix else ""
+    curves = _curves(block, fields, source, error, curves)
     rows: list[list[Element]] = []
     for i in range(kinds.shape[0]):
         rows.append([])
         for k in range(kinds.shape[1]):
             j = i * kinds.shape[1] + k
-            label = element_label(j, shape)
+            label = element_label(j, shape, per)
             curve = None if kinds[i, k] != "step_response" else _curve(block, curves, (outputs[i], inputs[k]), error)
             try:
                 rows[i].append(cell_element(fields, i, k, name=label, curve=curve))
             except ElementError as exc:
-                raise error(*_element_error(block, j, label, fields, exc)) from None
+                raise error(*_element_error(block, j, label, fields, exc, prefix=prefix)) from None
     return TransferMatrix.of_elements(rows, sample_time=ts, output_names=outputs, input_names=inputs, name=name)
 
 
@@ -145,6 +155,7 @@ class _Values(Protocol):
     """What :mod:`.build` gives: checked values by dotted name, the effective tree, sources and errors."""
 
     tree: dict[str, dict[str, Any]]
+    curve_sets: Mapping[str, Any]
 
     def __getitem__(self, name: str) -> Any: ...
 
@@ -154,26 +165,40 @@ class _Values(Protocol):
 
 
 def block_numbers(v: _Values, name: str, kinds: np.ndarray) -> np.ndarray:
-    """A gain or time-constant matrix; zeros when left out of a block of tf, step_response and empty elements alone."""
+    """A gain or time-constant matrix; zeros when left out of a block of tf, step_response and empty elements alone.
+
+    A DV gain left at its declared ``[]`` counts as left out.
+    """
     block, key = name.split(".", 1)
-    if key not in v.tree.get(block, {}) and not np.isin(kinds, ("foptd", "integrating")).any():
+    given = v.tree.get(block, {}).get(key, [])
+    if (isinstance(given, list) and not given) and not np.isin(kinds, ("foptd", "integrating")).any():
         return np.zeros(kinds.shape)
     return np.asarray(v[name], dtype=float)
 
 
 def block_elements(
-    v: _Values, block: str, fields: BlockFields, *, names: tuple[tuple[str, ...], tuple[str, ...], str]
+    v: _Values,
+    block: str,
+    fields: BlockFields,
+    *,
+    names: tuple[tuple[str, ...], tuple[str, ...], str],
+    prefix: str = "",
 ) -> TransferMatrix:
     """:func:`general_matrix` of ``block`` (its ``numerator``, ``denominator`` and ``model_file`` read here).
 
-    The tree's ``model_file`` becomes the absolute path of the file read, so
-    the nodes and a written model read the same file wherever they run.
+    ``prefix="disturbance_"``: the DV elements (``disturbance_numerator`` ...,
+    the same ``model_file``).  ``v.curve_sets`` may hold the curves of
+    ``block.model_file`` already (a bag's embedded copy).  The tree's ``model_file`` becomes the absolute
+    path of the file read, so the nodes and a written model read the same file
+    wherever they run.
     """
-    for key in ("numerator", "denominator", "model_file"):
-        fields[key] = v[f"{block}.{key}"]
+    for key in ("numerator", "denominator"):
+        fields[key] = v[f"{block}.{prefix}{key}"]
+    fields["model_file"] = v[f"{block}.model_file"]
     fields["sample_time"] = v["system.sample_time"]
     source = v.source_of(f"{block}.model_file")
-    model = general_matrix(fields, block=block, names=names, source=source, error=v.error)
+    given = v.curve_sets.get(f"{block}.model_file")
+    model = general_matrix(fields, block=block, names=names, source=source, error=v.error, prefix=prefix, curves=given)
     if fields["model_file"]:
         v.tree[block]["model_file"] = str(model_file_path(fields["model_file"], source).resolve())
     return model

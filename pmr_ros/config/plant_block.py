@@ -48,7 +48,13 @@ def plant_block(
     """
     keys: tuple[str, ...] = ("name", "element_type", "numerator", "denominator", "model_file")
     if disturbance_names:
-        keys += ("disturbance_time_constant", "disturbance_delay", "disturbance_element_type")
+        keys += (
+            "disturbance_time_constant",
+            "disturbance_delay",
+            "disturbance_element_type",
+            "disturbance_numerator",
+            "disturbance_denominator",
+        )
     for key in keys:
         block.setdefault(key, parameter(f"plant.{key}").default)
     system: dict[str, Any] = {

@@ -29,7 +29,14 @@ class _Values(Protocol):
     def error(self, name: str, value: Any, reason: str) -> ConfigError: ...
 
 
-DISTURBANCE_FIELDS = ("disturbance_gain", "disturbance_time_constant", "disturbance_delay", "disturbance_element_type")
+DISTURBANCE_FIELDS = (
+    "disturbance_gain",
+    "disturbance_time_constant",
+    "disturbance_delay",
+    "disturbance_element_type",
+    "disturbance_numerator",
+    "disturbance_denominator",
+)
 """The DV model's fields in the ``system`` and ``plant`` blocks."""
 
 

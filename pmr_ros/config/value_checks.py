@@ -210,18 +210,17 @@ class ValueChecks:
         """One string per element (row-major), or one string for every element."""
         if shape is None:
             raise ValueError(f"{self.name}: a per-element parameter needs the system's shape")
-        n = shape.n_outputs * shape.n_inputs
+        columns = shape.columns(self.per)
+        n = shape.n_outputs * columns
         items = [value] * n if isinstance(value, str) else value
         if not isinstance(items, list) or len(items) != n:
             count = f", got {len(items)}" if isinstance(items, list) else ""
-            raise self._error(
-                source, value, f"needs {n} strings ({shape.n_outputs}x{shape.n_inputs}, row by row){count}"
-            )
+            raise self._error(source, value, f"needs {n} strings ({shape.n_outputs}x{columns}, row by row){count}")
         for j, item in enumerate(items):
             if not isinstance(item, str):
-                field = f"{self.name}[{j}] ({element_label(j, shape)})"
+                field = f"{self.name}[{j}] ({element_label(j, shape, self.per)})"
                 raise self._error(source, item, "must be a string (quote the coefficients: '16.7, 1')", field)
-        return np.array(items, dtype=object).reshape(shape.n_outputs, shape.n_inputs)
+        return np.array(items, dtype=object).reshape(shape.n_outputs, columns)
 
     def _check_matrix(self, value: Any, source: str, shape: Shape | None) -> np.ndarray:
         if shape is None:

@@ -69,13 +69,14 @@ def system_tree(model: TransferMatrix, *, model_file: str = "") -> dict[str, Any
     model : TransferMatrix
         The model; its ``tf`` elements add ``numerator`` and ``denominator``.
     model_file : str
-        ``system.model_file``, written when the model has ``step_response`` elements.
+        ``system.model_file``, written when the model has ``step_response`` elements or it is given
+        (the curves of step_response DV elements).
     """
     tau = np.where(np.isnan(model.time_constant), 0.0, model.time_constant)
     extra: dict[str, Any] = {}
     if np.any(model.element_type == "tf"):
         extra["numerator"], extra["denominator"] = tf_strings(model)
-    if np.any(model.element_type == "step_response"):
+    if model_file or np.any(model.element_type == "step_response"):
         extra["model_file"] = model_file
     return {
         "name": model.name,

@@ -72,8 +72,8 @@ def _sample_time(path: Path, times: np.ndarray) -> float:
     return ts
 
 
-def read_csv_curves(path: str | Path) -> CurveSet:
-    """The curves of a CSV file in the layout of this module.
+def read_csv_curves(path: str | Path, *, text: str | None = None) -> CurveSet:
+    """The curves of a CSV file in the layout of this module (or of its ``text``, ``path`` then only named).
 
     Raises
     ------
@@ -82,7 +82,7 @@ def read_csv_curves(path: str | Path) -> CurveSet:
     """
     path = Path(path)
     try:
-        rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8"))))
+        rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8") if text is None else text)))
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
     rows = [row for row in rows if row]

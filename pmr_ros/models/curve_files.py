@@ -11,8 +11,8 @@ from .mdl import read_mdl
 __all__ = ["read_curves"]
 
 
-def read_curves(path: str | Path) -> CurveSet:
-    """The curves of a model file by its suffix: ``.mdl`` (DMCplus) or ``.csv``.
+def read_curves(path: str | Path, *, text: str | None = None) -> CurveSet:
+    """The curves of a model file by its suffix: ``.mdl`` (DMCplus) or ``.csv`` (``text``: its contents, not read).
 
     Raises
     ------
@@ -21,7 +21,7 @@ def read_curves(path: str | Path) -> CurveSet:
     """
     suffix = Path(path).suffix.lower()
     if suffix == ".mdl":
-        return read_mdl(path)
+        return read_mdl(path, text=text)
     if suffix == ".csv":
-        return read_csv_curves(path)
+        return read_csv_curves(path, text=text)
     raise ModelFileError(f"{path}: unknown model file type {suffix or '(none)'!r}: use a DMCplus .mdl or a .csv")

@@ -182,8 +182,8 @@ def _block(lines: _Lines, dep: str, independents: list[str], n: int) -> tuple[fl
     return ramp, numbers, np.array(curves), gains
 
 
-def read_mdl(path: str | Path) -> CurveSet:
-    """The curves of a DMCplus ``.mdl`` file.
+def read_mdl(path: str | Path, *, text: str | None = None) -> CurveSet:
+    """The curves of a DMCplus ``.mdl`` file (or of its ``text``, ``path`` then only named in messages).
 
     Raises
     ------
@@ -193,7 +193,7 @@ def read_mdl(path: str | Path) -> CurveSet:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8", errors="strict")
+        text = path.read_text(encoding="utf-8", errors="strict") if text is None else text
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
     lines = _Lines(path, text)

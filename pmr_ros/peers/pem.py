@@ -13,6 +13,12 @@ against the controller's model with the project's verdict rule
 when the whole interval lies beyond the tolerance, ok within
 ``ok_band_factor`` tolerances and no wider than ``max_interval_pct``), and
 the delay judged by its profile-likelihood confidence like the project's.
+
+PEM fits FOPTD by design (as ``procest``): a ``tf`` element that is exactly
+first order (``K/(tau s + 1)`` or ``K/s``, with delay) is judged as that FOPTD
+or integrating element; a row that holds any other ``tf`` or ``step_response``
+element is not fitted (its FOPTD fit would be misspecified and bias its other
+elements too), every element of it ``inconclusive`` with the reason.
 """
 
 from __future__ import annotations
@@ -24,11 +30,13 @@ import numpy as np
 from scipy.stats import norm
 
 from ..core.pmr.parametric.verdicts import delay_confidence, parameter_verdict
+from ..core.sim.lti import Element
 from ..core.sim.model import TransferMatrix
+from ..core.sim.rational import TransferFunction
 from .outcome import PeerOutcome, Tolerances, overall_verdict
 from .pem_fit import RowData, RowFit, fit_row
 
-__all__ = ["NOISE_MODELS", "pem_diagnosis"]
+__all__ = ["NOISE_MODELS", "foptd_stand_in", "pem_diagnosis"]
 
 NOISE_MODELS = {"output_error": "pem_oe", "box_jenkins": "pem_bj"}
 """The two variants and the method name each reports."""
@@ -36,6 +44,62 @@ NOISE_MODELS = {"output_error": "pem_oe", "box_jenkins": "pem_bj"}
 EDGE = "delay at the edge of the search"
 
 NOT_FITTED = "an empty cell of the model: the row's fit has no element there"
+
+NOT_FOPTD = (
+    "{name} is a {kind} element that is not first order: PEM fits FOPTD elements (as procest does), and a row "
+    "fitted so would be misspecified; not judged"
+)
+"""The reason of every element of a row that holds a tf or step_response element of another structure."""
+
+
+def _first_order(element: Element) -> tuple[str, float] | None:
+    """``("foptd", tau)`` or ``("integrating", 0)`` of a tf element that is exactly K/(tau s + 1) or K/s, else None."""
+    if not isinstance(element, TransferFunction) or len(element.numerator) != 1 or len(element.denominator) != 2:
+        return None
+    lead, constant = element.denominator
+    if constant == 0.0:
+        return "integrating", 0.0
+    tau = lead / constant
+    return ("foptd", tau) if tau > 0 else None
+
+
+def foptd_stand_in(model: TransferMatrix) -> tuple[TransferMatrix, np.ndarray]:
+    """The FOPTD structure PEM fits: first-order tf elements written as FOPTD, and the cells it cannot fit.
+
+    Returns
+    -------
+    (TransferMatrix, ndarray of bool)
+        The model whose tf elements ``K/(tau s + 1)`` and ``K/s`` (with delay) are
+        FOPTD and integrating elements of the same numbers (``model`` itself
+        when it has no tf or step_response element), and the cells of any other
+        tf or step_response element (their rows are not fitted).
+    """
+    general = np.isin(model.element_type, ("tf", "step_response"))
+    if not general.any():
+        return model, general
+    tau, kinds = np.where(general, 0.0, np.nan_to_num(model.time_constant)), model.element_type.copy()
+    other = np.zeros_like(general)
+    for i, k in zip(*np.nonzero(general), strict=True):
+        first = _first_order(model.element(int(i), int(k)))
+        if first is None:
+            other[i, k], kinds[i, k] = True, "none"
+        else:
+            kinds[i, k], tau[i, k] = first
+    names = (model.output_names, model.input_names)
+    gain = np.where(other, 0.0, model.gain)
+    return TransferMatrix(gain, tau, model.delay, model.sample_time, *names, model.name, kinds), other
+
+
+def _not_judged(model: TransferMatrix, i: int, method: str, other: np.ndarray) -> list[PeerOutcome]:
+    """Row ``i``'s outcomes when it holds an element PEM's FOPTD structure cannot fit: every one inconclusive."""
+    names = model.element_names()
+    k0 = int(np.flatnonzero(other[i])[0])
+    reason = NOT_FOPTD.format(name=names[i * model.n_inputs + k0], kind=model.element_type[i, k0])
+    return [
+        PeerOutcome(names[i * model.n_inputs + k], i, k, method, False, math.nan, "statistic", "inconclusive",
+                    reasons=(reason,))
+        for k in range(model.n_inputs)
+    ]  # fmt: skip
 
 
 def _initial(model: TransferMatrix, i: int, columns: np.ndarray, orders: tuple[int, int]) -> np.ndarray:
@@ -206,7 +270,8 @@ def pem_diagnosis(
     Returns
     -------
     dict
-        Element name to :class:`PeerOutcome`, row-major; empty cells inconclusive (not fitted).
+        Element name to :class:`PeerOutcome`, row-major; empty cells inconclusive (not fitted), and every
+        element of a row with a tf or step_response element not of first order (:data:`NOT_FOPTD`).
 
     Raises
     ------
@@ -218,8 +283,14 @@ def pem_diagnosis(
     u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
     if u.ndim != 2 or y.ndim != 2 or u.shape != (y.shape[0], model.n_inputs) or y.shape[1] != model.n_outputs:
         raise ValueError(f"u {u.shape} and y {y.shape} do not fit a {model.n_outputs} x {model.n_inputs} model")
-    judge = _Judge(model, NOISE_MODELS[noise_model], tolerances or Tolerances(), max_delay_shift)
+    fitted, other = foptd_stand_in(model)
+    judge = _Judge(fitted, NOISE_MODELS[noise_model], tolerances or Tolerances(), max_delay_shift)
     orders = noise_orders if noise_model == "box_jenkins" else (0, 0)
     first = model.settling_samples() if start is None else start
-    rows = [_row(u, y, i, judge=judge, start=first, orders=orders) for i in range(model.n_outputs)]
+    rows = [
+        _not_judged(model, i, judge.method, other)
+        if other[i].any()
+        else _row(u, y, i, judge=judge, start=first, orders=orders)
+        for i in range(model.n_outputs)
+    ]
     return {o.element: o for row in rows for o in row}

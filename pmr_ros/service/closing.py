@@ -24,6 +24,7 @@ from ..contract.windowing import VERDICT, WindowOutcome
 from ..core.loop.impact import control_impact
 from ..core.loop.update import ModelUpdate, NotCorrectable, corrected_model
 from ..core.results import Diagnosis
+from ..core.sim.augment import augmented_model
 from .memory_checks import impact_shortfall
 from .refusal import EXIT_INSUFFICIENT, ServiceError
 
@@ -124,21 +125,24 @@ def curve_file(config: PmrConfig, update: ModelUpdate, model_path: str | None = 
     file, in the format of the configuration's curve file, named relative to
     it.  A live proposal keeps the configuration's file when no curve changed,
     else the corrected curves go to a file named by their content in the
-    temporary folder (the nodes of a node set share the host).
+    temporary folder (the nodes of a node set share the host).  The DV
+    elements (their curves are pairs of the same file) are written beside the
+    MVs' as the configuration gives them.
     """
-    if not np.any(update.model.element_type == "step_response"):
+    whole = augmented_model(update.model, config.disturbance_model)
+    if not np.any(whole.element_type == "step_response"):
         return ""
     original = str(config.parameters.get("system", {}).get("model_file", ""))
     if model_path is not None:
         path = curve_file_path(model_path, original)
-        write_curve_file(update.model, path, original=original)
+        write_curve_file(whole, path, original=original)
         return path.name
     if not any(c.element is not None and c.element.kind == "step_response" for c in update.changes):
         return original
     digest = hashlib.sha1(repr([c.element for c in update.changes]).encode()).hexdigest()[:16]
     path = curve_file_path(Path(tempfile.gettempdir()) / "pmr_ros_models" / f"proposed-{digest}.yaml", original)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_curve_file(update.model, path, original=original)
+    write_curve_file(whole, path, original=original)
     return str(path)
 
 

@@ -62,7 +62,9 @@ def run_correctness(row: dict, tau_threshold: float) -> dict[str, bool]:
         delay_ok = row["delay_mismatch_samples"] == row["true_delay_samples"]
         return {"gain": bool(gain_ok), "tau": bool(tau_ok), "delay": bool(delay_ok)}
     index = row["tau_index"]
-    if truth != 0:
+    if index is None:  # no time-constant index (the classic method on a tf or step_response element)
+        tau_ok = False
+    elif truth != 0:
         tau_ok = abs(index) > tau_threshold and np.sign(index) == np.sign(truth)
     else:
         tau_ok = abs(index) <= tau_threshold

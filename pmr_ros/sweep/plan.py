@@ -74,7 +74,9 @@ def element_index(model: TransferMatrix, element: str) -> tuple[int, int]:
     ------
     PlanError
         If the model has no such element, or it is not FOPTD (integrating
-        and empty elements have no time constant to sweep).
+        and empty elements have no time constant to sweep; a tf or
+        step_response element has no single one: the sweep is the paper's
+        ``tau x nu`` of one FOPTD element, in a model that may hold elements of any type).
     """
     names = model.element_names()
     if element not in names:
@@ -86,10 +88,15 @@ def element_index(model: TransferMatrix, element: str) -> tuple[int, int]:
     kind = str(model.element_type[i, k])
     if kind != "foptd":
         sweepable = [n for n, t in zip(names, model.element_type.ravel(), strict=True) if t == "foptd"]
-        what = "an empty cell" if kind == "none" else "integrating"
+        what = {"none": "an empty cell", "integrating": "integrating"}.get(kind)
+        why = (
+            f"{what}: it has no time constant to sweep"
+            if what
+            else f"{kind}: it has no single time constant to sweep (the sweep multiplies one FOPTD time constant "
+            "by nu, the paper's tau x nu)"
+        )
         raise PlanError(
-            f"element {element} is {what}: it has no time constant to sweep; choose a FOPTD element "
-            f"({', '.join(sweepable) or 'this system has none'})"
+            f"element {element} is {why}; choose a FOPTD element ({', '.join(sweepable) or 'this system has none'})"
         )
     return i, k
 

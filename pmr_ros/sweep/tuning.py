@@ -94,6 +94,8 @@ def stable_tuning(
         Largest accepted spectral radius.
     """
     settle = int(math.ceil(4.0 * model.slowest_time_constant / model.sample_time)) + int(model.delay_samples.max())
+    # a tf or step_response element has no time constant: its own settling to exp(-4), as 4 tau of a FOPTD one
+    settle = max([settle, *(e.settle_samples(math.exp(-4.0)) for row in model.general for e in row if e)])
     best: StableTuning | None = None
     horizon = tuning.prediction_horizon
     while True:
