@@ -33,7 +33,7 @@ LAYERS: dict[str, set[str]] = {
     "data": {"core", "config"},
     "models": {"core", "config"},
     "sweep": {"core", "config", "progress", "outputs"},
-    "bag": {"core", "config", "contract"},
+    "bag": {"core", "config", "contract", "models"},  # models: the curve files a bag carries, read back
     # sweep: its Dask cluster (monitor, fleet, benchmark)
     "service": {"core", "config", "contract", "data", "report", "bag", "benchmark", "sweep", "progress", "outputs"},
     "ros": {"core", "config", "contract", "resources"},

@@ -28,7 +28,7 @@ from pmr_ros.node_set import NodeSetOptions, run_node_set  # noqa: E402
 from pmr_ros.nodes.bag_player import discovery_settle_s  # noqa: E402
 from pmr_ros.nodes.plant import PlantNode  # noqa: E402
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode  # noqa: E402
-from pmr_ros.ros.convert import signal_message  # noqa: E402
+from pmr_ros.ros.convert import run_complete_message, signal_message  # noqa: E402
 from pmr_ros.ros.messages import message_class, qos_profile  # noqa: E402
 from pmr_ros.ros.parameters import parameter_overrides  # noqa: E402
 from pmr_ros.service.closing import close_diagnosis  # noqa: E402
@@ -381,6 +381,29 @@ def test_no_stale_warning_once_the_run_is_complete(harness):
     assert all(_levels(i) != {"STALE"} for _, i in later)  # the last verdicts are republished as they were
 
 
+def test_the_end_of_a_run_on_its_topic_stops_the_watchdog_and_a_later_sample_starts_it_again(harness):
+    """A plant in another process says its run is complete on pmr/run_complete: its silence is no stale signal."""
+    h = harness
+    h.send_samples(range(0, 600))
+    end = h.feeder.create_publisher(
+        message_class(topic("run_complete")), topic("run_complete").name, qos_profile(topic("run_complete").qos)
+    )
+    end.publish(run_complete_message(599 * h.config.model.sample_time))
+    assert spin_until(h.executor, lambda: h.diag.run_complete, 30.0), "the end of the run did not arrive"
+    stale_timeout = h.config.diagnostician.stale_timeout_s
+    warned = len(h.diag.warnings)
+    spin_until(h.executor, lambda: False, 6 * stale_timeout + 1.0)  # several watchdog periods of silence
+    assert list(h.diag.warnings)[warned:] == []
+    # the run goes on after all (a sample after the announced last one): silence is watched again
+    h.send_samples(range(600, 610))
+    assert not h.diag.run_complete
+
+    def silence_reported():
+        return any("no r on /pmr/setpoint for" in w for w in list(h.diag.warnings)[warned:])
+
+    assert spin_until(h.executor, silence_reported, 30.0)
+
+
 def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     config = load_config(overrides={"run": {"samples": 600}, "pmr": {"segment_length": 128}})
     options = NodeSetOptions(
@@ -393,12 +416,13 @@ def test_real_time_mode_paces_the_plant_with_a_wall_timer(ros_domain):
     assert np.array_equal(result.record.r, simulate(config).r)
 
 
-def test_diagnostician_subscribes_to_r_u_y_and_the_active_model_only(ros):
+def test_diagnostician_subscribes_to_r_u_y_the_active_model_and_the_end_of_a_run_only(ros):
     node = ros.add(PmrDiagnosticianNode(context=ros.context, parameter_overrides=_params()))
-    # r, u, y, and the controller's active model when it publishes one (any controller that publishes r, u, y
-    # can be watched; pmr_ros's own tells when it switches models)
+    # r, u, y, the controller's active model when it publishes one (any controller that publishes r, u, y
+    # can be watched; pmr_ros's own tells when it switches models) and the producer's end of a run
     assert {s.topic_name for s in node.subscriptions} == {
-        topic(k).resolved() for k in ("setpoint", "manipulated_input", "measured_output", "active_model")
+        topic(k).resolved()
+        for k in ("setpoint", "manipulated_input", "measured_output", "active_model", "run_complete")
     }
 
 

@@ -61,9 +61,11 @@ def typestore():
 def recorded_topics(namespace: str = "/") -> dict[str, Topic]:
     """Every topic a bag records, by contract key, with its absolute name in ``namespace``.
 
-    The whole contract but the flow control's progress reports (``PROGRESS_KEY``).
+    The whole contract but the flow control's progress reports (``PROGRESS_KEY``) and the end-of-run
+    marker (``run_complete``: a replay sends its own after the bag's last sample).
     """
-    return {k: t.in_namespace(namespace) for k, t in load_contract().items() if k != PROGRESS_KEY}
+    unrecorded = (PROGRESS_KEY, "run_complete")
+    return {k: t.in_namespace(namespace) for k, t in load_contract().items() if k not in unrecorded}
 
 
 def rosbags_qos(qos: TopicQos) -> Any:

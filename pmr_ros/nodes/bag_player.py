@@ -33,6 +33,7 @@ from ..bag.reader import Bag, BagMessage
 from ..bag.storage import RUN_CONFIG_KEY, BagError, typestore
 from ..config.schema import parameters
 from ..contract.topics import PROGRESS_KEY, SIGNAL_TOPICS, Topic, load_contract
+from ..ros.convert import run_complete_message
 from ..ros.flow import ProgressGate, cdr_stamp_ns
 from ..ros.followers import FollowerWatch
 from ..ros.messages import message_class, qos_profile
@@ -141,6 +142,7 @@ class BagPlayerNode(Node):
         self.clock_topic = contract["clock"].resolved(source)
         self._signals = [contract[key].name for key in SIGNAL_TOPICS.values()]
         self.gate = ProgressGate(self, max_ahead=max_ahead or default_max_ahead(), on_change=lambda: None)
+        self._end_pub = self._publisher(contract["run_complete"])
         watched = {contract[t.key].name: t.qos.depth for t in self.topics.values() if t.key not in UNWATCHED}
         self.followers = FollowerWatch(self, watched, self.gate.consumers)
         if publish_config:
@@ -227,7 +229,7 @@ class BagPlayerNode(Node):
             Polled between samples; True ends the replay early.
         """
         names = set(self.topics) - {self.config_topic}
-        count = 0
+        count, last_stamp = 0, None
         pace = _Pace(rate, max_samples_per_s)
         for group in samples(self.bag, names, self.clock_topic):
             if should_stop is not None and should_stop():
@@ -242,9 +244,12 @@ class BagPlayerNode(Node):
                 continue  # what came before the first sample (the controller's latched model): no sample
             self.gate.published(stamp)
             self.followers.published(stamp)
-            count += 1
+            count, last_stamp = count + 1, stamp
             if after_sample is not None:
                 after_sample(count)
+        else:
+            if last_stamp is not None:  # the whole bag went out: its end is the run's end for the consumers
+                self._end_pub.publish(run_complete_message(last_stamp * 1e-9))
         self.wait_for_acks(2.0)
         self.followers.look()
         return count

@@ -33,7 +33,7 @@ from ..contract.topics import topic
 from ..core.sim.augment import augmented_model
 from ..core.sim.true_plant import FoptdPlant
 from ..ros.base import ConfiguredNode, run_node
-from ..ros.convert import clock_message, signal_message, stamp_from_seconds
+from ..ros.convert import clock_message, run_complete_message, signal_message, stamp_from_seconds
 from ..ros.flow import ProgressGate, stamp_ns
 from ..service.memory_checks import check_plant_memory
 
@@ -104,6 +104,7 @@ class PlantNode(ConfiguredNode):
         self._clock_pub = self.contract_publisher("clock")
         self._y_pub = self.contract_publisher("measured_output")
         self._dv_pub = self.contract_publisher("disturbance") if self.dv is not None else None
+        self._end_pub = self.contract_publisher("run_complete")
         self.gate = ProgressGate(self, max_ahead=cfg.simulation.max_samples_ahead, on_change=self._release)
         self._u_sub = self.contract_subscription("manipulated_input", self._on_input)
         self._started_at = time.monotonic()
@@ -227,6 +228,8 @@ class PlantNode(ConfiguredNode):
         if self.sample + 1 >= self.samples:
             self.finished = True
             self.get_logger().info(f"run complete: {self.samples} samples")
+            # the consumers in other processes learn that the silence from now on is the run's end
+            self._end_pub.publish(run_complete_message(self.sample * self.sample_time, self.model.name))
             if self._tick_timer is not None:
                 self._tick_timer.cancel()
             return

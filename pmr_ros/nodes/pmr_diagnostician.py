@@ -1,37 +1,27 @@
 """``pmr_diagnostician``: PMR verdicts per element on /diagnostics from r, u and y alone.
 
-It subscribes to the setpoints, inputs and outputs and to nothing else, holds
-the controller's model Ghat as parameters (so it can watch any controller),
-aligns the three signals by their sample stamps, keeps a rolling window of the
-newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose`
-every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
-per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
-reason and no numbers when the data do not support a verdict), again every
-``diagnostician.publish_period_s``; the numbers also go to the estimates topic
-when there is a verdict.
+It subscribes to the setpoints, inputs and outputs and to nothing else, holds the controller's model Ghat as
+parameters (so it can watch any controller), aligns the three signals by their sample stamps, keeps a rolling window
+of the newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose` every
+``diagnostician.update_period_samples`` samples. One DiagnosticStatus per element goes to /diagnostics (OK / WARN /
+ERROR, or STALE / WARN with the reason and no numbers when the data do not support a verdict), again every
+``diagnostician.publish_period_s``; the numbers also go to the estimates topic when there is a verdict.
 
-The diagnosis runs on a worker thread (:class:`~pmr_ros.ros.worker.SerialWorker`)
-on a snapshot of the window taken when it was due, so the subscriptions are
-never starved and the verdict is the one the window had then.  The node is a
-lockstep consumer: it reports on ``pmr/progress`` how far it has taken r, u and
-y (:class:`~pmr_ros.ros.flow.ProgressReporter`), holding the report back while
-diagnoses queue up, so a lockstep plant or bag player never outruns it.  It
-reports two publishers on one signal topic (another node set without its own
-namespace, a stray publisher of old stamps): a message that repeats a stamp
-with other values, or comes out of order, while the topic has two publishers
-suspends the verdicts (level ERROR, ``status: conflict``, the window
-restarted) until no such message came for ``diagnostician.stale_timeout_s``.
-In real time, where nobody waits for it, every lost sample is counted and
-reported with its topic and stamps.
+The diagnosis runs on a worker thread (:class:`~pmr_ros.ros.worker.SerialWorker`) on a snapshot of the window taken
+when it was due, so the subscriptions are never starved and the verdict is the one the window had then. The node is
+a lockstep consumer: it reports on ``pmr/progress`` how far it has taken r, u and y
+(:class:`~pmr_ros.ros.flow.ProgressReporter`), holding the report back while diagnoses queue up, so a lockstep plant
+or bag player never outruns it. It reports two publishers on one signal topic (another node set without its own
+namespace, a stray publisher of old stamps): a message that repeats a stamp with other values, or comes out of
+order, while the topic has two publishers suspends the verdicts (level ERROR, ``status: conflict``, the window
+restarted) until no such message came for ``diagnostician.stale_timeout_s``. In real time, where nobody waits for
+it, every lost sample is counted and reported with its topic and stamps.
 
-With a verdict it closes the loop (:func:`pmr_ros.service.closing.close_window`,
-on the worker thread with the diagnosis): the control impact of the mismatches
-goes into the statuses (each element's ``impact.*``, all together
-``impact_all.*``), and when a mismatch verdict stands the corrected model is
-published, latched, on ``pmr/proposed_model``.  It follows the controller's
-model: a new one on ``pmr/active_model`` becomes its own (the same validated
-parameter change as ``set_parameters``) and only samples from the switch on
-are diagnosed against it.
+With a verdict it closes the loop (:func:`pmr_ros.service.closing.close_window`, on the worker thread with the
+diagnosis): the control impact of the mismatches goes into the statuses (each element's ``impact.*``, all together
+``impact_all.*``), and when a mismatch verdict stands the corrected model is published, latched, on
+``pmr/proposed_model``. It follows the controller's model: a new one on ``pmr/active_model`` becomes its own (the
+same validated parameter change as ``set_parameters``) and only samples from the switch on are diagnosed against it.
 """
 
 from __future__ import annotations
@@ -67,6 +57,7 @@ from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import diagnosis_statuses, diagnostic_array, estimates_message, text_message
 from ..ros.flow import ProgressReporter, stamp_ns
 from ..ros.parameters import ros_value
+from ..ros.silence import SilenceWatch
 from ..ros.worker import SerialWorker
 from ..service.closing import ClosedWindow, close_window
 from ..service.memory_checks import check_impact_memory
@@ -95,8 +86,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
     progress : ProgressReporter
         Its reports on ``pmr/progress`` (lockstep flow control).
     worker : SerialWorker
-        Runs the diagnoses (with the control impact and the proposal) and
-        publishes their results, off the executor's thread.
+        Runs the diagnoses (with the control impact and the proposal), publishes them, off the executor.
     model_since : int
         The first sample the controller ran on the current model (0 until a switch).
     last_proposal : str or None
@@ -107,6 +97,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         super().__init__(kwargs.pop("node_name", NODE_NAME), executable=NODE_NAME, live_parameters=True, **kwargs)
         self.warnings: deque[str] = deque(maxlen=1000)
         self.last_published = None
+        self._silence: Any = None  # the statuses a silence's STALE statuses replaced (None: no silence now)
         self.messages_received = 0
         # with measured disturbances the window also needs v(k) of every sample (its D elements)
         self._signals = (*SIGNALS, "dv") if self.config.disturbance_model is not None else SIGNALS
@@ -116,10 +107,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._labels = {s: f"{s} on {self.resolve_topic_name(self._topics[s])}" for s in self._signals}
         self.aligner = self._new_aligner()
         self._conflict: tuple[str, float] | None = None
-        self._last_arrival: dict[str, float | None] = {s: None for s in self._signals}
-        self._created = time.monotonic()
-        self._busy_at = 0.0  # when the worker was last seen diagnosing [s of monotonic time]
-        self._stale_reported: float | None = None
+        self.silence = SilenceWatch(self._signals, self._labels)
         self.run_complete = False  # the run is over (finish_run): its silence is no stale signal
         self.model_since = 0
         self.last_proposal: str | None = None
@@ -129,6 +117,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._estimates_pub = self.contract_publisher("estimates")
         self._proposal_pub = self.contract_publisher("proposed_model")
         self._model_sub = self.contract_subscription("active_model", self._on_active_model)
+        self._end_sub = self.contract_subscription("run_complete", self._on_run_complete)
+        self._complete_at: int | None = None  # the last sample of a run its producer said was complete
         self.progress = ProgressReporter(self, self._signals, hold=lambda: self.worker.pending > 1 + MAX_QUEUED_JOBS)
         self._subs = [self.contract_subscription(_SIGNAL_TOPIC[s], partial(self._on_signal, s)) for s in self._signals]
         self._own_timers: list[Any] = []
@@ -206,10 +196,12 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _on_signal(self, signal: str, msg: Any) -> None:
         self.messages_received += 1
-        self._last_arrival[signal] = time.monotonic()
+        self.silence.arrived(signal)
         stamp, names, values = read_signal(msg)
         self._check_publishers(signal, stamp, values)
         k, _ = sample_index(stamp, self.aligner.sample_time_s)
+        if self._complete_at is not None and k > self._complete_at:
+            self._complete_at, self.run_complete = None, False  # the run goes on after all: watch it again
         heard = self._heard[signal]
         self._heard[signal] = k if heard is None else max(k, heard)
         offer = offer_signal(
@@ -283,40 +275,35 @@ class PmrDiagnosticianNode(ConfiguredNode):
     def finish_run(self) -> None:
         """The run is over (its plant finished): the silence watchdog stops, no stale warning follows the run."""
         self.run_complete = True
+        # a pause that a loaded machine made look like silence before the end: the verdicts are the last word
+        self.worker.submit(self._end_silence)
+
+    def _on_run_complete(self, msg: Any) -> None:
+        """The producer published its last sample (contract topic ``run_complete``): the run's end, not a stop."""
+        k, _ = sample_index(stamp_ns(msg.stamp) * 1e-9, self.aligner.sample_time_s)
+        if not self.run_complete:
+            self.get_logger().info(f"the run is complete after sample {k}: its silence from now on is no stale signal")
+        self.finish_run()
+        self._complete_at = k
 
     def _check_silence(self) -> None:
-        if self.run_complete:
-            return
-        now = time.monotonic()
         if self.busy:
-            # a diagnosis is running: lockstep producers wait for it, or the last window is diagnosed; silence counts
-            # from when it is done (on a machine under load the final diagnosis alone outlasted stale_timeout_s)
-            self._busy_at = now
+            self.silence.busy()
+        if self.run_complete or self.busy:
             return
-        limit = self.config.diagnostician.stale_timeout_s
-        silent = [
-            s for s in self._signals if (now - max(self._last_arrival[s] or self._created, self._busy_at)) > limit
-        ]
-        if not silent:
-            self._stale_reported = None
+        found = self.silence.report(self.config.diagnostician.stale_timeout_s)
+        if found is None:
             return
-        if self._stale_reported is not None and now - self._stale_reported < limit:
-            return
-        self._stale_reported = now
-        never = [s for s in silent if self._last_arrival[s] is None]
-        parts = [f"no {self._labels[s]} for {now - (self._last_arrival[s] or self._created):.1f} s" for s in silent]
-        reason = (
-            "; ".join(parts) if len(never) < len(self._signals) else f"no data received in {now - self._created:.1f} s"
-        )
-        if len(never) < len(self._signals):
+        reason, heard = found
+        if heard:
             self._warn(reason)
-        self._submit_without_verdict(reason, STALE_STATUS)
+        self._submit_without_verdict(reason, STALE_STATUS, silence=True)
 
     # -- output --------------------------------------------------------------
     def _window_info(self) -> dict[str, int]:
         return window_info(self.aligner, self.config.diagnostician.window_samples, since=self.model_since)
 
-    def _submit_without_verdict(self, reason: str, state: str) -> None:
+    def _submit_without_verdict(self, reason: str, state: str, *, silence: bool = False) -> None:
         window = self._window_info()
         diagnosis = Diagnosis.insufficient(
             method=self.config.pmr.method,
@@ -326,7 +313,20 @@ class PmrDiagnosticianNode(ConfiguredNode):
         )
         newest = self.aligner.stretch_last if self.aligner.stretch_last is not None else 0
         stamp = newest * self.aligner.sample_time_s
-        self.worker.submit(lambda: self._publish(diagnosis, window, stamp, state))
+        publish = self._publish_silence if silence else self._publish
+        self.worker.submit(lambda: publish(diagnosis, window, stamp, state))
+
+    def _publish_silence(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
+        """Publish the STALE statuses of a silence, remembering what they replace (for :meth:`finish_run`)."""
+        before = self.last_published if self._silence is None else self._silence
+        self._publish(diagnosis, window, stamp_s, state)
+        self._silence = before
+
+    def _end_silence(self) -> None:
+        """The run was complete, not silent: the statuses a silence replaced are the last ones again."""
+        if self._silence is not None:
+            self.last_published, self._silence = self._silence, None
+            self._diag_pub.publish(self.last_published)
 
     def _publish(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
         """Publish the statuses of ``diagnosis`` (on the worker's thread, in submission order)."""
@@ -334,7 +334,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
             diagnosis, node_name=self.get_name(), hardware_id=self.config.model.name, window=window, state=state
         )
         msg = diagnostic_array(statuses, stamp_s)
-        self.last_published = msg
+        self.last_published, self._silence = msg, None
         self._diag_pub.publish(msg)
 
     def _diagnose(self, snapshot: SampleAligner, config: PmrConfig, since: int) -> None:

@@ -34,6 +34,7 @@ __all__ = [
     "diagnostic_array",
     "element_level",
     "estimates_message",
+    "run_complete_message",
     "signal_message",
     "stamp_from_seconds",
     "text_message",
@@ -73,6 +74,14 @@ def signal_message(
 def text_message(key: str, text: str) -> Any:
     """A message of contract topic ``key`` whose type is ``std_msgs/String`` (the model topics)."""
     return message_class(topic(key))(data=text)
+
+
+def run_complete_message(last_stamp_s: float, frame_id: str = "") -> Any:
+    """The end of a run (contract topic ``run_complete``): a Header stamped with the last sample's time."""
+    msg = message_class(topic("run_complete"))()
+    msg.stamp = stamp_from_seconds(last_stamp_s)
+    msg.frame_id = frame_id
+    return msg
 
 
 def clock_message(seconds: float) -> Clock:
