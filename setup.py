@@ -85,6 +85,8 @@ setup(
             "prbs_setpoint = pmr_ros.entry:prbs_setpoint",
             "mpc_controller = pmr_ros.entry:mpc_controller",
             "pmr_diagnostician = pmr_ros.entry:pmr_diagnostician",
+            # The diagnostician as a managed node (ros2 lifecycle set ... configure / activate).
+            "pmr_diagnostician_lifecycle = pmr_ros.entry:pmr_diagnostician_lifecycle",
         ],
     },
 )

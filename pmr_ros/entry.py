@@ -25,7 +25,14 @@ from collections.abc import Callable
 from types import FrameType
 from typing import Any
 
-__all__ = ["mpc_controller", "pmr_diagnostician", "pmr_ros", "prbs_setpoint", "wood_berry_plant"]
+__all__ = [
+    "mpc_controller",
+    "pmr_diagnostician",
+    "pmr_diagnostician_lifecycle",
+    "pmr_ros",
+    "prbs_setpoint",
+    "wood_berry_plant",
+]
 
 EXIT_INTERRUPTED = 130
 """``pmr-ros``'s exit code when interrupted (a node stopped by a signal exits 0, as when running)."""
@@ -88,3 +95,8 @@ def mpc_controller() -> int:
 def pmr_diagnostician() -> int:
     """``pmr_diagnostician``."""
     return _run("pmr_ros.nodes.pmr_diagnostician", 0)
+
+
+def pmr_diagnostician_lifecycle() -> int:
+    """``pmr_diagnostician_lifecycle``: the diagnostician as a managed node."""
+    return _run("pmr_ros.nodes.managed_diagnostician", 0)

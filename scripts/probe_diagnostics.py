@@ -7,7 +7,7 @@ a report proves it read its parameters and its topic contract.  Plain rclpy
 only (no pmr_ros import), so it checks the node and not this script's copy of
 the package.
 
-    usage: python scripts/probe_diagnostics.py [--node pmr_diagnostician] [--timeout 30]
+    usage: python scripts/probe_diagnostics.py [--prefix pmr/wood_berry/] [--timeout 30]
 
 Exit status: 0 with the report's first status on one line; 1 with one line
 saying what was missing when nothing came in time.
@@ -21,7 +21,7 @@ import time
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Subscribe to /diagnostics and wait for a status of ``--node``.
+    """Subscribe to /diagnostics and wait for a status whose name starts with ``--prefix``.
 
     Parameters
     ----------
@@ -34,7 +34,9 @@ def main(argv: list[str] | None = None) -> int:
         The exit status.
     """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--node", default="pmr_diagnostician", help="name the statuses start with")
+    parser.add_argument(
+        "--prefix", default="pmr/", help="what the statuses' names start with (pmr/<namespace>/<system>/<element>)"
+    )
     parser.add_argument("--timeout", type=float, default=30.0, help="seconds to wait")
     args = parser.parse_args(argv)
 
@@ -54,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.2)
             for report in reports:
-                statuses = [s for s in report.status if s.name.startswith(f"{args.node}:")]
+                statuses = [s for s in report.status if s.name.startswith(args.prefix)]
                 if statuses:
                     first = statuses[0]
                     level = (
@@ -63,7 +65,10 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"{first.name} level {level}: {first.message}")
                     return 0
             reports.clear()
-        print(f"probe_diagnostics: no status of {args.node} on /diagnostics within {args.timeout:g} s", file=sys.stderr)
+        print(
+            f"probe_diagnostics: no status named {args.prefix}... on /diagnostics within {args.timeout:g} s",
+            file=sys.stderr,
+        )
         return 1
     finally:
         rclpy.try_shutdown()

@@ -83,7 +83,7 @@ def test_output_names_with_a_newline_are_refused(tmp_path):
 
 def test_the_shipped_configurations_still_load():
     for path in sorted(config_dir().glob("*.yaml")):
-        if path.name != "parameters.yaml":
+        if path.name not in ("parameters.yaml", "diagnostic_analyzers.yaml"):  # the schema; the aggregator's file
             load_config(path)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from pmr_ros.ros import convert  # noqa: E402
 
 MODEL = ElementModel("foptd", 12.8, 16.7, 1)
 WINDOW = {"window_samples": 4096, "first_sample": 10, "last_sample": 4105}
+SUMMARY_NAME = "pmr/wood_berry/summary"
 
 
 def _classic(gain_ratio, gain, tau_index, tau, delay) -> ClassicResult:
@@ -98,20 +100,44 @@ def test_element_level_counts_mismatched_properties():
 @pytest.mark.parametrize("make", [_diagnosis, _parametric], ids=["classic", "parametric"])
 def test_verdicts_round_trip_exactly_through_diagnostic_array(make):
     diagnosis = make()
-    statuses = convert.diagnosis_statuses(
-        diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=WINDOW
-    )
-    assert [s.name for s in statuses] == [f"pmr_diagnostician: {name}" for name in diagnosis.elements]
+    statuses = convert.diagnosis_statuses(diagnosis, prefix="pmr/wood_berry", hardware_id="wood_berry", window=WINDOW)
+    assert [s.name for s in statuses] == [*(f"pmr/wood_berry/{name}" for name in diagnosis.elements), SUMMARY_NAME]
     msg = convert.diagnostic_array(statuses, 4105.0)
-    back, info = diagnosis_from_array(msg, "pmr_diagnostician")
+    back, info = diagnosis_from_array(msg, prefix="pmr/wood_berry")
     assert back.status == "ok" and back.samples == 4096 and back.method == diagnosis.method
     assert back == diagnosis  # every field, every float to the last bit (lossless KeyValues)
     assert info["last_sample"] == 4105 and info["first_sample"] == 10 and info["status"] == "ok"
+    assert set(info["levels"]) == set(diagnosis.elements)  # the summary is no element
+    assert diagnosis_from_array(msg, prefix="pmr/column_a/wood_berry")[0].elements == {}
+
+
+def test_summary_status_has_the_worst_level_and_the_verdict_counts():
+    diagnosis = _diagnosis()
+    statuses = convert.diagnosis_statuses(diagnosis, prefix="pmr/wood_berry", hardware_id="wood_berry", window=WINDOW)
+    summary = statuses[-1]
+    assert summary.name == SUMMARY_NAME and summary.hardware_id == "wood_berry"
+    assert summary.level == max(s.level for s in statuses[:-1]) == DiagnosticStatus.ERROR  # G12: two properties off
+    counts = Counter(e.verdict for e in diagnosis)
+    assert summary.message.startswith(
+        f"{counts['mismatch']} mismatch, {counts['inconclusive']} inconclusive, {counts['ok']} ok of 4 modeled"
+    )
+    assert status_values(summary) == {"status": "ok", "elements": 4}
+
+
+def test_statuses_of_the_older_spelling_are_still_read():
+    """Bags recorded before the path-like names hold ``<node>: <element>`` statuses: read, filtered by node."""
+    diagnosis = _diagnosis()
+    statuses = convert.diagnosis_statuses(diagnosis, prefix="pmr/wood_berry", hardware_id="wood_berry", window=WINDOW)
+    for status in statuses[:-1]:
+        status.name = f"pmr_diagnostician: {status.name.rsplit('/', 1)[1]}"
+    msg = convert.diagnostic_array(statuses[:-1], 4105.0)
+    assert diagnosis_from_array(msg, "pmr_diagnostician")[0] == diagnosis
+    assert diagnosis_from_array(msg)[0] == diagnosis
     assert diagnosis_from_array(msg, "someone_else")[0].elements == {}
 
 
 def test_status_message_and_values_are_readable():
-    statuses = convert.diagnosis_statuses(_diagnosis(), node_name="d", hardware_id="s", window=WINDOW)
+    statuses = convert.diagnosis_statuses(_diagnosis(), prefix="pmr/s", hardware_id="s", window=WINDOW)
     assert statuses[1].message == "gain +15 %, τ larger (index +20), delay +1 samples"
     values = status_values(statuses[0])
     assert (
@@ -120,7 +146,7 @@ def test_status_message_and_values_are_readable():
         and values["model.kind"] == "foptd"
     )
     parametric = status_values(
-        convert.diagnosis_statuses(_parametric(), node_name="d", hardware_id="s", window=WINDOW)[0]
+        convert.diagnosis_statuses(_parametric(), prefix="pmr/s", hardware_id="s", window=WINDOW)[0]
     )
     bounds = (parametric["parametric.gain_mismatch_pct_low"], parametric["parametric.gain_mismatch_pct_high"])
     assert bounds == (14.8, 15.9) and "parametric.gain_mismatch_pct_interval" not in parametric
@@ -131,7 +157,7 @@ def test_no_verdict_statuses_carry_the_reason_and_no_numbers():
     models = {"G11": (0, 0, MODEL), "G12": (0, 1, MODEL)}
     empty = Diagnosis.insufficient(method="parametric", models=models, reason="u stopped", samples=0)
     statuses = convert.diagnosis_statuses(
-        empty, node_name="diag", hardware_id="sys", window={"window_samples": 0}, state="stale"
+        empty, prefix="pmr/sys", hardware_id="sys", window={"window_samples": 0}, state="stale"
     )
     assert all(s.level == DiagnosticStatus.STALE and s.message == "stale: u stopped" for s in statuses)
     values = status_values(statuses[0])
@@ -140,7 +166,7 @@ def test_no_verdict_statuses_carry_the_reason_and_no_numbers():
     assert back.status == "insufficient_data" and back.reason == "u stopped" and info["status"] == "stale"
     assert all(e.result is None and e.verdict == "inconclusive" for e in back.elements.values())
     short = Diagnosis.insufficient(method="classic", models=models, reason="too short", samples=10)
-    warn = convert.diagnosis_statuses(short, node_name="diag", hardware_id="sys", window={})
+    warn = convert.diagnosis_statuses(short, prefix="pmr/sys", hardware_id="sys", window={})
     assert warn[0].level == DiagnosticStatus.WARN and warn[0].message == "insufficient data: too short"
 
 

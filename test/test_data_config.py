@@ -101,9 +101,10 @@ def test_no_node_declares_the_data_block(wood_berry):
     from pmr_ros.config.schema import parameters
 
     assert all(not p.nodes for name, p in parameters().items() if name.startswith("data."))
-    # read by pmr-ros alone: the data block, --adapt's rollback tolerance, the simulated manual stretches and the
-    # controller of the control impact (the live diagnostician simulates the MPC)
-    alone = ("data.", "adapt.", "run.manual_", "controller.")
+    # read by pmr-ros alone: the data block, --adapt's rollback tolerance, the simulated manual stretches
+    alone = ("data.", "adapt.", "run.manual_")
     assert all(p.nodes for name, p in parameters().items() if not name.startswith(alone))
+    # the controller of the control impact: the live diagnostician takes it as the batch path does
+    assert all(p.nodes == ("pmr_diagnostician",) for name, p in parameters().items() if name.startswith("controller."))
     assert not parameters()["adapt.ise_rise_tolerance_pct"].nodes
     assert "bad_values" in wood_berry.parameters["data"]  # in the effective tree, with its mixed-type list

@@ -193,19 +193,19 @@ def test_data_quality_round_trips_through_json_diagnostics_and_a_bag(tmp_path, d
     _, diagnosis = diagnosed
     assert diagnosis_from_json(json.loads(json.dumps(diagnosis_to_json(diagnosis)))) == diagnosis
     window = {"window_samples": diagnosis.samples}
-    statuses = convert.diagnosis_statuses(diagnosis, node_name="pmr_diagnostician", hardware_id="wb", window=window)
+    statuses = convert.diagnosis_statuses(diagnosis, prefix="pmr/wb", hardware_id="wb", window=window)
     assert statuses[0].message.endswith("[data: 1 warning]")
     values = status_values(statuses[0])
     assert values["data_quality.warnings"] == list(diagnosis.elements["G11"].warnings)
     assert values["data_quality.low_frequency_ratio"] == diagnosis.elements["G11"].data_quality.low_frequency_ratio
     msg = convert.diagnostic_array(statuses, 8191.0)
-    back, _ = diagnosis_from_array(msg, "pmr_diagnostician")
+    back, _ = diagnosis_from_array(msg, prefix="pmr/wb")
     assert back == diagnosis  # lossless KeyValues
     name = topic("diagnostics").name
     with BagWriter(tmp_path / "bag", topics={"diagnostics": topic("diagnostics")}) as writer:
         writer.write_raw(name, 1, serialize_message(msg))
     bag = open_bag(tmp_path / "bag")
-    recorded, _ = diagnosis_from_array(bag.decode(next(iter(bag.messages({name})))), "pmr_diagnostician")
+    recorded, _ = diagnosis_from_array(bag.decode(next(iter(bag.messages({name})))), prefix="pmr/wb")
     assert recorded == diagnosis
 
 

@@ -339,9 +339,9 @@ def test_an_industrial_diagnosis_round_trips_through_diagnostics_and_json(config
 
     diagnosis = diagnoses["3x5 plant", "full", 1, "parametric"]
     statuses = convert.diagnosis_statuses(
-        diagnosis, node_name="pmr_diagnostician", hardware_id="x", window={"window_samples": diagnosis.samples}
+        diagnosis, prefix="pmr/x", hardware_id="x", window={"window_samples": diagnosis.samples}
     )
-    back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0), "pmr_diagnostician")
+    back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0), prefix="pmr/x")
     assert back == diagnosis
     assert compare_diagnoses(diagnosis_from_json(json.loads(json.dumps(diagnosis_to_json(diagnosis)))), diagnosis) == []
     estimates = read_estimates(convert.estimates_message(diagnosis, 0.0, "x"))
@@ -349,5 +349,5 @@ def test_an_industrial_diagnosis_round_trips_through_diagnostics_and_json(config
         diagnosis.elements["G13"].parametric.unmodeled_gain
     )
     assert np.isnan(estimates["G21"]["parametric.tau_mismatch_pct"])  # an integrating element has no time constant
-    levels = {s.name.split(": ")[1]: s.level for s in statuses}
+    levels = {s.name.rsplit("/", 1)[1]: s.level for s in statuses}
     assert levels["G13"] == levels["G21"] == statuses[0].WARN  # one property off: the interaction; the gain

@@ -37,12 +37,12 @@ def test_the_impact_travels_on_diagnostics_and_reads_back(wood_berry):
     _, closed = wood_berry
     assert closed.diagnosis.impact is not None and closed.proposes
     statuses = convert.diagnosis_statuses(
-        closed.diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=WINDOW
+        closed.diagnosis, prefix="pmr/wood_berry", hardware_id="wood_berry", window=WINDOW
     )
     values = status_values(statuses[0])
     assert values["impact.rank"] in (1, 2, 3, 4) and values["impact.ise_ratio"] > 0
     assert values["impact_all.ise_ratio"] == closed.diagnosis.impact.ise_ratio  # lossless
-    back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 8191.0), "pmr_diagnostician")
+    back, _ = diagnosis_from_array(convert.diagnostic_array(statuses, 8191.0), prefix="pmr/wood_berry")
     assert back == closed.diagnosis  # every element's impact and the all-together figures
     assert compare_diagnoses(back, closed.diagnosis) == []
 

@@ -227,6 +227,7 @@ ROSDEP_KEYS: dict[str, str | None] = {
     "control": "python-control-pip",
     "mcap_ros2": "mcap-ros2-support",
     "PIL": "python3-pil",
+    "lifecycle_msgs": "lifecycle_msgs",  # rclpy.lifecycle's messages: the lifecycle node's test drives it
 }
 
 

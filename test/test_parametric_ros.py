@@ -25,10 +25,10 @@ def parametric_diagnosis():
 def test_diagnostics_carry_the_parametric_numbers_losslessly(parametric_diagnosis):
     window = {"window_samples": 8192, "first_sample": 0, "last_sample": 8191}
     statuses = diagnosis_statuses(
-        parametric_diagnosis, node_name="pmr_diagnostician", hardware_id="wood_berry", window=window
+        parametric_diagnosis, prefix="pmr/wood_berry", hardware_id="wood_berry", window=window
     )
     msg = diagnostic_array(statuses, 8191.0)
-    g21 = next(s for s in msg.status if s.name == "pmr_diagnostician: G21")
+    g21 = next(s for s in msg.status if s.name == "pmr/wood_berry/G21")
     assert "[" in g21.message and "MISMATCH" in g21.message  # numbers with intervals, for people
     back, info = diagnosis_from_array(msg)
     assert back.method == "parametric"

@@ -18,6 +18,7 @@ from pmr_ros.config import ConfigError, config_dir, load_config
 from pmr_ros.core.records import Record
 from pmr_ros.core.results import Diagnosis, ElementDiagnosis, ParametricResult
 from pmr_ros.core.sim.true_plant import FoptdPlant
+from pmr_ros.data import DataError, load_plant_data
 from pmr_ros.report.absolute import absolute_table, model_and_plant
 from pmr_ros.report.response_figures import plant_steps, predictions
 from pmr_ros.report.system_units import Units, units_of
@@ -54,6 +55,42 @@ def test_units_are_declared_per_channel_or_one_for_all():
         load_config(overrides={"system": {"output_units": ["mol %"]}})
     with pytest.raises(ConfigError, match="system.time_unit = 'hours': must be one of none, s, min, h"):
         load_config(overrides={"system": {"time_unit": "hours"}})
+
+
+def test_the_time_unit_sets_the_seconds_per_unit_of_the_data():
+    for unit, seconds in (("s", 1.0), ("min", 60.0), ("h", 3600.0)):
+        config = load_config(overrides={"system": {"time_unit": unit}})
+        assert config.data.time_unit_s == seconds and config.parameters["data"]["time_unit_s"] == seconds, unit
+    agreeing = load_config(overrides={"system": {"time_unit": "h"}, "data": {"time_unit_s": 3600.0}})
+    assert agreeing.data.time_unit_s == 3600.0
+    # no unit named: data.time_unit_s stands as given, 1 s by default
+    assert load_config(overrides={"data": {"time_unit_s": 60.0}}).data.time_unit_s == 60.0
+    assert load_config().data.time_unit_s == 1.0
+
+
+def test_a_historian_export_in_minutes_needs_only_the_time_unit(tmp_path):
+    config = load_config(overrides={"data": DATA_BLOCK})
+    csv = tmp_path / "export.csv"
+    clean_frame(pi_loop(config, 300, seed=3)).to_csv(csv, index=False)  # stamped 60 s apart
+    block = {key: value for key, value in DATA_BLOCK.items() if key != "time_unit_s"}
+    loaded = load_plant_data(csv, load_config(overrides={"system": {"time_unit": "min"}, "data": block}))
+    assert loaded.sample_time_s == 60.0 and loaded.signals["y"].shape == (300, 2)
+    with pytest.raises(DataError, match="60 s apart"):  # without it the model's unit would be taken as 1 s
+        load_plant_data(csv, load_config(overrides={"data": block}))
+
+
+def test_a_time_unit_that_contradicts_the_data_seconds_is_refused_in_one_line(tmp_path, capsys):
+    path = _units_file(tmp_path, data={**DATA_BLOCK, "time_unit_s": 1.0})  # the units file says time_unit: min
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    text = str(err.value)
+    assert str(path) in text and "data.time_unit_s = 1.0" in text and "system.time_unit min (60 s" in text
+    assert "\n" not in text
+    csv = tmp_path / "export.csv"
+    clean_frame(pi_loop(load_config(overrides={"data": DATA_BLOCK}), 100, seed=3)).to_csv(csv, index=False)
+    assert main(["diagnose", str(csv), "--config", str(path)]) == 2
+    err_lines = capsys.readouterr().err.strip().splitlines()
+    assert len(err_lines) == 1 and "data.time_unit_s = 1.0" in err_lines[0] and "Traceback" not in err_lines[0]
 
 
 def _fit(gain_pct, tau_pct, delay):

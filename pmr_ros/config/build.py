@@ -24,7 +24,7 @@ from ..core.sim.excitation import ExcitationSettings
 from ..core.sim.model import Mismatch, TransferMatrix
 from ..core.sim.true_plant import OutputDisturbance
 from .controller_block import controller_settings
-from .data import DataSettings, check_data_settings, data_settings
+from .data import DATA_BLOCK, DataSettings, check_data_settings, data_settings, with_time_unit
 from .errors import ConfigError
 from .general_elements import GENERAL_KINDS, block_elements, block_numbers
 from .plant_block import plant_block
@@ -320,8 +320,10 @@ def _diagnostician(v: _Values) -> DiagnosticianSettings:
     return settings
 
 
-def _data(v: _Values, model: TransferMatrix) -> DataSettings:
+def _data(v: _Values, model: TransferMatrix, given: Mapping[str, Any]) -> DataSettings:
     data = data_settings(v.__getitem__, [f.split(".", 1)[1] for f in parameters() if f.startswith("data.")])
+    data = with_time_unit(data, v["system.time_unit"], given="time_unit_s" in given.get("data", {}), error=v.error)
+    v.tree[DATA_BLOCK]["time_unit_s"] = data.time_unit_s  # the effective tree says it too (a file written from it)
     v.warnings.extend(check_data_settings(data, v.tree, output_names=model.output_names, source_of=v.source_of))
     return data
 
@@ -377,7 +379,7 @@ def parse_config(
         diagnostician=_diagnostician(v),
         impact=ImpactSettings(samples=v["impact.samples"]),
         adapt=AdaptSettings(ise_rise_tolerance_pct=v["adapt.ise_rise_tolerance_pct"]),
-        data=_data(v, model),
+        data=_data(v, model, checked),
         source=source,
         parameters=v.tree,
         explicit_plant=_explicit_plant(v, model, checked),

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
+from ..core.monitor.windows import UNITS
 from .errors import ConfigError
 
 __all__ = [
@@ -15,6 +17,7 @@ __all__ = [
     "data_settings",
     "disturbance_names",
     "output_modes",
+    "with_time_unit",
 ]
 
 DATA_BLOCK = "data"
@@ -97,6 +100,52 @@ def data_settings(value: Callable[[str], Any], keys: list[str]) -> DataSettings:
         The declared keys of the block.
     """
     return DataSettings(**{key: value(f"{DATA_BLOCK}.{key}") for key in keys})
+
+
+def with_time_unit(
+    settings: DataSettings, time_unit: str, *, given: bool, error: Callable[[str, Any, str], ConfigError]
+) -> DataSettings:
+    """``settings`` whose ``time_unit_s`` agrees with ``system.time_unit``: one source of the seconds per unit.
+
+    ``system.time_unit`` (``s``, ``min``, ``h``) names the model's time unit and so
+    sets ``data.time_unit_s`` (1, 60, 3600); a ``data.time_unit_s`` given as well
+    must say the same.  Without a unit (``none``) ``data.time_unit_s`` stands as
+    given (1 s by default).
+
+    Parameters
+    ----------
+    settings : DataSettings
+    time_unit : str
+        ``system.time_unit``.
+    given : bool
+        Whether the file gave ``data.time_unit_s``.
+    error : callable
+        ``(name, value, reason)`` to the :class:`ConfigError` naming the file.
+
+    Raises
+    ------
+    ConfigError
+        A given ``data.time_unit_s`` that contradicts ``system.time_unit``.
+
+    Examples
+    --------
+    >>> from pmr_ros.config import load_config
+    >>> with_time_unit(load_config().data, "min", given=False, error=ConfigError).time_unit_s
+    60.0
+    """
+    seconds = UNITS.get(time_unit)
+    if seconds is None:
+        return settings
+    if not given:
+        return replace(settings, time_unit_s=seconds)
+    if not math.isclose(settings.time_unit_s, seconds, rel_tol=1e-9):
+        raise error(
+            "data.time_unit_s",
+            settings.time_unit_s,
+            f"contradicts system.time_unit {time_unit} ({seconds:g} s in one {time_unit}): leave data.time_unit_s out "
+            "or give the same",
+        )
+    return settings
 
 
 def disturbance_names(tree: Mapping[str, Any]) -> tuple[str, ...]:

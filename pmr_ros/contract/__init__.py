@@ -4,8 +4,9 @@
 messages' contents as plain data; ``samples`` a message's sample index and
 checks; ``alignment`` lines r, u, y up by sample stamp; ``windowing`` decides
 when and what the diagnostician diagnoses; ``model_topics`` the model topics'
-payloads.  The live node (:mod:`pmr_ros.nodes.pmr_diagnostician`) and the
-offline replay of a bag (:mod:`pmr_ros.bag.offline`) both run this code, so they agree.
+payloads; ``status_names`` the /diagnostics status names.  The live node
+(:mod:`pmr_ros.nodes.pmr_diagnostician`) and the offline replay of a bag
+(:mod:`pmr_ros.bag.offline`) both run this code, so they agree.
 
 The names below are imported when first used, so importing one module of
 this package does not load the others.
@@ -58,6 +59,9 @@ _WHERE = {
     "sample_index": "samples",
     "seconds_from_stamp": "layout",
     "signal_problem": "samples",
+    "split_status_name": "status_names",
+    "status_name": "status_names",
+    "status_prefix": "status_names",
     "status_values": "layout",
     "system_parameters": "model_topics",
     "topic": "topics",
@@ -110,6 +114,9 @@ __all__ = [
     "sample_index",
     "seconds_from_stamp",
     "signal_problem",
+    "split_status_name",
+    "status_name",
+    "status_prefix",
     "status_values",
     "system_parameters",
     "topic",
@@ -143,6 +150,7 @@ if TYPE_CHECKING:
     )
     from .model_topics import ActiveModel, active_model_text, read_active_model, system_parameters, with_system
     from .samples import GRID_TOLERANCE, AddResult, check_signal, sample_index, signal_problem
+    from .status_names import split_status_name, status_name, status_prefix
     from .topics import (
         CONTRACT_FILE,
         PROGRESS_KEY,

@@ -27,6 +27,7 @@ from ..core.results.codec import (
     encode_value,
     estimates_from_names_values,
 )
+from .status_names import ROOT, SUMMARY, split_status_name
 
 __all__ = [
     "CONFLICT",
@@ -83,16 +84,25 @@ def diagnosis_from_array(
     msg: Any,
     node_name: str | None = None,
     *,
+    prefix: str | None = None,
     models: Mapping[str, tuple[int, int, ElementModel]] | None = None,
 ) -> tuple[Diagnosis, dict[str, Any]]:
     """Rebuild the core :class:`Diagnosis` from a ``/diagnostics`` message.
 
+    Statuses named either way are read (:mod:`pmr_ros.contract.status_names`):
+    ``pmr/<namespace>/<system>/<element>`` and, in older bags,
+    ``<node name>: <element>``; the ``.../summary`` status and other nodes'
+    statuses are passed over.
+
     Parameters
     ----------
     msg : DiagnosticArray
-        rclpy or rosbags message.
+        rclpy or rosbags message (one publisher's).
     node_name : str, optional
-        Only statuses named ``"<node_name>: ..."`` are read.
+        Only statuses named ``"<node_name>: ..."`` are read of the older spelling.
+    prefix : str, optional
+        Only statuses named ``"<prefix>/..."`` are read of the path-like spelling
+        (:func:`~pmr_ros.contract.status_names.status_prefix`).
     models : mapping, optional
         Element name to ``(row, column, ElementModel)``; only needed for the
         statuses of pmr_ros 0.1 bags, which did not carry the model.
@@ -108,8 +118,8 @@ def diagnosis_from_array(
     """
     statuses, levels, messages = {}, {}, {}
     for status in msg.status:
-        owner, sep, name = status.name.partition(": ")
-        if not sep or (node_name is not None and owner != node_name):
+        name = _element_of(status.name, node_name, prefix)
+        if name is None:
             continue
         statuses[name] = [(kv.key, kv.value) for kv in status.values]
         levels[name] = level_name(status.level)
@@ -117,6 +127,17 @@ def diagnosis_from_array(
     diagnosis, common = diagnosis_from_key_values(statuses, models=models)
     common.pop("reason")
     return diagnosis, {"levels": levels, "messages": messages, **common}
+
+
+def _element_of(name: str, node_name: str | None, prefix: str | None) -> str | None:
+    """The element a status of the diagnostician is about, or None (another node's, the summary, filtered out)."""
+    split = split_status_name(name)
+    if split is None:
+        return None
+    owner, last = split
+    if owner.startswith(f"{ROOT}/"):
+        return None if last == SUMMARY or prefix not in (None, owner) else last
+    return None if node_name not in (None, owner) else last
 
 
 def read_estimates(msg: Any) -> dict[str, dict[str, float]]:

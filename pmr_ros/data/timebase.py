@@ -203,7 +203,8 @@ def _check_spacing(position: np.ndarray, spec: GridSpec) -> None:
             f"column {spec.column!r} (data.time_column)",
             f"stamps are {typical * spec.sample_time_s:.4g} s apart (median), but the sample time is "
             f"{spec.sample_time_s:g} s (system.sample_time x data.time_unit_s); export the data at the sample time, or "
-            "set data.time_unit_s to the seconds in one time unit of the model (60 for minutes)",
+            "name the model's time unit (system.time_unit: min), or set data.time_unit_s to the seconds in one "
+            "time unit of the model (60 for minutes)",
         )
 
 

@@ -13,7 +13,10 @@ parameters (:mod:`pmr_ros.nodes.pmr_diagnostician`) and moves through the
 - *deactivate* destroys it: no subscription, no publication, no timer is left;
 - *cleanup* forgets the configuration.
 
-Each transition is logged in one line.
+Each transition is logged in one line.  Started as a program
+(``pmr_diagnostician_lifecycle --ros-args --params-file config/wood_berry.yaml``)
+it waits, unconfigured, for ``ros2 lifecycle set /pmr_diagnostician_lifecycle configure``
+(then ``activate``), as a launch file's ``LifecycleNode`` does.
 """
 
 from __future__ import annotations
@@ -25,10 +28,11 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 
 from ..config import ConfigError, PmrConfig, parse_config
 from ..config.files import nested
+from ..ros.base import run_node
 from ..ros.parameters import descriptor, node_parameters, parameter_overrides, plain_value, ros_value
 from .pmr_diagnostician import NODE_NAME, PmrDiagnosticianNode
 
-__all__ = ["LIFECYCLE_NODE_NAME", "ManagedDiagnosticianNode"]
+__all__ = ["LIFECYCLE_NODE_NAME", "ManagedDiagnosticianNode", "main"]
 
 LIFECYCLE_NODE_NAME = "pmr_diagnostician_lifecycle"
 """The managed node's name; the diagnostician it starts keeps ``pmr_diagnostician``."""
@@ -138,3 +142,13 @@ class ManagedDiagnosticianNode(LifecycleNode):
         self._stop()
         self.get_logger().info("shut down")
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self) -> None:
+        """Stop the diagnostician if it runs (Ctrl-C in the active state), then destroy this node."""
+        self._stop()
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``pmr_diagnostician_lifecycle``."""
+    return run_node(ManagedDiagnosticianNode, LIFECYCLE_NODE_NAME, args)

@@ -42,6 +42,7 @@ from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
 from ..contract.samples import sample_index
+from ..contract.status_names import status_prefix
 from ..contract.topics import DISTURBANCE_TOPIC, SIGNAL_TOPICS, topic
 from ..contract.windowing import (
     STALE,
@@ -330,9 +331,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _publish(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
         """Publish the statuses of ``diagnosis`` (on the worker's thread, in submission order)."""
-        statuses = diagnosis_statuses(
-            diagnosis, node_name=self.get_name(), hardware_id=self.config.model.name, window=window, state=state
-        )
+        name, prefix = self.config.model.name, status_prefix(self.config.model.name, self.get_namespace())
+        statuses = diagnosis_statuses(diagnosis, prefix=prefix, hardware_id=name, window=window, state=state)
         msg = diagnostic_array(statuses, stamp_s)
         self.last_published, self._silence = msg, None
         self._diag_pub.publish(msg)

@@ -142,19 +142,9 @@ def grouped_notes(notes: list[tuple[str, str]]) -> list[str]:
 def summary_line(diagnosis: Diagnosis) -> str:
     """``summary: 1 mismatch, 0 inconclusive, 3 ok of 4 modeled elements``: the verdict counts in one line.
 
-    Empty cells are counted apart, with those where an interaction the model lacks was found.
+    Empty cells are counted apart (:meth:`~pmr_ros.core.results.Diagnosis.verdict_counts`).
     """
-    counts = {"mismatch": 0, "inconclusive": 0, "ok": 0}
-    empty = lacking = 0
-    for element in diagnosis:
-        if element.model.kind == "none":
-            empty += 1
-            lacking += element.verdict == "mismatch"
-        else:
-            counts[element.verdict] = counts.get(element.verdict, 0) + 1
-    told = ", ".join(f"{n} {verdict}" for verdict, n in counts.items())
-    line = f"summary: {told} of {sum(counts.values())} modeled elements"
-    return line + (f"; {empty} empty cells, {lacking} with an interaction the model lacks" if empty else "")
+    return f"summary: {diagnosis.verdict_counts()}"
 
 
 def format_parametric_table(

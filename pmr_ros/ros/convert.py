@@ -3,7 +3,8 @@
 Layouts follow ``msg_defs/topics.yaml``: signals are ``sensor_msgs/JointState``
 (stamp = sample time, ``name`` = channel names, ``position`` = values), the
 verdicts a ``diagnostic_msgs/DiagnosticArray`` with one status per element
-(KeyValues spelled by :mod:`pmr_ros.core.results.codec`), the numeric estimates a
+(KeyValues spelled by :mod:`pmr_ros.core.results.codec`) and a summary, named
+for an aggregator (:mod:`pmr_ros.contract.status_names`), the numeric estimates a
 ``JointState`` named ``<element>/<quantity>`` (the same codec).  Floats travel as float64
 (signals) or shortest round-tripping JSON (KeyValues): both lossless.  The
 readers live in :mod:`pmr_ros.contract.layout`, free of ROS imports, so bags
@@ -22,9 +23,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from ..contract.layout import CONFLICT, STALE
+from ..contract.status_names import SUMMARY, status_name
 from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
-from ..core.results.codec import estimate_names_values, status_key_values
+from ..core.results.codec import encode_value, estimate_names_values, status_key_values
 from .messages import message_class
 
 __all__ = [
@@ -107,15 +109,16 @@ def _key_values(pairs: list[tuple[str, str]]) -> list[KeyValue]:
 
 
 def diagnosis_statuses(
-    diagnosis: Diagnosis, *, node_name: str, hardware_id: str, window: dict[str, Any], state: str | None = None
+    diagnosis: Diagnosis, *, prefix: str, hardware_id: str, window: dict[str, Any], state: str | None = None
 ) -> list[DiagnosticStatus]:
-    """One DiagnosticStatus per element of a diagnosis, with or without verdicts.
+    """One DiagnosticStatus per element of a diagnosis, with or without verdicts, then the summary.
 
     Parameters
     ----------
     diagnosis : Diagnosis
-    node_name : str
-        Prefix of each status name (``pmr_diagnostician: G21``).
+    prefix : str
+        The statuses' common name part (:func:`~pmr_ros.contract.status_names.status_prefix`):
+        element G21 is ``<prefix>/G21``, the verdict counts ``<prefix>/summary``.
     hardware_id : str
         The system's name.
     window : dict
@@ -137,13 +140,29 @@ def diagnosis_statuses(
         statuses.append(
             DiagnosticStatus(
                 level=level,
-                name=f"{node_name}: {name}",
+                name=status_name(prefix, name),
                 message=message,
                 hardware_id=hardware_id,
                 values=_key_values(pairs),
             )
         )
-    return statuses
+    return [*statuses, _summary_status(diagnosis, statuses, prefix=prefix, hardware_id=hardware_id, state=state)]
+
+
+def _summary_status(
+    diagnosis: Diagnosis, statuses: list[DiagnosticStatus], *, prefix: str, hardware_id: str, state: str
+) -> DiagnosticStatus:
+    """The whole matrix in one status: the worst element's level, the verdict counts (or why there are none)."""
+    levels = [s.level for s in statuses]
+    level = max(levels) if levels else _NO_VERDICT_LEVELS.get(state, DiagnosticStatus.WARN)
+    message = diagnosis.verdict_counts() if state == "ok" else (statuses[0].message if statuses else diagnosis.reason)
+    return DiagnosticStatus(
+        level=level,
+        name=status_name(prefix, SUMMARY),
+        message=message,
+        hardware_id=hardware_id,
+        values=_key_values([("status", state), ("elements", encode_value(len(statuses)))]),
+    )
 
 
 def diagnostic_array(statuses: list[DiagnosticStatus], stamp_s: float) -> DiagnosticArray:

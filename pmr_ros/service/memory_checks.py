@@ -102,14 +102,15 @@ def impact_shortfall(config: PmrConfig, plant: TransferMatrix) -> str | None:
 def check_impact_memory(config: PmrConfig, source: str) -> None:
     """Refuse a diagnostician whose control impact (the MPC on the model, simulated) could never fit.
 
-    Nothing is checked with ``impact.samples`` 0 (no impact).
+    Nothing is checked with ``impact.samples`` 0 (no impact) or a controller other than the MPC
+    (``controller.kind`` pi simulates a few PI loops, external nothing).
 
     Raises
     ------
     ConfigError
         Naming ``impact.samples``, the model's states and the figure.
     """
-    if not config.impact.active:
+    if not config.impact.active or config.controller.kind != "mpc":
         return
     model = config.model
     problem = _impact_problem(config, model)

@@ -129,6 +129,23 @@ class Diagnosis:
         """The elements, row-major."""
         return iter(self.elements.values())
 
+    def verdict_counts(self) -> str:
+        """``1 mismatch, 0 inconclusive, 3 ok of 4 modeled elements``: the verdicts in one line.
+
+        Empty cells are counted apart, with those where an interaction the model lacks was found.
+        """
+        counts = {"mismatch": 0, "inconclusive": 0, "ok": 0}
+        empty = lacking = 0
+        for element in self:
+            if element.model.kind == "none":
+                empty += 1
+                lacking += element.verdict == "mismatch"
+            else:
+                counts[element.verdict] = counts.get(element.verdict, 0) + 1
+        told = ", ".join(f"{n} {verdict}" for verdict, n in counts.items())
+        line = f"{told} of {sum(counts.values())} modeled elements"
+        return line + (f"; {empty} empty cells, {lacking} with an interaction the model lacks" if empty else "")
+
     @classmethod
     def insufficient(
         cls, *, method: str, models: Mapping[str, tuple[int, int, ElementModel]], reason: str, samples: int
