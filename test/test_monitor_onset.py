@@ -190,9 +190,9 @@ def test_a_drift_still_rising_reports_how_far_it_has_come_and_its_rate():
     np.testing.assert_allclose(found.size, ENDS[-1] - 300, rtol=0.15)  # 65 days at 1 % a day
 
 
-def test_an_integer_delay_that_jumps_half_a_window_late_follows_the_midpoint():
-    # an integer delay chosen by likelihood takes the delay of most of the window: it jumps when the window's
-    # middle passes the change, with now and then a window one sample off
+def test_an_estimate_that_jumps_half_a_window_late_follows_the_midpoint():
+    # an estimate that takes the value of most of the window jumps when the window's middle passes the change,
+    # with now and then a window one sample off (an integer delay does not: it is the window's mean rounded)
     middle = ENDS - WINDOW / 2
     estimates = np.where(middle >= STEP_DAY, 2.0, 0.0)
     off = np.random.default_rng(13).random(ENDS.size) < 0.03

@@ -54,10 +54,9 @@ def _windows(*, nested: bool) -> list[dict]:
         for parameter, path in paths.items():
             daily = rng.standard_normal(DAYS) * ERRORS[parameter] * np.sqrt(WINDOW)
             noise = np.array([view.mean() for view in window_views(daily, PLAN)])
-            if parameter == "delay":  # an integer delay takes the value of most of the window: its middle day's
-                estimates[name, parameter] = path[[first + WINDOW // 2 for first, _ in PLAN]] + noise
-            else:
-                estimates[name, parameter] = [view.mean() for view in window_views(path, PLAN)] + noise
+            means = np.array([view.mean() for view in window_views(path, PLAN)]) + noise
+            # an integer delay is the window's mean delay rounded (trend.FOLLOW; measured on the year benchmark)
+            estimates[name, parameter] = np.round(means) if parameter == "delay" else means
     windows = []
     for index, (first, last) in enumerate(PLAN):
         elements = {}
@@ -214,3 +213,62 @@ def test_the_codecs_low_and_high_and_the_delays_own_interval():
     assert (row["delay_mismatch_samples_low"], row["delay_mismatch_samples_high"]) == (1.5, 2.5)
     assert (other["delay_mismatch_samples_low"], other["delay_mismatch_samples_high"]) == (-1.5, 1.5)
     assert delay_interval(None, 0.99) is None and delay_interval(3, None) == (1.5, 4.5)
+
+
+def _stepping_windows(seed: int) -> list[dict]:
+    """Windows as the monitor gives them: dD an integer (the window's mean delay rounded) with its own interval.
+
+    G11's gain drifts +20 % over 14 days from day 30, G12's gain steps +6 % on day 60, G21's delay steps +2
+    samples on day 50 and G22's -3 on day 75; the rest stays put.
+    """
+    days = np.arange(DAYS)
+    flat = np.zeros(DAYS)
+    paths = {
+        "G11": {"gain": 20.0 * np.clip((days + 0.5 - 30) / 14, 0, 1), "delay": flat},
+        "G12": {"gain": 6.0 * (days >= 60), "delay": flat},
+        "G21": {"gain": flat, "delay": 2.0 * (days >= 50)},
+        "G22": {"gain": flat, "delay": -3.0 * (days >= 75)},
+    }
+    rng = np.random.default_rng(seed)
+    # the year benchmark's windows chose their delay with a profile confidence of 0.998 or more, about
+    # 0.1 samples of continuous error: the rounding's interval (+-0.5) is the delay's, as delay_interval's
+    error = {"gain": ERRORS["gain"], "delay": 0.1}
+    elements: dict[str, list[dict]] = {}
+    for name, path in paths.items():
+        noise = {p: rng.standard_normal(DAYS) * error[p] * np.sqrt(WINDOW) for p in path}
+        mean = {p: np.array([view.mean() for view in window_views(path[p] + noise[p], PLAN)]) for p in path}
+        elements[name] = [
+            {
+                "verdict": "ok",
+                "gain_mismatch_pct": g,
+                "gain_mismatch_pct_interval": (g - Z * ERRORS["gain"], g + Z * ERRORS["gain"]),
+                "delay_mismatch_samples": float(np.round(d)),  # the delay's interval: delay_interval's
+                "delay_confidence": 0.99,
+            }
+            for g, d in zip(mean["gain"], mean["delay"], strict=True)
+        ]
+    return [
+        {"first": first, "last": last, "elements": {name: rows[index] for name, rows in elements.items()}}
+        for index, (first, last) in enumerate(PLAN)
+    ]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_delay_step_in_integer_estimates_is_a_step_on_its_day_beside_a_gain_drift_and_a_gain_step(seed):
+    # windows straddling a +2 step read 0, then 1 (a quarter to three quarters new), then 2: integer stairs over
+    # one window that the window means of a step fit (issue 25's year benchmark called them a drift 5 days early)
+    from pmr_ros.core.monitor import OnsetSettings
+
+    table = trend_table(_stepping_windows(seed))
+    onsets = trend_onsets(table, window=float(WINDOW), time="last", settings=OnsetSettings(scale_errors=True))
+    found = onsets.set_index(["element", "parameter"])
+    injected = {("G11", "gain"): ("drift", 30), ("G12", "gain"): ("step", 60)}
+    injected |= {("G21", "delay"): ("step", 50), ("G22", "delay"): ("step", 75)}
+    for key, (kind, day) in injected.items():
+        assert found.loc[key, "kind"] == kind, (key, found.loc[key].to_dict())
+        # time="last": a window's time is its last day, one day before the instant it ends
+        np.testing.assert_allclose(found.loc[key, "onset"] + 1, day, atol=3, err_msg=str(key))
+    np.testing.assert_allclose(found.loc[("G21", "delay"), "size"], 2.0, atol=0.3)
+    np.testing.assert_allclose(found.loc[("G22", "delay"), "size"], -3.0, atol=0.3)
+    still = found.drop(index=list(injected)).drop(index="tau", level="parameter")  # no dtau given: insufficient
+    assert set(still["kind"]) == {"none"}, still[still["kind"] != "none"][["kind", "onset", "size"]]

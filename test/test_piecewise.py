@@ -87,6 +87,30 @@ def test_piecewise_spectra_equal_the_record_spectra(job):
         np.testing.assert_array_equal(pieced.instrument_cross(i, doubled), alone.instrument_cross(i, doubled))
 
 
+def test_a_filtering_transform_of_stretches_of_several_lengths_is_the_same(job):
+    # stretches of one length are filtered in one call (stacked on axis 1); a short stretch in its own group
+    from dataclasses import replace
+
+    from scipy.signal import lfilter
+
+    usable = job.usable.copy()
+    usable[DAY + 300 : DAY + 310] = False  # day 1 split in two stretches of other lengths
+    cut = replace(job, usable=usable)
+    spans = stretch_spans(cut, 0, 3 * DAY - 1)
+    assert len({b - a for a, b in spans}) == 3
+    stretches = window_stretches(cut, 0, 3 * DAY - 1)
+    model, welch = cut.config.model, WelchSettings()
+    alone = RecordSpectra(stretches, model, welch)
+    with PieceCache(model).window(stretches, spans):
+        pieced = record_spectra(stretches, model, welch)
+
+    def filtered(x, u):  # a first-order filter of each regressor along time, from rest, plus the inputs
+        return lfilter([0.3, 0.1], [1.0, -0.6], x, axis=0) + 0.5 * u
+
+    for i in range(model.n_outputs):
+        np.testing.assert_array_equal(pieced.instrument_cross(i, filtered), alone.instrument_cross(i, filtered))
+
+
 def test_data_a_window_does_not_hold_are_computed_as_usual(job):
     stretches = window_stretches(job, 0, 2 * DAY - 1)
     model = job.config.model

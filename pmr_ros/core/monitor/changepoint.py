@@ -117,8 +117,8 @@ def window_means(*, ends: np.ndarray, window: float, onset: np.ndarray, duration
 
 FOLLOWS = ("mean", "midpoint")
 """How a window's estimate follows a path that changes inside the window: its mean over the window (a gain or
-a time constant fitted by least squares), or its value at the window's middle (an integer delay chosen by
-likelihood takes the delay of most of the window)."""
+a time constant fitted by least squares; an integer delay is that mean rounded, :data:`.trend.FOLLOW`), or its
+value at the window's middle (an estimate that takes the value of most of the window)."""
 
 
 def window_shapes(

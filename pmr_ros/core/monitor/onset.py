@@ -50,9 +50,10 @@ class OnsetSettings:
         guard against intervals that are too narrow, at some loss of power.
     follow : str
         How a window's estimate follows a change inside the window
-        (:data:`~.changepoint.FOLLOWS`): ``mean`` (dK, dtau: least squares
-        average the window) or ``midpoint`` (dD: an integer delay takes the
-        value of most of the window, so it jumps half a window after the change).
+        (:data:`~.changepoint.FOLLOWS`): ``mean`` (least squares average
+        the window: dK, dtau, and dD rounded to its integer,
+        :data:`~.trend.FOLLOW`) or ``midpoint`` (an estimate that takes the
+        value of most of the window jumps half a window after the change).
     nugget : float
         Share of each window's error variance that is its own, independent of
         the overlapping windows (0..1).  The overlap correlation alone makes

@@ -162,14 +162,33 @@ class PiecewiseSpectra(RecordSpectra):
 
     def _row_segments(self, i: int, transform: Callable[..., np.ndarray] | None) -> np.ndarray:
         """:meth:`RecordSpectra._row_segments` with each stretch's regressors and row transforms held."""
-        parts = []
-        for u, y, span in self._pieces:
-            if transform is None:
-                parts.append(self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i)))
-            else:
-                x = self._cache.regressors(span, u, i)
-                parts.append(segment_spectra(self._block(transform(x, u), i), self.settings))
+        if transform is None:
+            parts = [
+                self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i))
+                for u, y, span in self._pieces
+            ]
+        else:
+            parts = self._transformed(i, transform)
         return np.transpose(np.concatenate([p.ffts for p in parts], axis=0), (1, 0, 2))
+
+    def _transformed(self, i: int, transform: Callable[..., np.ndarray]) -> list[SegmentSpectra]:
+        """Each stretch's segment transforms of ``transform(x_i, u)``, the stretches of one length in one call.
+
+        ``transform`` gets them stacked on axis 1, ``(N, S, n_in)``: a day-long stretch per day makes a
+        window's model output (:func:`~.parametric.fit.leakage_offset`) 14 calls of its filters instead of
+        14 per stretch; each stretch's samples go through the same arithmetic, so the numbers are the same.
+        """
+        by_length: dict[int, list[int]] = {}
+        for j, (u, _, _) in enumerate(self._pieces):
+            by_length.setdefault(u.shape[0], []).append(j)
+        parts: list[Any] = [None] * len(self._pieces)
+        for group in by_length.values():
+            x = np.stack([self._cache.regressors(self._pieces[j][2], self._pieces[j][0], i) for j in group], axis=1)
+            signals = transform(x, np.stack([self._pieces[j][0] for j in group], axis=1))
+            for place, j in enumerate(group):
+                block = np.ascontiguousarray(signals[:, place])  # the layout one stretch's call gives
+                parts[j] = segment_spectra(self._block(block, i), self.settings)
+        return parts
 
     def _row_part(self, u: np.ndarray, y: np.ndarray, span: Span, i: int) -> SegmentSpectra:
         """One stretch's segment transforms of ``[y_i, x_i1 .. x_in]``."""

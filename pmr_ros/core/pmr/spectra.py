@@ -357,7 +357,9 @@ class RecordSpectra:
         """Cross-spectra of the instruments with ``transform`` of row ``i``'s regressors, shape (F, n_z, q).
 
         ``transform`` maps a stretch's regressors (N, n_in), filtered in the
-        time domain over the whole stretch, and its inputs u (N, n_in) to q signals (N, q); they are cut
+        time domain over the whole stretch, and its inputs u (N, n_in) to q signals (N, q) (a
+        :class:`~.piecewise.PiecewiseSpectra` passes the stretches of one length stacked on axis 1,
+        ``(N, S, n_in)`` to ``(N, S, q)``); they are cut
         into the same segments as :meth:`row`'s.  A filter ``H`` applied in the
         time domain gives ``S_{z, H x}`` without the leakage of a Welch segment's
         edges, which ``H(w) S_{z x}`` has (:func:`~pmr_ros.core.pmr.parametric.fit.leakage_offset`).

@@ -193,12 +193,17 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
     columns = problem.columns
 
     def model_output(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        total = np.zeros(x.shape[0])
+        # one stretch (N, n_in) or several of one length stacked on axis 1 (N, S, n_in): filtered along axis 0
+        total = np.zeros(x.shape[:-1])
         for c, (column, k) in enumerate(zip(columns, data.columns, strict=True)):
             lin, s, delay = float(params.lin[c]), float(params.s[c]), int(params.delays[c])
-            signal = x[:, k] if column.scaled is None else u[:, k]  # a scaled column filters its input
-            total += column.response(signal, lin=lin, s=s, delay=delay)
-        return total[:, None]
+            if column.scaled is None:
+                total += column.response(x[..., k], lin=lin, s=s, delay=delay)
+            else:  # a scaled column filters its input, one stretch at a time
+                signal = u[..., k].reshape(u.shape[0], -1)
+                each = [column.response(signal[:, j], lin=lin, s=s, delay=delay) for j in range(signal.shape[1])]
+                total += np.stack(each, axis=1).reshape(total.shape)
+        return total[..., None]
 
     exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
     theta = problem.coefficients(params, np.exp(-1j * data.omega)).theta

@@ -109,22 +109,30 @@ class RowProblem:
         self._lowest = min((c.delay_bounds[0] for c in self.columns), default=0)
         highest = max((c.delay_bounds[1] for c in self.columns), default=0)
         self._turns = system.z_inv[:, None] ** np.arange(self._lowest, highest + 1)[None, :]  # z^-d per delay
+        # what every fit step on the fitted bins repeats and no parameter changes: the model pole's numerator,
+        # its product with (z^-1 - 1), the packed parameters' columns and their block of M (the same numbers)
+        z_fitted = system.z_inv[:, None]
+        self._numerator = (1 - self.pole_model * z_fitted) / (1 - self.pole_model)
+        self._numerator_dz = self._numerator * (z_fitted - 1)
+        self._owner = np.concatenate([np.arange(self.n), self.free_tau])
+        self._m_owner = system.M[:, self._owner][:, :, self._owner]
 
     def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
         """``theta`` and its derivatives at ``params``, on the fitted bins or at ``z_inv = exp(-j w)``."""
         if z_inv is None:
             z_inv = self.system.z_inv[:, None]
             delay = self._turns[:, params.delays - self._lowest]
+            numerator, numerator_dz = self._numerator, self._numerator_dz
         else:
             z_inv = z_inv[:, None]
             delay = z_inv ** params.delays[None, :]
+            numerator = (1 - self.pole_model * z_inv) / (1 - self.pole_model)
+            numerator_dz = numerator * (z_inv - 1)
         tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
         a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
-        ah = self.pole_model
-        numerator = (1 - ah * z_inv) / (1 - ah)
         denominator = 1 - a * z_inv
         shape = np.where(self.has_tau, (1 - a) * numerator / denominator, 1.0)
-        d_shape = np.where(self.has_tau, numerator * (z_inv - 1) / denominator**2 * (a / tau), 0.0)
+        d_shape = np.where(self.has_tau, numerator_dz / denominator**2 * (a / tau), 0.0)
         for c in self.scaled_index:  # a tf/step_response element: its own shape (:mod:`.scaled`)
             scaled, d_scaled = self.columns[c].shapes(z_inv[:, 0], params.s[c : c + 1])
             shape[:, c], d_shape[:, c] = scaled[0], d_scaled[0]
@@ -150,15 +158,15 @@ class RowProblem:
         Every ``lin``, then the ``s`` of the columns whose time constant is fitted (``free_tau``).
         """
         derivatives = np.concatenate([coefficients.d_lin, coefficients.d_s[:, self.free_tau]], axis=1)
-        owner = np.concatenate([np.arange(self.n), self.free_tau])
-        return derivatives, owner
+        return derivatives, self._owner
 
     def information(self, coefficients: Coefficients, *, keep: np.ndarray | None = None) -> np.ndarray:
         """Gauss-Newton matrix ``Re sum_w D^H M D`` of the packed parameters (or of those in ``keep``)."""
         derivatives, owner = self.jacobian(coefficients)
+        M = self._m_owner
         if keep is not None:
             derivatives, owner = derivatives[:, keep], owner[keep]
-        M = self.system.M[:, owner][:, :, owner]
+            M = self.system.M[:, owner][:, :, owner]
         return np.einsum("fp,fpq,fq->pq", derivatives.conj(), M, derivatives).real
 
     def _gradient(self, coefficients: Coefficients) -> np.ndarray:
