@@ -1,10 +1,9 @@
 """``pmr_diagnostician``: PMR verdicts per element on /diagnostics from r, u and y alone.
 
-It subscribes to the setpoints, inputs and outputs and to nothing else, holds
-the controller's model Ghat as parameters (so it can watch any controller),
-aligns the three signals by their sample stamps, keeps a rolling window of the
-newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose`
-every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
+It subscribes to the setpoints, inputs (with their modes) and outputs and to nothing else, holds the
+controller's model Ghat as parameters (so it can watch any controller), aligns the three signals by
+their sample stamps, keeps a rolling window of the newest unbroken stretch and diagnoses it with
+:func:`pmr_ros.core.pmr.diagnosis.diagnose` every ``diagnostician.update_period_samples`` samples.  One DiagnosticStatus
 per element goes to /diagnostics (OK / WARN / ERROR, or STALE / WARN with the
 reason and no numbers when the data do not support a verdict), again every
 ``diagnostician.publish_period_s``; the numbers also go to the estimates topic
@@ -21,8 +20,7 @@ namespace, a stray publisher of old stamps): a message that repeats a stamp
 with other values, or comes out of order, while the topic has two publishers
 suspends the verdicts (level ERROR, ``status: conflict``, the window
 restarted) until no such message came for ``diagnostician.stale_timeout_s``.
-In real time, where nobody waits for it, every lost sample is counted and
-reported with its topic and stamps.
+In real time, where nobody waits for it, every lost sample is counted and reported with its topic and stamps.
 
 With a verdict it closes the loop (:func:`pmr_ros.service.closing.close_window`,
 on the worker thread with the diagnosis): the control impact of the mismatches
@@ -47,7 +45,7 @@ from rclpy.parameter import Parameter
 
 from ..config import ConfigError, PmrConfig, flatten_parameters
 from ..config.write import configured_system_tree
-from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.alignment import MANUAL, SIGNALS, SampleAligner
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
@@ -152,7 +150,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _channel_names(self) -> dict[str, tuple[str, ...]]:
         model, dv = self.config.model, self.config.disturbance_model
-        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        outputs, inputs = model.output_names, model.input_names
+        names = {"r": outputs, "u": inputs, "y": outputs, MANUAL: inputs}  # the modes marked on u
         return names if "dv" not in self._signals or dv is None else {**names, "dv": dv.input_names}
 
     def _start_timers(self) -> None:
@@ -219,6 +218,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
             names=names,
             values=values,
             update_period_samples=self.config.diagnostician.update_period_samples,
+            effort=msg.effort,
         )
         self.progress.took(signal, stamp_ns(msg.header.stamp))
         if heard is not None and k > heard + 1:
