@@ -227,7 +227,7 @@ def loop_figures(
         plant,
         feedforward,
         disturbance_plant if disturbance_plant is not None else feedforward,
-        loop.disturbance_signal if feedforward is not None else DisturbanceSignalSettings(),
+        _dv_signal(loop, feedforward),
     )
     with np.errstate(over="ignore", invalid="ignore"):
         record = simulate(quiet, samples=samples)
@@ -237,6 +237,16 @@ def loop_figures(
     ise = float(np.sum(weighted_errors(loop.mpc, record.r, record.y)))
     movement = float(np.sum(np.asarray(loop.mpc.move_weight) * moves**2))
     return LoopFigures(ise, movement)
+
+
+def _dv_signal(loop: LoopConfig, feedforward: TransferMatrix | None) -> DisturbanceSignalSettings:
+    """The DVs' signals of the impact's loop: the configured ones; still where none is configured for its DVs."""
+    if feedforward is None:
+        return DisturbanceSignalSettings()
+    signal, n = loop.disturbance_signal, feedforward.n_inputs
+    if signal.n_disturbances == n:
+        return signal
+    return DisturbanceSignalSettings(("steps",) * n, np.zeros(n), np.ones(n))
 
 
 def _plants(
