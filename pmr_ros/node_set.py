@@ -56,7 +56,7 @@ class NodeSetRun:
     estimates : dict or None
         The final estimates topic message (element -> quantity -> value).
     record : Record or None
-        r, u, y as received from the topics (``record=True``).
+        r, u, y as received from the topics (``record=True``), with ``manual`` from the modes marked on u.
     wall_time_s : float
         From the first published sample to the final verdicts.
     warnings : list of str
@@ -90,6 +90,7 @@ class _Listener(Node):
         self.estimates = None
         self.arrays: dict[str, np.ndarray] = {}
         self.counts: dict[str, int] = {}
+        self.manual = np.zeros((0, config.model.n_inputs), dtype=bool)
         for key, callback in (("diagnostics", self._on_diagnostics), ("estimates", self._on_estimates)):
             t = topic(key)
             self.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
@@ -99,6 +100,7 @@ class _Listener(Node):
             self.progress = ProgressReporter(self, SIGNAL_TOPICS)
             n = config.run.samples
             widths = {"r": config.model.n_outputs, "u": config.model.n_inputs, "y": config.model.n_outputs}
+            self.manual = np.zeros((n, config.model.n_inputs), dtype=bool)  # the modes marked on u
             for signal, key in SIGNAL_TOPICS.items():
                 self.arrays[signal] = np.full((n, widths[signal]), np.nan)
                 self.counts[signal] = 0
@@ -114,6 +116,8 @@ class _Listener(Node):
             if 0 <= k < self.arrays[signal].shape[0]:
                 self.arrays[signal][k] = values
                 self.counts[signal] += 1
+                if signal == "u" and len(msg.effort) == values.size:
+                    self.manual[k] = np.asarray(msg.effort) > 0.5
 
         return on_message
 
@@ -323,9 +327,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
             watch = _Watch(plant, config.run.samples, options.stall_timeout_s, diagnostician)
             _spin_until_done(executor, nodes, listener, watch, stop)
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
-            record_out = (
-                Record(listener.arrays["r"], listener.arrays["u"], listener.arrays["y"]) if options.record else None
-            )
+            record_out = _recorded(listener) if options.record else None
             estimates = read_estimates(listener.estimates) if listener.estimates is not None else None
             return NodeSetRun(
                 config, diagnosis, info, estimates, record_out, watch.wall_time_s, list(diagnostician.warnings)
@@ -336,6 +338,13 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
             for node in nodes:
                 node.destroy_node()
             rclpy.try_shutdown(context=context)
+
+
+def _recorded(listener: _Listener) -> Record:
+    """r, u, y as the listener received them, with the modes marked on u (``manual``, when any MV was off)."""
+    arrays = listener.arrays
+    manual = listener.manual if listener.manual.any() else None
+    return Record(arrays["r"], arrays["u"], arrays["y"], manual=manual)
 
 
 def _init_context(context: Context, domain_id: int | None, private: bool) -> None:

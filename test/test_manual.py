@@ -8,7 +8,7 @@ import pytest
 from pmr_ros.config import load_config
 from pmr_ros.core.mpc.controller import LinearMpc
 from pmr_ros.core.sim.closed_loop import routine_features, simulate
-from pmr_ros.core.sim.operation import ManualSettings, manual_plan
+from pmr_ros.core.sim.operation import ManualOperator, ManualSettings, manual_plan
 
 STRETCHES = [[300, 400, "reflux"], [900, 300, 1]]
 
@@ -69,15 +69,15 @@ def test_stretches_beyond_the_run_are_cut_and_draw_the_same_moves():
     assert short_manual[95:, 1].all() and long_manual[95:145, 1].all() and not long_manual[145:, 1].any()
 
 
-def test_a_node_set_run_says_it_plays_no_operator(manual_run, capsys):
-    import argparse
-
-    from pmr_ros.commands.run import _check_before_running
-
-    config, _ = manual_run
-    args = argparse.Namespace(adapt=False, bag=None, batch=False, samples=None, json=None)
-    _check_before_running(args, config)
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "run.manual_stretches are simulated by --batch only" in err
-    _check_before_running(argparse.Namespace(adapt=False, bag=None, batch=True, samples=None, json=None), config)
-    assert capsys.readouterr().err == ""
+def test_the_operator_asked_sample_by_sample_gives_the_batch_moves(manual_run):
+    """The node's operator (:class:`ManualOperator`, asked with the last applied u) is the batch loop's."""
+    config, record = manual_run
+    tuning = config.mpc
+    operator = ManualOperator(config.manual, 2, config.run.seed, u_min=tuning.u_min, u_max=tuning.u_max)
+    given = [operator.inputs(k, record.u[k - 1] if k else np.zeros(2)) for k in range(1500)]
+    on = [k for k, g in enumerate(given) if g is None]
+    assert len(on) == 1500 - 700  # every controller on outside the stretches
+    values = np.array([g if g is not None else np.full(2, np.nan) for g in given])
+    np.testing.assert_allclose(values[record.manual], record.u[record.manual], rtol=0, atol=1e-12)
+    assert np.isnan(values[~record.manual]).all()  # NaN: that MV's controller is on
+    np.testing.assert_array_equal(operator.in_manual(5000), [False, False])  # beyond the last stretch

@@ -96,6 +96,8 @@ def test_the_plant_block_may_give_the_true_dv_elements(tmp_path):
         ({"run": {"manual_stretches": [[0, 10, "boilup"]]}}, "run.manual_stretches[0]", "is no input's name"),
         ({"run": {"manual_stretches": [[0, 10, 2]]}}, "run.manual_stretches[0]", "is no input index (0 .. 1)"),
         ({"run": {"manual_stretches": [[0, 0, 1]]}}, "run.manual_stretches[0]", "at least 1 sample"),
+        ({"run": {"manual_stretches": [0, 10, 1, 50]}}, "run.manual_stretches", "flat list holds start, length"),
+        ({"run": {"manual_stretches": [0, 10, 1, 50, 5, 3]}}, "run.manual_stretches[1]", "is no input index"),
         ({"prbs": {"mode": "ramps"}}, "prbs.mode", "one of prbs, steps"),
     ],
 )
@@ -168,3 +170,12 @@ def test_a_written_model_file_and_a_new_system_block_keep_the_dv_model(tmp_path)
     switched = with_system(config, system_tree(config.model), "test")
     assert switched.disturbance_model is not None
     np.testing.assert_array_equal(switched.disturbance_model.delay, config.disturbance_model.delay)
+
+
+def test_flat_manual_stretches_are_the_nested_ones_and_the_tree_keeps_them_flat():
+    nested = load_config(overrides={"run": {"manual_stretches": [[100, 50, "reflux"], [300, 20, 1]]}})
+    flat = load_config(overrides={"run": {"manual_stretches": [100, 50, 0, 300, 20, 1]}})
+    assert flat.manual.stretches == nested.manual.stretches == ((100, 50, 0), (300, 20, 1))
+    # the effective tree (what the nodes and a bag's run_config get) holds the form a ROS parameter holds
+    assert nested.parameters["run"]["manual_stretches"] == [100, 50, 0, 300, 20, 1]
+    assert load_config().parameters["run"]["manual_stretches"] == []

@@ -20,7 +20,7 @@ from typing import Any
 
 from ..config import ConfigError, PmrConfig, load_config, parse_config
 from ..config.write import configured_system_tree
-from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.alignment import MANUAL, SIGNALS, SampleAligner
 from ..contract.layout import diagnosis_from_array, read_signal
 from ..contract.model_topics import read_active_model, with_system
 from ..contract.samples import AddResult
@@ -309,7 +309,7 @@ class _Replay:
 
     def __init__(self, config: PmrConfig, namespace: str = "/", *, disturbances: bool = False) -> None:
         model, window = config.model, config.diagnostician
-        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names, MANUAL: model.input_names}
         if disturbances:
             names["dv"] = config_disturbances(config)
         self.labels = _signal_labels(namespace)
@@ -319,7 +319,7 @@ class _Replay:
         )
         self.outcomes: list[WindowOutcome] = []
         self.warnings: list[str] = []
-        self.counts = dict.fromkeys(self.aligner.signals, 0)
+        self.counts = {s: 0 for s in self.aligner.signals if s != MANUAL}  # the modes come on u
         self.drops = DropCounts()
         self.model_since = 0
         """The first sample of the model the controller ran on last (after a recorded model switch)."""
@@ -335,6 +335,7 @@ class _Replay:
             names=channel_names,
             values=values,
             update_period_samples=self.config.diagnostician.update_period_samples,
+            effort=getattr(message, "effort", ()),
         )
         self.warnings.extend(offer.result.warnings)
         self.drops.note(self.labels[signal], offer.result)

@@ -122,12 +122,6 @@ def _check_before_running(args: argparse.Namespace, config: PmrConfig) -> None:
         raise CommandError("--adapt needs pmr.method parametric (a corrected model); the configuration has classic")
     if args.bag and args.batch:
         raise CommandError("--bag records the node set's topics; it cannot be used with --batch")
-    if config.manual.active and not args.batch:  # no node plays the operator yet
-        print(
-            f"pmr-ros: warning: {config.source}: run.manual_stretches are simulated by --batch only; "
-            "the node set runs without them",
-            file=sys.stderr,
-        )
     source = "command line" if args.samples is not None else config.source
     check_model_memory(config)
     check_memory(run_memory(config, batch=args.batch), cause=f"run.samples = {config.run.samples} ({source})")

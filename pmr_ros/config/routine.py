@@ -16,7 +16,14 @@ from ..core.sim.operation import DisturbanceSignalSettings, ManualSettings
 from .errors import ConfigError
 from .schema import parameter
 
-__all__ = ["disturbance_mismatch", "disturbance_names", "disturbance_signal", "manual_settings", "zone_settings"]
+__all__ = [
+    "disturbance_mismatch",
+    "disturbance_names",
+    "disturbance_signal",
+    "flat_stretches",
+    "manual_settings",
+    "zone_settings",
+]
 
 
 class _Values(Protocol):
@@ -102,6 +109,10 @@ def zone_settings(v: _Values, outputs: tuple[str, ...]) -> dict[str, Any]:
 def manual_settings(v: _Values, inputs: tuple[str, ...]) -> ManualSettings:
     """``run.manual_stretches`` with each MV resolved to its index, and the operators' move size.
 
+    The effective tree's ``run.manual_stretches`` is rewritten in the flat form
+    the nodes take (:func:`flat_stretches`), so the configuration handed to the
+    node set (and recorded in a bag) is one a ROS parameter holds.
+
     Raises
     ------
     ConfigError
@@ -118,4 +129,17 @@ def manual_settings(v: _Values, inputs: tuple[str, ...]) -> ManualSettings:
         else:
             index = int(channel)
         stretches.append((start, length, index))
-    return ManualSettings(tuple(stretches), v["run.manual_move_amplitude"], v["run.manual_moves"])
+    settings = ManualSettings(tuple(stretches), v["run.manual_move_amplitude"], v["run.manual_moves"])
+    v.tree.setdefault("run", {})["manual_stretches"] = flat_stretches(settings)
+    return settings
+
+
+def flat_stretches(settings: ManualSettings) -> list[int]:
+    """The stretches as one flat integer list ``[start, length, MV index, ...]``: the form a ROS parameter holds.
+
+    Examples
+    --------
+    >>> flat_stretches(ManualSettings(((300, 400, 0), (900, 300, 1))))
+    [300, 400, 0, 900, 300, 1]
+    """
+    return [int(n) for stretch in settings.stretches for n in stretch]

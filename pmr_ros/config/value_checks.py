@@ -142,11 +142,23 @@ class ValueChecks:
         return tuple(out)
 
     def _check_stretches(self, value: Any, source: str, shape: Shape | None) -> tuple[tuple[int, int, int | str], ...]:
-        """A list of ``[start, length, channel]`` (channel a 0-based index or a name); numbers whole, >= 0."""
+        """``[start, length, channel]`` triples (channel a 0-based index or a name); numbers whole, >= 0.
+
+        Nested (``[[start, length, channel], ...]``, a params file read by pmr-ros) or flat
+        (``[start, length, index, start, length, index, ...]``: an integer array, as a ROS
+        parameter holds it); both give the same triples.
+        """
         if not isinstance(value, list):
             raise self._error(source, value, "must be a list of [start, length, MV index or name]")
+        items = value
+        if value and not any(isinstance(item, list) for item in value):  # the flat spelling of the nodes
+            if len(value) % 3:
+                raise self._error(
+                    source, value, f"a flat list holds start, length, MV index per stretch: {len(value)} numbers"
+                )
+            items = [value[j : j + 3] for j in range(0, len(value), 3)]
         out: list[tuple[int, int, int | str]] = []
-        for j, item in enumerate(value):
+        for j, item in enumerate(items):
             field = f"{self.name}[{j}]"
             if not isinstance(item, list) or len(item) != 3:
                 raise self._error(source, item, "must be [start, length, MV index or name]", field)

@@ -45,19 +45,30 @@ from .samples import (
     signal_problem,
 )
 
-__all__ = ["AlignedStretch", "SampleAligner"]
+__all__ = ["MANUAL", "AlignedStretch", "SampleAligner", "manual_marks"]
 
 SIGNALS = ("r", "u", "y")
 """Signals the diagnostician aligns: setpoints, inputs, outputs."""
 
-OPTIONAL_SIGNALS = ("dv",)
-"""Signals aligned when the aligner is given their channel names: the measured disturbances."""
+MANUAL = "manual"
+"""The controllers' modes, read from the u messages' ``effort`` (1.0 where an MV's controller is off)."""
+
+OPTIONAL_SIGNALS = ("dv", MANUAL)
+"""Signals aligned when the aligner is given their channel names: the measured disturbances, the modes."""
+
+
+def manual_marks(effort: Sequence[float] | np.ndarray, width: int) -> np.ndarray:
+    """A u message's mode marks as offered to the aligner: ``effort``, or zeros (every controller on) when empty."""
+    marks = np.asarray(effort, dtype=float)
+    return np.zeros(width) if marks.size == 0 else marks
 
 
 def _record(rows: Mapping[str, list], a: int, b: int) -> Record:
-    """Rows ``a:b`` of every aligned signal as a :class:`Record` (``dv`` when aligned)."""
+    """Rows ``a:b`` of every aligned signal as a :class:`Record` (``dv``, ``manual`` when aligned and any is off)."""
     arrays = {s: np.array(rows[s][a:b]) for s in rows}
-    return Record(arrays["r"], arrays["u"], arrays["y"], dv=arrays.get("dv"))
+    off = arrays[MANUAL] > 0.5 if MANUAL in arrays else None
+    manual = off if off is not None and off.any() else None
+    return Record(arrays["r"], arrays["u"], arrays["y"], dv=arrays.get("dv"), manual=manual)
 
 
 @dataclass(frozen=True)
@@ -114,7 +125,8 @@ class SampleAligner:
         Ts [s].
     channel_names : dict
         Signal (``r``, ``u``, ``y``; ``dv`` when the measured disturbances are
-        aligned too: a sample then needs them to be complete) to its channel names.
+        aligned too: a sample then needs them to be complete; ``manual``, the
+        input names, when the modes marked on u are aligned) to its channel names.
     labels : dict
         Signal to how warnings name it, e.g. ``"y on /pmr/measured_output"``.
     capacity : int
@@ -145,7 +157,8 @@ class SampleAligner:
         self.sample_time_s = float(sample_time_s)
         self.signals = (*SIGNALS, *(s for s in OPTIONAL_SIGNALS if s in channel_names))
         self.channel_names = {s: tuple(channel_names[s]) for s in self.signals}
-        self.labels = dict(labels)
+        # the modes come with u: their problems are named after u's topic
+        self.labels = {MANUAL: f"the mode marks (effort) of {labels.get('u', 'u')}", **labels}
         self.capacity = int(capacity)
         self.max_lag_samples = int(max_lag_samples)
         self.newest: dict[str, int | None] = {s: None for s in self.signals}

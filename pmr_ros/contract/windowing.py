@@ -21,7 +21,7 @@ from ..core.records import Record
 from ..core.results import Diagnosis
 from ..core.sim.excitation import dither_generator
 from ..core.sim.memory import available_bytes, diagnosis_bytes, format_bytes, window_bytes
-from .alignment import AlignedStretch, SampleAligner
+from .alignment import MANUAL, AlignedStretch, SampleAligner, manual_marks
 from .samples import AddResult
 
 __all__ = [
@@ -68,15 +68,22 @@ def offer_signal(
     names: Sequence[str],
     values: Sequence[float] | np.ndarray,
     update_period_samples: int,
+    effort: Sequence[float] | np.ndarray = (),
 ) -> Offer:
     """Add one message to ``aligner`` and say whether diagnostics are due.
 
     An update is due when a sample ``k`` with ``(k + 1) % period == 0`` became
     complete, or, while a signal lags, when the message's own sample is one.
-    Turning stale is reported separately (the node publishes at once).
+    Turning stale is reported separately (the node publishes at once).  A u
+    message's ``effort`` (its mode marks; empty: every controller on) goes to
+    the aligner with it when the aligner aligns the modes.
     """
     was_lagging = aligner.lagging()
     result = aligner.add(signal, stamp_s, names, values)
+    if signal == "u" and MANUAL in aligner.signals and result.accepted:
+        modes = aligner.add(MANUAL, stamp_s, names, manual_marks(effort, len(values)))
+        result.warnings.extend(modes.warnings)
+        result.completed.extend(modes.completed)
     lagging = aligner.lagging()
     newly = lagging if lagging and not was_lagging else None
     period = update_period_samples
@@ -221,9 +228,18 @@ class UsefulData:
 
 
 def _from(record: Record, cut: int) -> Record:
-    """The record from row ``cut`` on (its DVs too)."""
+    """The record from row ``cut`` on (its DVs and modes too)."""
     dv = None if record.dv is None else record.dv[cut:]
-    return Record(record.r[cut:], record.u[cut:], record.y[cut:], dv=dv)
+    manual = None if record.manual is None or not record.manual[cut:].any() else record.manual[cut:]
+    return Record(record.r[cut:], record.u[cut:], record.y[cut:], dv=dv, manual=manual)
+
+
+def _with_dither(piece: AlignedStretch, config: PmrConfig) -> Record:
+    """The stretch with the controller's MV dither, none where an MV's controller was off (as the batch core)."""
+    dither = window_dither(config, piece.first, piece.samples)
+    if dither is not None and piece.record.manual is not None:
+        dither = np.where(piece.record.manual, 0.0, dither)
+    return replace(piece.record, dither=dither)
 
 
 def window_stretches(aligner: SampleAligner, window_samples: int, *, since: int = 0) -> list[AlignedStretch]:
@@ -249,7 +265,7 @@ def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) ->
     ``since`` on count (see :func:`window_stretches`).
     """
     pieces = window_stretches(aligner, config.diagnostician.window_samples, since=since)
-    data = [replace(p.record, dither=window_dither(config, p.first, p.samples)) for p in pieces]
+    data = [_with_dither(p, config) for p in pieces]
     shortest = shortest_useful_stretch(data, model=config.model, pmr=config.pmr, parametric=config.parametric)
     keep = [j for j, d in enumerate(data) if d.samples >= shortest]
     held = sum(p.samples for p in pieces)

@@ -278,8 +278,16 @@ class PlantData:
         return out
 
     @classmethod
-    def from_record(cls, signals: dict[str, np.ndarray], *, source: str, sample_time_s: float, start: str = "0 s"):
-        """Data already clean (a bag's window): every sample usable, nothing flagged."""
+    def from_record(
+        cls,
+        signals: dict[str, np.ndarray],
+        *,
+        source: str,
+        sample_time_s: float,
+        start: str = "0 s",
+        manual: np.ndarray | None = None,
+    ):
+        """Data already clean (a bag's window): every sample usable, nothing flagged; ``manual``: the MVs' modes."""
         samples = signals["r"].shape[0]
         missing = ~np.all(np.isfinite(np.hstack(list(signals.values()))), axis=1)
         columns = {key: tuple(f"{key}{j + 1}" for j in range(values.shape[1])) for key, values in signals.items()}
@@ -292,4 +300,5 @@ class PlantData:
             {"missing": missing},
             np.zeros((samples, signals["u"].shape[1]), dtype=bool),
             (CleaningStep("samples read", samples, "samples"),),
+            manual=None if manual is None or not np.any(manual) else np.asarray(manual, dtype=bool),
         )

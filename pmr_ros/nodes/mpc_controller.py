@@ -6,6 +6,13 @@ on ``pmr/disturbance`` as well: fed forward), steps :class:`~pmr_ros.core.mpc.co
 index order and publishes u(k) with the same stamp.  In real-time mode a late
 setpoint is replaced by the newest earlier one.
 
+Manual stretches (``run.manual_stretches``): the node plays the operator of
+each MV whose controller is off, as the batch core does
+(:class:`~pmr_ros.core.sim.operation.ManualOperator`): the MPC takes the
+operator's value as a given input (it stops moving that MV), publishes it as
+u(k), which the plant applies, and marks the MV in the message's ``effort``
+(msg_defs/topics.yaml), from which the diagnostician learns the open loop.
+
 A new model is accepted at runtime as one atomic change of the ``system``
 parameters (``set_parameters_atomically``; the block is ``live`` for this node
 in ``config/parameters.yaml``): validated like a params file, refused with the
@@ -29,6 +36,7 @@ from ..contract.samples import check_signal, sample_index
 from ..contract.topics import topic
 from ..core.mpc.controller import LinearMpc
 from ..core.sim.excitation import dither_generator
+from ..core.sim.operation import ManualOperator
 from ..ros.base import ConfiguredNode, run_node
 from ..ros.convert import signal_message, text_message
 from ..service.memory_checks import check_controller_memory
@@ -46,6 +54,11 @@ class MpcControllerNode(ConfiguredNode):
         # the MV dither is a pure function of the sample and the seed, as in the batch core
         cfg = self.config
         self.dither = dither_generator(cfg.excitation, cfg.prbs, cfg.run.seed) if cfg.excitation.active else None
+        self.operator = None
+        if cfg.manual.active:
+            limits = {"u_min": cfg.mpc.u_min, "u_max": cfg.mpc.u_max}
+            self.operator = ManualOperator(cfg.manual, self.model.n_inputs, cfg.run.seed, **limits)
+        self._applied = np.zeros(self.model.n_inputs)  # u(k - 1): where an operator's stretch starts from
         self.sample_time = self.model.sample_time
         self.next_sample = 0
         self._r: dict[int, np.ndarray] = {}
@@ -147,9 +160,13 @@ class MpcControllerNode(ConfiguredNode):
             self._switch(k)
             dither = None if self.dither is None else self.dither.value(k)
             v = None if self._v is None else self._v.pop(k, self._latest_v)
-            u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither, disturbance=v)
+            given = None if self.operator is None else self.operator.inputs(k, self._applied)
+            u = self.controller.step(self._y.pop(k), self._r.pop(k), dither=dither, disturbance=v, manual_input=given)
+            self._applied = u
             self.next_sample = k + 1
-            self._pub.publish(signal_message(u, self.model.input_names, k * self.sample_time, self.model.name))
+            manual = None if given is None else np.isfinite(given)
+            stamp = k * self.sample_time
+            self._pub.publish(signal_message(u, self.model.input_names, stamp, self.model.name, manual=manual))
         for store in (self._r, self._y, self._v or {}):
             for old in [j for j in store if j < self.next_sample]:
                 del store[old]

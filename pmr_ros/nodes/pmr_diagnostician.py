@@ -1,27 +1,27 @@
 """``pmr_diagnostician``: PMR verdicts per element on /diagnostics from r, u and y alone.
 
-It subscribes to the setpoints, inputs and outputs and to nothing else, holds the controller's model Ghat as
-parameters (so it can watch any controller), aligns the three signals by their sample stamps, keeps a rolling window
-of the newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose` every
+It subscribes to the setpoints, inputs (with their modes) and outputs and to nothing else, holds the controller's
+model Ghat as parameters (so it can watch any controller), aligns the three signals by their sample stamps, keeps a
+rolling window of the newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose` every
 ``diagnostician.update_period_samples`` samples. One DiagnosticStatus per element goes to /diagnostics (OK / WARN /
 ERROR, or STALE / WARN with the reason and no numbers when the data do not support a verdict), again every
 ``diagnostician.publish_period_s``; the numbers also go to the estimates topic when there is a verdict.
 
 The diagnosis runs on a worker thread (:class:`~pmr_ros.ros.worker.SerialWorker`) on a snapshot of the window taken
-when it was due, so the subscriptions are never starved and the verdict is the one the window had then. The node is
-a lockstep consumer: it reports on ``pmr/progress`` how far it has taken r, u and y
+when it was due, so the subscriptions are never starved and the verdict is the one the window had then. The node is a
+lockstep consumer: it reports on ``pmr/progress`` how far it has taken r, u and y
 (:class:`~pmr_ros.ros.flow.ProgressReporter`), holding the report back while diagnoses queue up, so a lockstep plant
 or bag player never outruns it. It reports two publishers on one signal topic (another node set without its own
-namespace, a stray publisher of old stamps): a message that repeats a stamp with other values, or comes out of
-order, while the topic has two publishers suspends the verdicts (level ERROR, ``status: conflict``, the window
-restarted) until no such message came for ``diagnostician.stale_timeout_s``. In real time, where nobody waits for
-it, every lost sample is counted and reported with its topic and stamps.
+namespace, a stray publisher of old stamps): a message that repeats a stamp with other values, or comes out of order,
+while the topic has two publishers suspends the verdicts (level ERROR, ``status: conflict``, the window restarted)
+until no such message came for ``diagnostician.stale_timeout_s``. In real time, where nobody waits for it, every lost
+sample is counted and reported with its topic and stamps.
 
 With a verdict it closes the loop (:func:`pmr_ros.service.closing.close_window`, on the worker thread with the
 diagnosis): the control impact of the mismatches goes into the statuses (each element's ``impact.*``, all together
 ``impact_all.*``), and when a mismatch verdict stands the corrected model is published, latched, on
-``pmr/proposed_model``. It follows the controller's model: a new one on ``pmr/active_model`` becomes its own (the
-same validated parameter change as ``set_parameters``) and only samples from the switch on are diagnosed against it.
+``pmr/proposed_model``. It follows the controller's model: a new one on ``pmr/active_model`` becomes its own (the same
+validated parameter change as ``set_parameters``) and only samples from the switch on are diagnosed against it.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from rclpy.parameter import Parameter
 
 from ..config import ConfigError, PmrConfig, flatten_parameters
 from ..config.write import configured_system_tree
-from ..contract.alignment import SIGNALS, SampleAligner
+from ..contract.alignment import MANUAL, SIGNALS, SampleAligner
 from ..contract.layout import CONFLICT, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
@@ -143,7 +143,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
 
     def _channel_names(self) -> dict[str, tuple[str, ...]]:
         model, dv = self.config.model, self.config.disturbance_model
-        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names}
+        names = {"r": model.output_names, "u": model.input_names, "y": model.output_names, MANUAL: model.input_names}
         return names if "dv" not in self._signals or dv is None else {**names, "dv": dv.input_names}
 
     def _start_timers(self) -> None:
@@ -212,6 +212,7 @@ class PmrDiagnosticianNode(ConfiguredNode):
             names=names,
             values=values,
             update_period_samples=self.config.diagnostician.update_period_samples,
+            effort=msg.effort,
         )
         self.progress.took(signal, stamp_ns(msg.header.stamp))
         if heard is not None and k > heard + 1:
@@ -219,10 +220,9 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._note_offer(offer)
 
     def _note_offer(self, offer: Offer) -> None:
-        for text in offer.result.warnings:
-            self._warn(text)
-        if offer.newly_lagging:
-            self._warn(offer.newly_lagging)
+        for text in [*offer.result.warnings, offer.newly_lagging]:
+            if text:
+                self._warn(text)
         if offer.newly_lagging or offer.update_due:
             self.publish_diagnostics()
 

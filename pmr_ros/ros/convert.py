@@ -62,14 +62,25 @@ def stamp_from_seconds(seconds: float) -> Time:
 
 
 def signal_message(
-    values: Sequence[float] | np.ndarray, names: Sequence[str], stamp_s: float, frame_id: str = ""
+    values: Sequence[float] | np.ndarray,
+    names: Sequence[str],
+    stamp_s: float,
+    frame_id: str = "",
+    *,
+    manual: np.ndarray | None = None,
 ) -> JointState:
-    """A signal sample (r, u or y) as a JointState: stamp = sample time, position = values."""
+    """A signal sample (r, u or y) as a JointState: stamp = sample time, position = values.
+
+    ``manual`` (u only): which MVs' controllers are off; marked in ``effort``
+    (1.0 off, 0.0 on) when any is, else ``effort`` stays empty (msg_defs/topics.yaml).
+    """
     msg = JointState()
     msg.header.stamp = stamp_from_seconds(stamp_s)
     msg.header.frame_id = frame_id
     msg.name = list(names)
     msg.position = [float(v) for v in values]
+    if manual is not None and np.any(manual):
+        msg.effort = [float(bool(m)) for m in manual]
     return msg
 
 

@@ -31,6 +31,7 @@ from ..bag.storage import BagError
 from ..config import PmrConfig
 from ..config.controller_block import foreign_controller
 from ..config.schema import parameter
+from ..contract.alignment import MANUAL
 from ..contract.layout import read_signal
 from ..contract.samples import sample_index
 from ..contract.topics import SIGNAL_TOPICS, topic
@@ -256,9 +257,14 @@ def _placed(bag: Bag, config: PmrConfig, namespace: str) -> list[tuple[str, int,
     placed = []
     for message in bag.messages(set(by_topic)):
         signal = by_topic[message.topic]
-        stamp, channels, values = read_signal(bag.decode(message))
+        decoded = bag.decode(message)
+        stamp, channels, values = read_signal(decoded)
         if tuple(channels) == names[signal] and values.size == len(channels):
-            placed.append((signal, sample_index(stamp, model.sample_time)[0], np.asarray(values, dtype=float)))
+            k = sample_index(stamp, model.sample_time)[0]
+            placed.append((signal, k, np.asarray(values, dtype=float)))
+            marks = np.asarray(getattr(decoded, "effort", ()), dtype=float)
+            if signal == "u" and marks.size == values.size and np.any(marks > 0.5):  # the modes marked on u
+                placed.append((MANUAL, k, marks > 0.5))
     return placed
 
 
@@ -290,13 +296,19 @@ def bag_record(
     model = config.model
     names, _ = _channels(bag, config, namespace)
     signals = {s: np.full((samples, len(n)), np.nan) for s, n in names.items()}
+    manual = np.zeros((samples, model.n_inputs), dtype=bool)
     for signal, k, values in placed:
-        signals[signal][k - first] = values
+        if signal == MANUAL:
+            manual[k - first] = values
+        else:
+            signals[signal][k - first] = values
     dither = window_dither(config, first, samples)
     if dither is not None:
-        signals["dither"] = dither
+        signals["dither"] = np.where(manual, 0.0, dither)  # a controller that is off adds no dither
     start = pandas.Timestamp(first * model.sample_time, unit="s", tz="UTC").isoformat()
-    data = PlantData.from_record(signals, source=str(bag.path), sample_time_s=model.sample_time, start=start)
+    data = PlantData.from_record(
+        signals, source=str(bag.path), sample_time_s=model.sample_time, start=start, manual=manual
+    )
     return data, config
 
 

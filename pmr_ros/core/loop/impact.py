@@ -13,12 +13,22 @@ linear and noise-free; the configured setpoint excitation stands for the
 operating regime; the estimates stand for the plant (their intervals are not
 propagated); constraints act as configured.  A ratio of 1 means the mismatch
 does not matter for control; ``inf`` means the loop goes unstable.
+
+Routine operation, as the MPC runs it: with measured disturbances the DVs move
+as the configured ``disturbance_signal`` (the run's seed) through the plant's
+D elements while the MPC feeds them forward through its model ``Gd``, so a
+mismatched D element (imperfect feedforward) has an impact of its own and a G
+element's counts with the DVs moving; a zone CV's setpoint is not tracked, so
+its error is its distance outside the zone, weighted by ``mpc.zone_weight``
+(the MPC's own penalty there), not ``r - y``.  Every controller is on (no
+manual stretch): the impact is that of the loop the controller closes.  PI
+loops have no feedforward: their impact simulates the G elements without DVs.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -32,7 +42,7 @@ from ..sim.true_plant import OutputDisturbance
 from .pi_loops import ControllerSettings, PiTuning, simulate_pi
 from .update import ModelUpdate, with_changes
 
-__all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures", "pi_figures"]
+__all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures", "pi_figures", "weighted_errors"]
 
 UNSTABLE = 1e9
 """An output beyond this many times the setpoint swing counts as a loop gone unstable."""
@@ -84,7 +94,11 @@ def _ratio(value: float, base: float) -> float:
 
 @dataclass(frozen=True)
 class _Loop:
-    """A :class:`LoopConfig` of the configured controller on a given plant, noise-free."""
+    """A :class:`LoopConfig` of the configured controller on a given plant, noise-free.
+
+    ``feedforward`` is the controller's DV model (None: no DVs), ``disturbance_truth``
+    the plant's D elements the DVs move it through.
+    """
 
     model: TransferMatrix
     noise_std: np.ndarray
@@ -93,6 +107,9 @@ class _Loop:
     mpc: MpcTuning
     run: RunPlan
     truth: TransferMatrix
+    feedforward: TransferMatrix | None = None
+    disturbance_truth: TransferMatrix | None = None
+    disturbance_signal: DisturbanceSignalSettings = field(default_factory=DisturbanceSignalSettings)
 
     @property
     def disturbance(self) -> OutputDisturbance:
@@ -101,13 +118,8 @@ class _Loop:
 
     @property
     def disturbance_model(self) -> TransferMatrix | None:
-        """None: the measured disturbances do not move in the impact's simulation."""
-        return None
-
-    @property
-    def disturbance_signal(self) -> DisturbanceSignalSettings:
-        """None moves."""
-        return DisturbanceSignalSettings()
+        """The controller's model of the measured disturbances (its feedforward), or None."""
+        return self.feedforward
 
     @property
     def manual(self) -> ManualSettings:
@@ -118,7 +130,7 @@ class _Loop:
         return self.truth
 
     def disturbance_plant(self, scenario: str | None = None) -> TransferMatrix | None:
-        return None
+        return self.disturbance_truth
 
 
 def _unstable(r: np.ndarray, y: np.ndarray) -> bool:
@@ -147,40 +159,108 @@ def pi_figures(loop: LoopConfig, tuning: PiTuning, plant: TransferMatrix, *, sam
     return LoopFigures(float(np.sum((r[:, cv] - y[:, cv]) ** 2)), float(np.sum(moves**2)))
 
 
+def weighted_errors(tuning: MpcTuning, r: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Each CV's error as the MPC weighs it, squared: ``Q (r - y)^2``, a zone CV's ``W dist(y, zone)^2``.
+
+    Parameters
+    ----------
+    tuning : MpcTuning
+        Output weights ``Q``; with zones the zone CVs, their limits and ``zone_weight`` ``W``.
+    r, y : ndarray, shape (samples, n_outputs)
+        Setpoints and outputs [output unit].
+
+    Returns
+    -------
+    ndarray, shape (samples, n_outputs)
+        [output unit^2, weighted]; 0 where a zone CV is inside its zone.
+    """
+    n = y.shape[1]
+    squared = np.broadcast_to(np.asarray(tuning.output_weight, dtype=float), (n,)) * (r - y) ** 2
+    zone = tuning.zone_outputs if tuning.zones_active and tuning.zone_outputs.size else np.zeros(n, dtype=bool)
+    if not zone.any():
+        return squared
+    low = np.broadcast_to(np.asarray(tuning.output_low, dtype=float), (n,))
+    high = np.broadcast_to(np.asarray(tuning.output_high, dtype=float), (n,))
+    outside = np.maximum(low - y, 0.0) + np.maximum(y - high, 0.0)
+    weight = np.broadcast_to(np.asarray(tuning.zone_weight, dtype=float), (n,))
+    return np.where(zone, weight * outside**2, squared)
+
+
 def loop_figures(
-    loop: LoopConfig, plant: TransferMatrix, *, samples: int, controller: ControllerSettings | None = None
+    loop: LoopConfig,
+    plant: TransferMatrix,
+    *,
+    samples: int,
+    controller: ControllerSettings | None = None,
+    disturbance_plant: TransferMatrix | None = None,
 ) -> LoopFigures:
     """ISE and input movement of the configured loop on ``plant`` (noise-free, from rest).
 
     Parameters
     ----------
     loop : LoopConfig
-        The controller's model, tuning, setpoint excitation (and dither) and seed.
+        The controller's model (and DV model), tuning, setpoint excitation (and dither,
+        the DVs' signals) and seed.
     plant : TransferMatrix
         The plant the controller runs on.
     samples : int
         Closed-loop samples simulated.
     controller : ControllerSettings, optional
         Kind ``pi``: its loops run instead of the MPC (:func:`pi_figures`); default the MPC.
+    disturbance_plant : TransferMatrix, optional
+        The plant's D elements (with a DV model; default the controller's own ``Gd``).
+
+    Notes
+    -----
+    ISE sums :func:`weighted_errors`: a zone CV counts only outside its zone.
     """
     if controller is not None and controller.kind == "pi" and controller.pi is not None:
         return pi_figures(loop, controller.pi, plant, samples=samples)
-    quiet = _Loop(loop.model, np.zeros(loop.model.n_outputs), loop.prbs, loop.excitation, loop.mpc, loop.run, plant)
+    feedforward = loop.disturbance_model
+    quiet = _Loop(
+        loop.model,
+        np.zeros(loop.model.n_outputs),
+        loop.prbs,
+        loop.excitation,
+        loop.mpc,
+        loop.run,
+        plant,
+        feedforward,
+        disturbance_plant if disturbance_plant is not None else feedforward,
+        _dv_signal(loop, feedforward),
+    )
     with np.errstate(over="ignore", invalid="ignore"):
         record = simulate(quiet, samples=samples)
     if _unstable(record.r, record.y):
         return LoopFigures(math.inf, math.inf)
-    error = record.r - record.y
     moves = np.diff(record.u, axis=0, prepend=np.zeros((1, record.u.shape[1])))
-    ise = float(np.sum(np.asarray(loop.mpc.output_weight) * error**2))
+    ise = float(np.sum(weighted_errors(loop.mpc, record.r, record.y)))
     movement = float(np.sum(np.asarray(loop.mpc.move_weight) * moves**2))
     return LoopFigures(ise, movement)
 
 
-def _with_element(model: TransferMatrix, update: ModelUpdate, name: str) -> TransferMatrix:
+def _dv_signal(loop: LoopConfig, feedforward: TransferMatrix | None) -> DisturbanceSignalSettings:
+    """The DVs' signals of the impact's loop: the configured ones; still where none is configured for its DVs."""
+    if feedforward is None:
+        return DisturbanceSignalSettings()
+    signal, n = loop.disturbance_signal, feedforward.n_inputs
+    if signal.n_disturbances == n:
+        return signal
+    return DisturbanceSignalSettings(("steps",) * n, np.zeros(n), np.ones(n))
+
+
+def _plants(
+    loop: LoopConfig, diagnosis: Diagnosis, update: ModelUpdate, name: str
+) -> tuple[TransferMatrix, TransferMatrix | None]:
+    """``(G, Gd)`` of the plant as modelled with only element ``name`` (a G or a D element) as estimated."""
     change = next(c for c in update.changes if c.name == name)
-    i, k = divmod(model.element_names().index(name), model.n_inputs)
-    return with_changes(model, [(i, k, change)])
+    element = diagnosis.elements[name]
+    model, dv_model = loop.model, loop.disturbance_model
+    if element.column < model.n_inputs:
+        return with_changes(model, [(element.row, element.column, change)]), dv_model
+    if dv_model is None:
+        raise ValueError(f"{name} is a D element, but the loop has no model of the measured disturbances")
+    return model, with_changes(dv_model, [(element.row, element.column - model.n_inputs, change)])
 
 
 def control_impact(
@@ -209,24 +289,31 @@ def control_impact(
     Returns
     -------
     Diagnosis
-        A new diagnosis: ``ElementDiagnosis.impact`` set on the changed G
-        elements (a D element's, the measured disturbances' model, is not
-        simulated: these loops run without DVs) (ranked by ISE ratio, 1 = matters most), ``Diagnosis.impact``
-        for all together; the input diagnosis is left as it is.
+        A new diagnosis: ``ElementDiagnosis.impact`` set on the changed
+        elements, G and (with the MPC and a DV model) D, ranked by ISE ratio
+        (1 = matters most); ``Diagnosis.impact`` for all together; the input
+        diagnosis is left as it is.
     """
-    # the MPC acts on G: a D element (a measured disturbance's model) has no place in these loops
-    acting = [c for c in update.changes if c.name in loop.model.element_names()]
+    pi = controller is not None and controller.kind == "pi"
+    acting = [
+        c
+        for c in update.changes
+        if c.name in diagnosis.elements
+        and (diagnosis.elements[c.name].column < loop.model.n_inputs or not pi)  # PI loops feed nothing forward
+    ]
     if not acting:
         return diagnosis
-    base = loop_figures(loop, loop.model, samples=samples, controller=controller)
-    alone = {
-        c.name: loop_figures(loop, _with_element(loop.model, update, c.name), samples=samples, controller=controller)
-        for c in acting
-    }
+
+    def figures(plant: TransferMatrix, dv_plant: TransferMatrix | None) -> LoopFigures:
+        return loop_figures(loop, plant, samples=samples, controller=controller, disturbance_plant=dv_plant)
+
+    base = figures(loop.model, loop.disturbance_model)
+    alone = {c.name: figures(*_plants(loop, diagnosis, update, c.name)) for c in acting}
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
     elements = dict(diagnosis.elements)
-    for name, figures in alone.items():
-        ise, movement = figures.ratio_to(base)
+    for name, result in alone.items():
+        ise, movement = result.ratio_to(base)
         elements[name] = replace(elements[name], impact=ImpactResult(ise, movement, ranked.index(name) + 1))
-    together = loop_figures(loop, update.model, samples=samples, controller=controller).ratio_to(base)
+    dv_together = loop.disturbance_model if pi else (update.disturbance_model or loop.disturbance_model)
+    together = figures(update.model, dv_together).ratio_to(base)
     return replace(diagnosis, elements=elements, impact=ImpactResult(*together, rank=0))

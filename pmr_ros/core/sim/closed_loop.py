@@ -16,7 +16,7 @@ from ..records import Record
 from .augment import augmented_model
 from .excitation import ExcitationSettings, PrbsSettings, dither_generator
 from .model import TransferMatrix
-from .operation import DisturbanceSignalSettings, ManualSettings, manual_plan, setpoint_generator
+from .operation import DisturbanceSignalSettings, ManualOperator, ManualSettings, setpoint_generator
 from .true_plant import FoptdPlant, OutputDisturbance
 
 __all__ = ["LoopConfig", "RunPlan", "routine_features", "simulate", "simulate_with_statistics"]
@@ -172,31 +172,21 @@ def simulate_with_statistics(
     r = setpoint_generator(config.prbs, seed, moving=moving).sequence(samples)
     d = dither_generator(config.excitation, config.prbs, seed).sequence(samples) if config.excitation.active else None
     v = None if dv_model is None else config.disturbance_signal.generator(seed).sequence(samples)
-    manual = offset = None
+    operator = manual = None
     if config.manual.active:
-        manual, offset = manual_plan(config.manual, config.model.n_inputs, samples, seed)
+        tuning = config.mpc
+        operator = ManualOperator(config.manual, config.model.n_inputs, seed, u_min=tuning.u_min, u_max=tuning.u_max)
+        manual = np.zeros((samples, config.model.n_inputs), dtype=bool)
+        within = min(samples, operator.manual.shape[0])
+        manual[:within] = operator.manual[:within]
         if d is not None:
             d = np.where(manual, 0.0, d)  # a controller that is off adds no dither
     u = np.empty((samples, config.model.n_inputs))
     y = np.empty((samples, config.model.n_outputs))
-    base = np.zeros(config.model.n_inputs)  # each MV's value where its manual stretch began
     for k in range(samples):
         y[k] = plant.measure()
-        given = None
-        if manual is not None and offset is not None and manual[k].any():
-            given, base = _operator(config.mpc, k, plan=(manual, offset), u=u, base=base)
+        given = None if operator is None else operator.inputs(k, u[k - 1] if k else np.zeros(u.shape[1]))
         vk = None if v is None else v[k]
         u[k] = controller.step(y[k], r[k], dither=None if d is None else d[k], disturbance=vk, manual_input=given)
         plant.advance(u[k] if vk is None else np.concatenate((u[k], vk)))
     return Record(r, u, y, d, dv=v, manual=manual), controller.statistics
-
-
-def _operator(
-    tuning: MpcTuning, k: int, *, plan: tuple[np.ndarray, np.ndarray], u: np.ndarray, base: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The operator's MV values at sample ``k`` (NaN where the controller is on) and the stretches' start values."""
-    manual, offset = plan
-    starting = manual[k] & (~manual[k - 1] if k else True)
-    base = np.where(starting, u[k - 1] if k else 0.0, base)
-    value = np.clip(base + offset[k], tuning.u_min, tuning.u_max)
-    return np.where(manual[k], value, np.nan), base

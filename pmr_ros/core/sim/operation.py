@@ -26,6 +26,7 @@ __all__ = [
     "SETPOINT_STEP_STREAM",
     "SIGNAL_KINDS",
     "DisturbanceSignalSettings",
+    "ManualOperator",
     "ManualSettings",
     "RandomSignal",
     "manual_plan",
@@ -207,6 +208,11 @@ class ManualSettings:
         """Whether any stretch is configured."""
         return bool(self.stretches)
 
+    @property
+    def end(self) -> int:
+        """The sample after the last stretch ends (0 without stretches) [samples]."""
+        return max((start + length for start, length, _ in self.stretches), default=0)
+
 
 def manual_plan(settings: ManualSettings, n_inputs: int, samples: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Where each MV is in manual and the operator's offsets from its value at the stretch's start.
@@ -246,6 +252,61 @@ def manual_plan(settings: ManualSettings, n_inputs: int, samples: int, seed: int
             path[t:] = level
         offset[start:end, j] = path[: end - start]
     return manual, offset
+
+
+class ManualOperator:
+    """The operators of the manual stretches, sample by sample: the MV values they set by hand.
+
+    The batch loop and the ``mpc_controller`` node both ask it at each sample, so
+    both give the controller the same operator's values.  A stretch starts from
+    the MV's value of the sample before it (the controller's last applied input)
+    and follows :func:`manual_plan`'s moves, within ``u_min .. u_max``.
+
+    Parameters
+    ----------
+    settings : ManualSettings
+    n_inputs : int
+    seed : int
+        The run's seed (stream ``[seed, MANUAL_STREAM]``).
+    u_min, u_max : array_like, shape (n_inputs,)
+        The MVs' limits [input unit].
+
+    Examples
+    --------
+    >>> op = ManualOperator(ManualSettings(((2, 3, 0),), np.array([0.0]), 1), 1, 1, u_min=[-1.0], u_max=[1.0])
+    >>> op.inputs(1, np.array([0.4])) is None, op.inputs(2, np.array([0.4])).tolist()
+    (True, [0.4])
+    """
+
+    def __init__(self, settings: ManualSettings, n_inputs: int, seed: int, *, u_min: object, u_max: object) -> None:
+        # the plan up to the last stretch's end: a stretch's moves do not depend on the run's length
+        self.manual, self._offset = manual_plan(settings, n_inputs, settings.end, seed)
+        self._limits = (np.asarray(u_min, dtype=float), np.asarray(u_max, dtype=float))
+        self._base = np.zeros(n_inputs)  # each MV's value where its stretch began
+
+    def in_manual(self, k: int) -> np.ndarray:
+        """Which MVs are in manual at sample ``k`` (bool, shape (n_inputs,))."""
+        if k >= self.manual.shape[0]:
+            return np.zeros(self.manual.shape[1], dtype=bool)
+        return self.manual[k]
+
+    def inputs(self, k: int, previous: np.ndarray) -> np.ndarray | None:
+        """The operator's MV values at sample ``k`` (NaN where the controller is on), None when all are on.
+
+        Parameters
+        ----------
+        k : int
+            The sample; asked in increasing order.
+        previous : ndarray, shape (n_inputs,)
+            The inputs applied at sample ``k - 1`` (zeros at ``k = 0``) [input unit].
+        """
+        now = self.in_manual(k)
+        if not now.any():
+            return None
+        starting = now & (~self.manual[k - 1] if k else True)
+        self._base = np.where(starting, previous, self._base)
+        value = np.clip(self._base + self._offset[k], *self._limits)
+        return np.where(now, value, np.nan)
 
 
 class _HeldSetpoints:

@@ -252,11 +252,24 @@ def _halfwidth(interval: tuple[float, float]) -> float:
 
 
 def _mixture(fit: RowFit, c: int, settings: ParametricSettings, *, tau: bool) -> tuple[float, float]:
-    """Interval of column ``c``'s ``rho`` (or ``log tau`` ratio) over the fit and its weighted delay alternatives."""
-    fits: list[RowFit | WeightedFit] = [fit, *fit.alternatives]
+    """Interval of column ``c``'s ``rho`` (or ``log tau`` ratio) over its delays the data do not exclude.
+
+    One component per delay of column ``c``: the best-fitting delay vector with that delay and its
+    likelihood weight -- the profile likelihood over the other columns' delays, as
+    :func:`delay_confidence` weighs the delay itself.  Summing every vector tried instead would
+    count a delay once per neighbouring vector the search happened to try with it (an empty
+    cell's delay varied over four equivalent values gave the chosen delay of a DV element five
+    components and the true one a single one: its tau interval excluded the truth).
+    """
+    best: dict[int, tuple[float, RowFit | WeightedFit]] = {int(fit.delays[c]): (1.0, fit)}
+    for alternative in fit.alternatives:
+        delay = int(alternative.delays[c])
+        if alternative.weight > best.get(delay, (-1.0, fit))[0]:
+            best[delay] = (alternative.weight, alternative)
+    fits = [f for _, f in best.values()]
     means = np.array([f.s[c] if tau else f.lin[c] for f in fits])
     sds = np.array([f.sd_s[c] if tau else f.sd_lin[c] for f in fits])
-    weights = np.array([1.0] + [a.weight for a in fit.alternatives])
+    weights = np.array([w for w, _ in best.values()])
     return mixture_interval(means, sds, weights, level=settings.confidence_level)
 
 
