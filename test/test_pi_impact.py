@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from routine_cases import gain_only_fit
 
 from pmr_ros.config import ConfigError, load_config
 from pmr_ros.config.controller_block import FOREIGN, foreign_controller
@@ -25,18 +26,7 @@ LUYBEN = {"kind": "pi", "gain": [0.375, -0.075], "integral_time": [8.29, 23.6]}
 
 
 def _fit(gain_pct: float) -> ParametricResult:
-    verdict = "mismatch" if gain_pct else "ok"
-    return ParametricResult(
-        gain_mismatch_pct=gain_pct,
-        gain_mismatch_pct_interval=(gain_pct - 2.0, gain_pct + 2.0),
-        tau_mismatch_pct=0.0,
-        tau_mismatch_pct_interval=(-2.0, 2.0),
-        delay_mismatch_samples=0,
-        delay_confidence=0.99,
-        gain_verdict=verdict,
-        tau_verdict="ok",
-        delay_verdict="ok",
-    )
+    return gain_only_fit(gain_pct, mismatch=bool(gain_pct), half_width_pct=2.0)
 
 
 def _diagnosis(config, mismatched: str = "G11", gain_pct: float = 20.0) -> Diagnosis:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from routine_cases import FEED_RATE_ZONE, gain_only_fit
 
 from pmr_ros.config import load_config
 from pmr_ros.core.loop.impact import control_impact, loop_figures, weighted_errors
@@ -28,33 +29,13 @@ def config():
             "run": {"samples": SAMPLES},
             "noise": {"std": 0.0},
             "mismatch": {"gain_pct": 0.0, "time_constant_pct": 0.0, "delay_samples": 0},
-            "system": {
-                "disturbance_names": ["feed_rate"],
-                "disturbance_gain": [3.8, 4.9],
-                "disturbance_time_constant": [14.9, 13.2],
-                "disturbance_delay": [8.0, 3.0],
-            },
-            "disturbance_signal": {"amplitude": 0.5, "mean_interval_samples": 150.0},
-            "prbs": {"mode": "steps", "step_interval_samples": 200.0},
-            "mpc": {"output_mode": ["setpoint", "zone"], "output_low": [-np.inf, -1.0], "output_high": [np.inf, 1.0]},
+            **FEED_RATE_ZONE,
         }
     )
 
 
 def _fit(gain_pct: float | None) -> ParametricResult:
-    verdict = "ok" if gain_pct is None else "mismatch"
-    pct = gain_pct or 0.0
-    return ParametricResult(
-        gain_mismatch_pct=pct,
-        gain_mismatch_pct_interval=(pct - 1.0, pct + 1.0),
-        tau_mismatch_pct=0.0,
-        tau_mismatch_pct_interval=(-1.0, 1.0),
-        delay_mismatch_samples=0,
-        delay_confidence=0.99,
-        gain_verdict=verdict,
-        tau_verdict="ok",
-        delay_verdict="ok",
-    )
+    return gain_only_fit(gain_pct or 0.0, mismatch=gain_pct is not None, half_width_pct=1.0)
 
 
 def _impact(config, **gain_pct: float) -> Diagnosis:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from routine_cases import FEED_RATE_ZONE
 
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
@@ -23,15 +24,7 @@ def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain,
             "run": {"samples": 4096},
             "diagnostician": {"window_samples": 4096, "min_samples": 2048},
             "mismatch": {"disturbance_gain_pct": [20.0, 0.0]},
-            "system": {
-                "disturbance_names": ["feed_rate"],
-                "disturbance_gain": [3.8, 4.9],
-                "disturbance_time_constant": [14.9, 13.2],
-                "disturbance_delay": [8.0, 3.0],
-            },
-            "disturbance_signal": {"amplitude": 0.5, "mean_interval_samples": 150.0},
-            "prbs": {"mode": "steps", "step_interval_samples": 200.0},
-            "mpc": {"output_mode": ["setpoint", "zone"], "output_low": [-np.inf, -1.0], "output_high": [np.inf, 1.0]},
+            **FEED_RATE_ZONE,
         }
     )
     assert routine_features(config) == ["measured disturbances", "CV zones or limits", "setpoint steps"]
