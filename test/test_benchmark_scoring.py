@@ -10,9 +10,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from pmr_ros.benchmark import markdown
+from pmr_ros.benchmark.runner import RunTask, simulate_run
 from pmr_ros.benchmark.scenarios import COLUMNS, LENGTHS, RUNS_PER_CELL, draw_scenarios, read_scenarios
 from pmr_ros.benchmark.scoring import label_results, roc_points, roc_table, score, threshold_at
-from pmr_ros.benchmark.units import UNITS, unit_config
+from pmr_ros.benchmark.units import ROUTINE_UNITS, UNITS, all_units, unit_config
 from pmr_ros.service.benchmark_run import BenchmarkRequest, select_runs
 
 
@@ -146,7 +147,8 @@ def test_the_scenario_file_is_what_its_rule_draws(shipped):
 
 def test_the_scenarios_follow_the_issue_s_rule(shipped):
     runs = shipped.drop_duplicates("run")
-    assert len(runs) == len(UNITS) * 2 * len(LENGTHS) * RUNS_PER_CELL >= 1000
+    assert len(runs) == len(all_units()) * 2 * len(LENGTHS) * RUNS_PER_CELL >= 1000
+    assert list(runs["unit"].unique()) == [*UNITS, *ROUTINE_UNITS]  # the PRBS runs keep their numbers first
     assert (runs["seed"] == runs["run"]).all() and set(runs["samples"]) == set(LENGTHS)
     bad = shipped[(shipped[["gain_pct", "tau_pct", "delay_samples"]] != 0).any(axis=1)]
     share = len(bad) / len(shipped)
@@ -165,3 +167,29 @@ def test_quick_is_four_small_wood_berry_runs(shipped):
     quick = select_runs(shipped, BenchmarkRequest(out=None, report=None, quick=True)).drop_duplicates("run")  # type: ignore[arg-type]
     assert len(quick) == 4 and set(quick["unit"]) == {"wood_berry"} and quick["samples"].max() <= 4096
     assert set(zip(quick["disturbance"], quick["samples"], strict=True)) == {(0, 2048), (0, 4096), (1, 2048), (1, 4096)}
+
+
+def test_a_routine_unit_is_its_unit_with_rare_setpoint_steps_and_mv_dither(shipped):
+    for name, (unit, _) in ROUTINE_UNITS.items():
+        routine, base = unit_config(name), unit_config(unit)
+        assert_allclose(routine.model.gain, base.model.gain, rtol=0)
+        assert_allclose(routine.model.delay, base.model.delay, rtol=0)
+        assert (routine.prbs.mode, base.prbs.mode) == ("steps", "prbs")
+        assert (np.asarray(routine.excitation.mv_dither_amplitude) > 0).all()
+    assert_allclose(unit_config("wood_berry_routine").excitation.mv_dither_amplitude, [0.02, 0.02], rtol=0)
+    # the debutanizer's routine dither is half its step-test file's (config/debutanizer_routine.yaml)
+    assert_allclose(
+        unit_config("debutanizer_routine").excitation.mv_dither_amplitude,
+        0.5 * np.asarray(unit_config("debutanizer").excitation.mv_dither_amplitude),
+        rtol=1e-12,
+    )
+    first = shipped[(shipped["unit"] == "wood_berry_routine") & (shipped["samples"] == 8192)]
+    first = first[first["run"] == first["run"].min()]
+    line = first.iloc[0]
+    task = RunTask(run=int(line["run"]), unit="wood_berry_routine", samples=8192, disturbance=bool(line["disturbance"]),
+                   seed=int(line["seed"]), truth=first.reset_index(drop=True), methods=())  # fmt: skip
+    _, record = simulate_run(task)
+    changes = (np.abs(np.diff(record.r, axis=0)) > 0).sum(axis=0)
+    # one change per 240 samples on average: Poisson mean 34 per CV, +/- 4 sigma; a PRBS of clock 8 changes ~500 times
+    assert ((changes >= 34 - 4 * np.sqrt(34)) & (changes <= 34 + 4 * np.sqrt(34))).all(), changes
+    assert_allclose(np.abs(record.dither).max(axis=0), [0.02, 0.02], rtol=1e-12)

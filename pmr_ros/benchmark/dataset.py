@@ -35,7 +35,7 @@ Every file reads with pandas alone (`pandas.read_parquet`, `pandas.read_csv`).
 | column | meaning |
 |---|---|
 | `k` | sample number, 0 .. samples - 1 (one sample time apart, see the model) |
-| `r_<output>` | setpoint of the output (a PRBS) [output unit] |
+| `r_<output>` | setpoint of the output (a PRBS; in a `*_routine` unit rare operator steps) [output unit] |
 | `u_<input>` | manipulated variable the MPC sent (its dither included) [input unit] |
 | `y_<output>` | measured output (noise and, where the run has it, the coloured disturbance included) [output unit] |
 | `dither_<input>` | the known MV dither added to u (units that dither only) [input unit] |

@@ -94,14 +94,17 @@ def peer_wins(scores: pd.DataFrame, column: str = "detection_at_1", margin: floa
 
 SETUP = """## How the runs were made
 
-- **Scenarios**: `config/benchmark_scenarios.csv`, 1,040 labelled runs drawn once by the rule in
+- **Scenarios**: `config/benchmark_scenarios.csv`, 1,560 labelled runs drawn once by the rule in
   `pmr_ros/benchmark/scenarios.py` (`python -m pmr_ros.benchmark.scenarios FILE` draws it again; a test
   checks the committed file against the rule): Wood-Berry, the 3x3 (`config/three_by_three.yaml`), the
-  debutanizer 4x8 (`config/industrial_column.yaml`) and a 16x16 sparse unit (`config/sparse_sixteen.yaml`);
-  per modelled element no mismatch with probability 0.5, else dK +/-U[5, 30] %, dtau +/-U[5, 40] % and
-  dD +/-{1, 2, 3} samples together; lengths 2,048 .. 32,768 samples; with and without a coloured output
-  disturbance (3 x the measurement noise's standard deviation, pole 0.97); the units' PRBS setpoints
-  (and MV dither where the unit has it); a run's seed is its number.
+  debutanizer 4x8 (`config/industrial_column.yaml`) and a 16x16 sparse unit (`config/sparse_sixteen.yaml`)
+  with their PRBS setpoints (and MV dither where the unit has it), runs 1-1,040; then Wood-Berry and the
+  4x8 in routine operation (`wood_berry_routine`, `debutanizer_routine`, runs 1,041-1,560): rare operator
+  setpoint steps (`prbs.mode: steps`, one per CV every 240 samples on average) and a small MV dither
+  (Wood-Berry +/-0.02, the 4x8 half its step-test dither); per modelled element no mismatch with
+  probability 0.5, else dK +/-U[5, 30] %, dtau +/-U[5, 40] % and dD +/-{1, 2, 3} samples together;
+  lengths 2,048 .. 32,768 samples; with and without a coloured output disturbance (3 x the measurement
+  noise's standard deviation, pole 0.97); a run's seed is its number.
 - **Simulation**: the MPC closed loop of each unit's shipped configuration, on the lockstep batch core.
 - **Methods** see r, u, y (and the known dither) and the controller's model, nothing else; each
   element's evidence (for the fixed false-alarm rates and the ROC) is the method's own score:

@@ -38,12 +38,24 @@ def _cases(scores: pd.DataFrame) -> list[tuple[str, int]]:
     return sorted({(str(u), int(d)) for u, d in zip(scores["unit"], scores["disturbance"], strict=True)})
 
 
+def _grid(plt: Any, cases: list[tuple[str, int]], height: float) -> tuple[Any, list[Any]]:
+    """A figure of one row per unit, one column per disturbance of ``cases``: (fig, the cases' axes in order)."""
+    units = sorted({u for u, _ in cases}) or [""]
+    columns = sorted({d for _, d in cases}) or [0]
+    fig, axes = plt.subplots(len(units), len(columns), figsize=(4.2 * len(columns), height * len(units)), squeeze=False)
+    used = [axes[units.index(u)][columns.index(d)] for u, d in cases]
+    for ax in axes.ravel():
+        if all(ax is not a for a in used):
+            ax.set_visible(False)
+    return fig, used
+
+
 def length_figure(scores: pd.DataFrame, column: str, label: str, *, log: bool = False) -> bytes:
-    """``column`` of the score table against record length, one line per method, one panel per unit and disturbance."""
+    """``column`` of the score table against record length, one line per method, a panel per unit and disturbance."""
     plt = _pyplot()
     cases = _cases(scores)
-    fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.4), squeeze=False, sharey=True)
-    for ax, (unit, disturbance) in zip(axes[0], cases, strict=True):
+    fig, used = _grid(plt, cases, 3.4)
+    for ax, (unit, disturbance) in zip(used, cases, strict=True):
         part = scores[(scores["unit"] == unit) & (scores["disturbance"] == disturbance)]
         for method, lines in part.groupby("method", sort=False):
             lines = lines.sort_values("samples")
@@ -53,9 +65,10 @@ def length_figure(scores: pd.DataFrame, column: str, label: str, *, log: bool = 
             ax.set_yscale("log")
         ax.set_title(f"{unit}, {'coloured disturbance' if disturbance else 'white noise'}", fontsize=9)
         ax.set_xlabel("record length [samples]")
+        ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-    axes[0][0].set_ylabel(label)
-    axes[0][-1].legend(fontsize=7)
+    used[-1].legend(fontsize=7)
+    fig.tight_layout()
     return _png(fig)
 
 
@@ -64,8 +77,8 @@ def roc_figure(labelled: pd.DataFrame, *, samples: int) -> bytes:
     plt = _pyplot()
     part = labelled[labelled["samples"] == samples]
     cases = _cases(part)
-    fig, axes = plt.subplots(1, max(len(cases), 1), figsize=(4.2 * max(len(cases), 1), 3.6), squeeze=False)
-    for ax, (unit, disturbance) in zip(axes[0], cases, strict=True):
+    fig, used = _grid(plt, cases, 3.6)
+    for ax, (unit, disturbance) in zip(used, cases, strict=True):
         case = part[(part["unit"] == unit) & (part["disturbance"] == disturbance)]
         for method, lines in case.groupby("method", sort=False):
             if not np.isfinite(lines["evidence"]).any():
@@ -78,7 +91,9 @@ def roc_figure(labelled: pd.DataFrame, *, samples: int) -> bytes:
         ax.set_xlim(0, 1)
         ax.set_title(f"{unit}, {'coloured' if disturbance else 'white'}, {samples} samples", fontsize=9)
         ax.set_xlabel("false-alarm rate")
+        ax.set_ylabel("detection rate")
         ax.grid(True, alpha=0.3)
-    axes[0][0].set_ylabel("detection rate")
-    axes[0][-1].legend(fontsize=7)
+    if used:
+        used[-1].legend(fontsize=7)
+    fig.tight_layout()
     return _png(fig)

@@ -2,7 +2,8 @@
 
 The rule (:func:`draw_scenarios`), fixed by :data:`RULE_SEED`:
 
-* cells: every unit of :data:`~pmr_ros.benchmark.units.UNITS` x the coloured
+* cells: every unit of :func:`~pmr_ros.benchmark.units.all_units` (the four units with their
+  PRBS setpoints, then the routine-operation variants: rare setpoint steps and MV dither) x the coloured
   output disturbance off / on x every record length of :data:`LENGTHS`;
   :data:`RUNS_PER_CELL` runs per cell, numbered from 1 in that order; a run's
   ``seed`` (noise, disturbance and PRBS phases) is its number;
@@ -27,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..resources import share_dir
-from .units import UNITS, unit_config
+from .units import all_units, unit_config
 
 if TYPE_CHECKING:
     import pandas as pd  # annotations only: pandas is the data extra, imported where used
@@ -51,7 +52,7 @@ LENGTHS = (2048, 4096, 8192, 16384, 32768)
 """Record lengths [samples]."""
 
 RUNS_PER_CELL = 26
-"""Runs per (unit, disturbance, length): 4 x 2 x 5 x 26 = 1,040 runs."""
+"""Runs per (unit, disturbance, length): (4 + 2) x 2 x 5 x 26 = 1,560 runs (1,040 with PRBS setpoints first)."""
 
 P_NONE = 0.5
 """Probability that an element has no mismatch."""
@@ -110,7 +111,7 @@ def draw_scenarios() -> pd.DataFrame:
 
     rows: list[dict] = []
     run = 0
-    for unit in UNITS:
+    for unit in all_units():
         for disturbance in (0, 1):
             for samples in LENGTHS:
                 for index in range(RUNS_PER_CELL):

@@ -16,7 +16,8 @@ OPTIONS = (
     option("--quick", action="store_true", help="only the quick subset: the first run of each Wood-Berry cell up to "
            "4,096 samples (4 runs)", group=SELECTION),
     option("--units", metavar="LIST", help="only these units, comma-separated: wood_berry, three_by_three, "
-           "debutanizer, sparse_sixteen (default: all)", group=SELECTION),
+           "debutanizer, sparse_sixteen, and in routine operation (setpoint steps, MV dither) wood_berry_routine, "
+           "debutanizer_routine (default: all)", group=SELECTION),
     option("--samples", metavar="LIST", help="only these record lengths, e.g. 2048,8192 (default: all five)",
            group=SELECTION),
     option("--runs-per-cell", type=positive_int, metavar="N", help="at most the first N runs of each unit, "

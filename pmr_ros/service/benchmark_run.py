@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from ..benchmark import dataset, markdown, plots, scoring
 from ..benchmark.runner import METHODS, RunTask, run_one
 from ..benchmark.scenarios import read_scenarios, run_table
-from ..benchmark.units import UNITS, unit_config
+from ..benchmark.units import all_units, unit_config
 from ..config import PmrConfig
 from ..core.records import Record
 from ..outputs import write_bytes, write_text
@@ -101,9 +101,9 @@ def select_runs(scenarios: pd.DataFrame, request: BenchmarkRequest) -> pd.DataFr
     if request.quick:
         runs = runs[runs["quick"] == 1]
     if request.units is not None:
-        unknown = [u for u in request.units if u not in UNITS]
+        unknown = [u for u in request.units if u not in all_units()]
         if unknown:
-            raise ServiceError(f"--units: unknown unit {unknown[0]!r}; choose of {', '.join(UNITS)}")
+            raise ServiceError(f"--units: unknown unit {unknown[0]!r}; choose of {', '.join(all_units())}")
         runs = runs[runs["unit"].isin(request.units)]
     if request.lengths is not None:
         runs = runs[runs["samples"].isin(request.lengths)]
