@@ -83,12 +83,9 @@ VERSION="$(sed -n 's:.*<version>\(.*\)</version>.*:\1:p' "$ROOT/package.xml")"
 [ "$(tail -n 1 <<< "$WHERE")" = "$VERSION" ] || fail "installed pmr_ros.__version__ $(tail -n 1 <<< "$WHERE") is not package.xml's $VERSION"
 say "ament prefix $PREFIX; pmr_ros $VERSION imports and finds config/ and msg_defs/ there"
 # Every console script of setup.py is installed where `ros2 run pmr_ros <name>` looks for it.
-EXECUTABLES="$(sed -n 's/^ *"\([A-Za-z_-]*\) = pmr_ros\.entry:.*/\1/p' "$ROOT/setup.py")"
-[ -n "$EXECUTABLES" ] || fail "no console_scripts found in $ROOT/setup.py"
-for exe in $EXECUTABLES; do
-  [ -x "$PREFIX/lib/pmr_ros/$exe" ] || fail "$PREFIX/lib/pmr_ros/$exe is not installed"
-done
-say "executables in $PREFIX/lib/pmr_ros: ${EXECUTABLES//$'\n'/ }"
+# shellcheck source=scripts/check_executables.sh
+source "$ROOT/scripts/check_executables.sh"
+check_executables "$PREFIX/lib/pmr_ros"
 
 # 3. One node, as `ros2 run pmr_ros pmr_diagnostician --ros-args --params-file ...` starts it.
 # shellcheck source=scripts/claim_ros_domain.sh

@@ -63,12 +63,9 @@ GOT="$("$VENV/bin/pmr-ros" --version 2>&1)" || { echo "$GOT" >&2; fail "pmr-ros 
 [ "$GOT" = "pmr-ros $VERSION" ] || fail "pmr-ros --version says '$GOT', package.xml $VERSION"
 say "pmr_ros $VERSION imports from the venv and finds config/ and msg_defs/ in $VENV/share/pmr_ros"
 # Every console script of setup.py is installed next to the venv's interpreter.
-EXECUTABLES="$(sed -n 's/^ *"\([A-Za-z_-]*\) = pmr_ros\.entry:.*/\1/p' "$ROOT/setup.py")"
-[ -n "$EXECUTABLES" ] || fail "no console_scripts found in $ROOT/setup.py"
-for exe in $EXECUTABLES; do
-  [ -x "$VENV/bin/$exe" ] || fail "$VENV/bin/$exe is not installed"
-done
-say "executables in $VENV/bin: ${EXECUTABLES//$'\n'/ }"
+# shellcheck source=scripts/check_executables.sh
+source "$ROOT/scripts/check_executables.sh"
+check_executables "$VENV/bin"
 # Every module imports: a dependency imported at module level but missing from setup.py fails here
 # even when no command below reaches that module.
 "$VENV/bin/python" -c '
