@@ -171,11 +171,34 @@ def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
     resumed = re.search(r"resuming the run after sample (\d+)", text)
     assert resumed, text
     diagnosis, info = watcher.final
-    # the window (default 16384) holds both stretches around the break, less the sample left out
     # the restarted plant resumes after the last sample the controller answered: u(seen - 1) or a later one
-    assert int(resumed.group(1)) >= seen - 1, (seen, text)
-    assert diagnosis.status == "ok" and info["first_sample"] == 0 and info["window_samples"] == samples - 1, info
+    after = int(resumed.group(1))
+    assert after >= seen - 1, (seen, text)
+    # every loss is counted: the sample left out, and what the killed writer took with it before the
+    # diagnostician had it (under load: y(after), which the controller had and answered), just before it
+    lost = _lost_samples((tmp_path / "pmr_diagnostician.log").read_text(), load_config().model.sample_time)
+    assert lost and lost == set(range(min(lost), after + 2)), (after, lost)
+    # the window (default 16384) holds both stretches around the break, less the samples lost
+    assert diagnosis.status == "ok" and info["first_sample"] == 0, info
+    assert info["window_samples"] == samples - len(lost), (info, lost)
     assert again.poll() is None and "Traceback" not in text
+
+
+def _lost_samples(log: str, sample_time: float) -> set[int]:
+    """The samples a diagnostician's log reports lost, on any signal."""
+    lost: set[int] = set()
+    for first, last in re.findall(r"sample\(s\) lost, stamps ([-+.\de]+)\.\.([-+.\de]+) s", log):
+        lost.update(range(round(float(first) / sample_time), round(float(last) / sample_time) + 1))
+    return lost
+
+
+def test_lost_samples_are_read_from_a_diagnostician_log():
+    log = (
+        "[WARN] [1.5] [pmr_diagnostician]: r on /pmr/setpoint: 1 sample(s) lost, stamps 1501..1501 s (1 lost)\n"
+        "[WARN] [1.6] [pmr_diagnostician]: y on /pmr/measured_output: 2 sample(s) lost, stamps 1500..1501 s (2 lost)\n"
+    )
+    assert _lost_samples(log, 1.0) == {1500, 1501}
+    assert _lost_samples(log.replace("1500..", "3000..").replace("1501", "3002"), 2.0) == {1500, 1501}
 
 
 def _run(ros, tmp_path: Path, name: str, *arguments: str) -> subprocess.Popen:
