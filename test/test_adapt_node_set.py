@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from shipped import without_impact
 
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
-from pmr_ros.config import config_dir, load_config
+from pmr_ros.config import load_config
 from pmr_ros.config.write import system_tree
 from pmr_ros.contract.layout import read_signal
 from pmr_ros.contract.model_topics import read_active_model
@@ -40,25 +41,12 @@ def _on_plant(path: Path, truth, seed: int) -> Path:
     return out
 
 
-def _without_impact(tmp_path: Path, system: str | None) -> Path:
-    """The system's params file with ``impact.samples: 0``: no control impact computed.
-
-    No test here checks the impact (test_nodes, test_live_update and test_update do); it costs the diagnostician
-    9-11 closed-loop simulations of 4,096 samples per verdict with a mismatch.
-    """
-    doc = yaml.safe_load((Path(system) if system else config_dir() / "wood_berry.yaml").read_text())
-    doc["/**"]["ros__parameters"]["impact"] = {"samples": 0}
-    out = tmp_path / "system.yaml"
-    out.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return out
-
-
 @pytest.mark.parametrize("system", [None, "config/three_by_three.yaml"], ids=["wood_berry", "three_by_three"])
 def test_the_written_model_of_a_node_set_run_rediagnoses_without_mismatch(tmp_path, ros_domain, system):
     config = load_config(system)
     truth = config.plant("full")
     written = tmp_path / "corrected.yaml"
-    first = _run(tmp_path, "first", "--write-model", str(written), "--config", str(_without_impact(tmp_path, system)))
+    first = _run(tmp_path, "first", "--write-model", str(written), "--config", str(without_impact(tmp_path, system)))
     assert first["path"] == "nodes" and any(e["verdict"] == "mismatch" for e in first["elements"].values())
     corrected = load_config(written).model
     # within the diagnosis specification of the true plant: dK 3 pp, dtau 5 pp, dD exact
@@ -74,7 +62,7 @@ def test_the_written_model_of_a_node_set_run_rediagnoses_without_mismatch(tmp_pa
 def test_adapt_finds_the_mismatch_updates_the_controller_and_tracks_better(tmp_path, ros_domain, capsys, system):
     # Wood-Berry runs in a namespace and is recorded (one adapted run serves both tests: they cost a minute each)
     where = [] if system else ["--namespace", "column_a", "--bag", str(tmp_path / "adapted")]
-    report = _run(tmp_path, "adapt", "--adapt", "--config", str(_without_impact(tmp_path, system)), *where)
+    report = _run(tmp_path, "adapt", "--adapt", "--config", str(without_impact(tmp_path, system)), *where)
     adaptation = report["adaptation"]
     before = adaptation["before"]["elements"]
     assert all(e["verdict"] == "mismatch" for e in before.values() if e["model"]["kind"] != "none")
@@ -102,7 +90,7 @@ def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
     from pmr_ros.nodes.adapter import ModelAdapter
     from pmr_ros.service.adapted_run import adapted_report, run_adapted
 
-    config = load_config(overrides={"run": {"samples": WINDOW}, "impact": {"samples": 0}})  # see _without_impact
+    config = load_config(overrides={"run": {"samples": WINDOW}, "impact": {"samples": 0}})  # see shipped.without_impact
 
     def wrong(block: dict) -> dict:
         """The proposal with every gain 40 % low: a deliberately wrong model."""
