@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import yaml
 
 from pmr_ros.config import config_dir
@@ -15,3 +17,16 @@ def system_only_params(name: str = "wood_berry.yaml") -> str:
     tree = yaml.safe_load((config_dir() / name).read_text())
     system = tree["/**"]["ros__parameters"]["system"]
     return yaml.safe_dump({"/**": {"ros__parameters": {"system": system}}}, default_flow_style=None, sort_keys=False)
+
+
+def without_impact(folder: Path, source: str | Path | None = None) -> Path:
+    """``source`` (default the shipped Wood-Berry) as a params file in ``folder`` with ``impact.samples: 0``.
+
+    For node-set tests that check no control impact: a verdict with a mismatch costs the diagnostician 9-11
+    closed-loop simulations of 4,096 samples for it (test_nodes, test_live_update and test_update check the impact).
+    """
+    doc = yaml.safe_load((Path(source) if source else config_dir() / "wood_berry.yaml").read_text())
+    doc["/**"]["ros__parameters"]["impact"] = {"samples": 0}
+    out = folder / "without_impact.yaml"
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return out

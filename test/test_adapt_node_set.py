@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from shipped import without_impact
 
 from pmr_ros.bag.reader import open_bag
 from pmr_ros.cli import main
@@ -45,7 +46,7 @@ def test_the_written_model_of_a_node_set_run_rediagnoses_without_mismatch(tmp_pa
     config = load_config(system)
     truth = config.plant("full")
     written = tmp_path / "corrected.yaml"
-    first = _run(tmp_path, "first", "--write-model", str(written), *(["--config", system] if system else []))
+    first = _run(tmp_path, "first", "--write-model", str(written), "--config", str(without_impact(tmp_path, system)))
     assert first["path"] == "nodes" and any(e["verdict"] == "mismatch" for e in first["elements"].values())
     corrected = load_config(written).model
     # within the diagnosis specification of the true plant: dK 3 pp, dtau 5 pp, dD exact
@@ -60,8 +61,8 @@ def test_the_written_model_of_a_node_set_run_rediagnoses_without_mismatch(tmp_pa
 @pytest.mark.parametrize("system", [None, "config/three_by_three.yaml"], ids=["wood_berry", "three_by_three"])
 def test_adapt_finds_the_mismatch_updates_the_controller_and_tracks_better(tmp_path, ros_domain, capsys, system):
     # Wood-Berry runs in a namespace and is recorded (one adapted run serves both tests: they cost a minute each)
-    where = ["--config", system] if system else ["--namespace", "column_a", "--bag", str(tmp_path / "adapted")]
-    report = _run(tmp_path, "adapt", "--adapt", *where)
+    where = [] if system else ["--namespace", "column_a", "--bag", str(tmp_path / "adapted")]
+    report = _run(tmp_path, "adapt", "--adapt", "--config", str(without_impact(tmp_path, system)), *where)
     adaptation = report["adaptation"]
     before = adaptation["before"]["elements"]
     assert all(e["verdict"] == "mismatch" for e in before.values() if e["model"]["kind"] != "none")
@@ -89,7 +90,7 @@ def test_a_wrong_update_is_caught_and_rolled_back(ros_domain):
     from pmr_ros.nodes.adapter import ModelAdapter
     from pmr_ros.service.adapted_run import adapted_report, run_adapted
 
-    config = load_config(overrides={"run": {"samples": WINDOW}})
+    config = load_config(overrides={"run": {"samples": WINDOW}, "impact": {"samples": 0}})  # see shipped.without_impact
 
     def wrong(block: dict) -> dict:
         """The proposal with every gain 40 % low: a deliberately wrong model."""

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from ros_fixtures import console_script  # noqa: E402
+from shipped import without_impact  # noqa: E402
 
 from pmr_ros.bag.reader import open_bag  # noqa: E402
 from pmr_ros.bag.storage import RUN_CONFIG_KEY  # noqa: E402
@@ -284,6 +285,8 @@ def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_doma
     path = tmp_path / "column_a"
     argv = [
         "run",
+        "--config",  # without the control impact: not compared here (the root run's test compares it)
+        str(without_impact(tmp_path)),
         "--samples",
         "1500",
         "--namespace",
@@ -315,9 +318,8 @@ def test_a_namespaced_run_is_recorded_and_diagnosed_under_its_namespace(ros_doma
 def test_a_run_bag_killed_with_sigkill_gets_a_verdict_offline_and_replays(ros, tmp_path, capsys):
     """``pmr-ros run --bag`` dies mid-run: the bag is judged on what it holds, and a replay publishes all of it."""
     path = tmp_path / "run"
-    proc = ros.start(
-        [console_script("pmr-ros"), "run", "--bag", str(path), "--storage", "sqlite3"], tmp_path / "run.log"
-    )
+    argv = [console_script("pmr-ros"), "run", "--config", str(without_impact(tmp_path)), "--bag", str(path)]
+    proc = ros.start([*argv, "--storage", "sqlite3"], tmp_path / "run.log")  # the impact is not checked here
     _wait_until_flushed(path, list(SIGNAL_TOPICS), 9000, timeout_s=120.0)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)

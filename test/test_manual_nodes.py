@@ -37,6 +37,7 @@ def config():
             "run": {"samples": SAMPLES, "manual_stretches": STRETCHES, "manual_move_amplitude": [0.8, 0.6]},
             "excitation": {"mv_dither_amplitude": 0.2},
             "diagnostician": {"window_samples": SAMPLES, "min_samples": 2048},
+            "impact": {"samples": 0},  # not compared here (test_nodes does): 9 closed loops per verdict saved
         }
     )
 

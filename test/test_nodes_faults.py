@@ -32,6 +32,7 @@ WINDOW = {
     "diagnostician.min_samples": SAMPLES,
     "diagnostician.max_lag_samples": 64,
     "diagnostician.stale_timeout_s": 600.0,
+    "impact.samples": 0,  # not checked here (test_nodes does): 9 closed loops of 4,096 samples per verdict saved
 }
 LATE = 600
 """Samples of r and y published before the u publisher exists: its transient-local backlog (depth 1000)."""

@@ -392,7 +392,7 @@ def test_report_of_another_system_quotes_its_own_configuration(tmp_path):
         "--elements",
         "G11,G23",
         "--nu",
-        "1,1.5",
+        "1",
         "--seeds",
         "1",
         "--samples",

@@ -139,7 +139,8 @@ def test_impact_ranks_the_mismatches_by_what_they_do_to_control(wood_berry_diagn
 def test_a_plant_that_breaks_the_loop_has_an_impact_far_beyond_any_estimated_mismatch():
     config = load_config()
     wild = replace(config.model, gain=config.model.gain * np.array([[1.0, 1.0], [1.0, -3.0]]))  # G22 changes sign
-    ise, _ = loop_figures(config, wild, samples=4096).ratio_to(loop_figures(config, config.model, samples=4096))
+    # 512 samples: the ratio is 6,500-7,900 on seeds 1-4 (7,700 at 4,096 samples, which cost 60 s of CPU)
+    ise, _ = loop_figures(config, wild, samples=512).ratio_to(loop_figures(config, config.model, samples=512))
     assert ise > 100  # the input limits keep it bounded; the tracking is lost
 
 
@@ -149,9 +150,10 @@ def test_a_loop_that_blows_up_has_infinite_impact():
         config, mpc=replace(config.mpc, u_min=np.full(2, -1e300), u_max=np.full(2, 1e300), du_max=np.full(2, 1e300))
     )
     wild = replace(config.model, gain=config.model.gain * np.array([[1.0, 1.0], [1.0, -3.0]]))
-    figures = loop_figures(unbounded, wild, samples=4096)
+    # infinite from 256 samples on (seeds 1-5); past the overflow each sample costs the QP many rounds
+    figures = loop_figures(unbounded, wild, samples=1024)
     assert math.isinf(figures.ise) and math.isinf(
-        figures.ratio_to(loop_figures(unbounded, config.model, samples=4096))[0]
+        figures.ratio_to(loop_figures(unbounded, config.model, samples=1024))[0]
     )
 
 
