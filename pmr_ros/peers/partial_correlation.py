@@ -72,29 +72,43 @@ def _lagged(x: np.ndarray, lags: int) -> np.ndarray:
     return np.stack([x[lags - lag : n - lag] for lag in range(1, lags + 1)], axis=1)
 
 
-def _residualize(target: np.ndarray, basis: np.ndarray | None) -> np.ndarray:
-    """What of ``target``'s columns the columns of ``basis`` (and a constant) leave unexplained."""
-    n = target.shape[0]
-    design = np.ones((n, 1)) if basis is None else np.column_stack((np.ones(n), basis))
-    q, _ = np.linalg.qr(design)
+def _residualize(target: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """What of ``target``'s columns the columns of ``basis`` leave unexplained (least squares)."""
+    q, _ = np.linalg.qr(basis)
     return target - q @ (q.T @ target)
 
 
+def _triangular_factor(columns: list[np.ndarray]) -> np.ndarray:
+    """``R`` of the QR factorization of the columns side by side: ``R^T R`` is their Gram matrix.
+
+    Every least-squares projection among these columns can be done on ``R``'s
+    columns instead (``X = Q R`` with ``Q`` orthonormal keeps every inner
+    product), a (p x p) problem instead of an (N x p) one.
+    """
+    return np.asarray(np.linalg.qr(np.hstack(columns), mode="r"))
+
+
 def _element_p_values(e: np.ndarray, u: np.ndarray, lags: int, control: int) -> np.ndarray:
-    """Bonferroni p per MV of the partial correlation of whitened ``e`` with it at lags 1..lags."""
+    """Bonferroni p per MV of the partial correlation of whitened ``e`` with it at lags 1..lags.
+
+    One QR factorization of ``[1, every MV at lags 1..max(lags, control), e]``;
+    each MV's test then projects the columns of its triangular factor, with the
+    numbers of regressing the N samples themselves (the test checks it against that).
+    """
     n_in = u.shape[1]
     longest = max(lags, control)
     lagged = _lagged(u, longest)  # (n, longest, n_in)
     target = e[longest:]
+    r = _triangular_factor([np.ones((target.size, 1)), *(lagged[:, :, m] for m in range(n_in)), target[:, None]])
+    own = 1 + longest * np.arange(n_in)  # first column of each MV's block
     p = np.empty(n_in)
     for j in range(n_in):
-        others = lagged[:, :control, [m for m in range(n_in) if m != j]].reshape(target.size, -1)
-        basis = others if others.shape[1] else None
-        left_e = _residualize(target[:, None], basis)[:, 0]
-        left_u = _residualize(lagged[:, :lags, j], basis)
-        r = (left_u.T @ left_e) / np.sqrt(np.sum(left_u**2, axis=0) * float(left_e @ left_e))
-        dof = target.size - (0 if basis is None else basis.shape[1]) - 3
-        z = np.arctanh(np.clip(r, -0.999999, 0.999999)) * math.sqrt(max(dof, 1))
+        basis = [0, *(own[m] + lag for m in range(n_in) if m != j for lag in range(control))]
+        left = _residualize(r[:, [*(own[j] + np.arange(lags)), r.shape[1] - 1]], r[:, basis])
+        left_u, left_e = left[:, :-1], left[:, -1]
+        corr = (left_u.T @ left_e) / np.sqrt(np.sum(left_u**2, axis=0) * float(left_e @ left_e))
+        dof = target.size - (len(basis) - 1) - 3
+        z = np.arctanh(np.clip(corr, -0.999999, 0.999999)) * math.sqrt(max(dof, 1))
         p[j] = min(1.0, lags * float(np.min(2.0 * norm.sf(np.abs(z)))))
     return p
 

@@ -8,7 +8,9 @@ Output error (OE) takes ``H = 1``; Box-Jenkins (BJ) takes
 prediction error ``eps = (D/C)(y - c - sum G_j u_j)`` is minimised by
 :func:`scipy.optimize.least_squares` with its analytic Jacobian; the delays
 are searched coordinate-wise on a grid around the model's, each candidate
-refitted from the best parameters so far.  The asymptotic covariance is
+refitted from the best parameters so far, starting from the model or from a
+finite-impulse-response estimate of the row, whichever fits better
+(:mod:`pmr_ros.peers.pem_start`).  The asymptotic covariance is
 ``sigma^2 (J^T J)^-1`` (Ljung 1999, eq. 9.18), conditional on the delays, as
 MATLAB's ``procest``/``tfest`` report it.
 
@@ -24,6 +26,8 @@ from scipy.linalg import solve_toeplitz
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from scipy.special import expit
+
+from .pem_start import fir_start
 
 __all__ = ["RowData", "RowFit", "fit_row"]
 
@@ -221,8 +225,8 @@ def _candidates(model_delay: int, max_shift: int) -> range:
     return range(max(model_delay - max_shift, 0), model_delay + max_shift + 1)
 
 
-def _noise_start(data: RowData, delays: np.ndarray, initial: np.ndarray) -> np.ndarray:
-    """Starting parameters of a Box-Jenkins fit: the output-error fit, ``D`` from the AR fit of its residual.
+def _noise_start(data: RowData, oe: RowFit) -> np.ndarray:
+    """Starting parameters of a Box-Jenkins fit: the output-error fit ``oe``, ``D`` from the AR fit of its residual.
 
     Started from white noise (``C = D = 1``) the joint fit can end in a local
     minimum where ``C`` and ``D`` cancel at the unit circle (measured: Wood-Berry
@@ -232,12 +236,34 @@ def _noise_start(data: RowData, delays: np.ndarray, initial: np.ndarray) -> np.n
     """
     nc, nd = data.noise_orders
     plain = RowData(data.y, data.inputs, data.integrating, data.start)
-    oe = _fit_delays(plain, delays, initial[: initial.size - nc - nd], tol=SEARCH_TOLERANCE)
-    w = data.y - _residual_free_output(oe.theta, plain, delays)
+    w = data.y - _residual_free_output(oe.theta, plain, oe.delays)
     w = w[data.start :] - w[data.start :].mean()
     acf = np.array([w[: w.size - k] @ w[k:] for k in range(nd + 1)]) / w.size
     ar = solve_toeplitz(acf[:nd], acf[1 : nd + 1]) if nd else np.zeros(0)
     return np.concatenate((oe.theta, np.zeros(nc), -ar))
+
+
+def _start(
+    data: RowData, model_delays: np.ndarray, initial: np.ndarray, max_shift: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Delays and packed parameters the search starts from: the model's or the FIR estimate's, whichever fits better.
+
+    Both are compared by their output-error fits (:mod:`pmr_ros.peers.pem_start`
+    says why the model's alone is not enough); a Box-Jenkins fit then starts
+    from the winner with :func:`_noise_start`.
+    """
+    nc, nd = data.noise_orders
+    plain = RowData(data.y, data.inputs, data.integrating, data.start)
+    base = initial[: initial.size - nc - nd]
+    fits = [_fit_delays(plain, model_delays, base, tol=SEARCH_TOLERANCE)]
+    fir = fir_start(
+        data.y, data.inputs, integrating=data.integrating, start=data.start, model_delays=model_delays,
+        model_poles=_unpack(initial, data)[1], max_shift=max_shift,
+    )  # fmt: skip
+    if fir is not None:
+        fits.append(_fit_delays(plain, fir[0], fir[1], tol=SEARCH_TOLERANCE))
+    oe = min(fits, key=lambda fit: fit.cost)
+    return oe.delays, _noise_start(data, oe) if nc + nd else oe.theta
 
 
 def _residual_free_output(theta: np.ndarray, data: RowData, delays: np.ndarray) -> np.ndarray:
@@ -264,9 +290,8 @@ def fit_row(data: RowData, *, model_delays: np.ndarray, initial: np.ndarray, max
     RowFit
         The best fit found, with each column's delay profile from the last sweep.
     """
-    delays = np.asarray(model_delays, dtype=int)
-    if sum(data.noise_orders):
-        initial = _noise_start(data, delays, initial)
+    model_delays = np.asarray(model_delays, dtype=int)
+    delays, initial = _start(data, model_delays, initial, max_shift)
     best = _fit_delays(data, delays, initial)
     profiles: list[dict[int, float]] = [{} for _ in range(data.columns)]
     for _ in range(MAX_SWEEPS):
