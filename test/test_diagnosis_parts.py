@@ -196,6 +196,28 @@ def test_the_search_and_the_joint_fit_recover_the_parameters_exactly_without_noi
     np.testing.assert_allclose(params.s, truth.s, atol=1e-6)
 
 
+def test_a_fit_settled_above_a_cost_stops_after_one_step_and_a_neighbour_settled_so_is_kept():
+    from pmr_ros.core.pmr.parametric.trials import Trials
+
+    columns = [_ratio_column(), ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-3, 3), True), _ratio_column()]
+    truth = RowParameters(np.array([1.15, 0.9, 0.8]), np.array([0.25, 0.0, -0.4]), np.array([2, -1, 0]))
+    system, _, _ = _system(columns, truth, noise=0.05)
+    problem = RowProblem(system, columns)
+    far = truth.with_delay(0, 0)  # two samples off: far worse than the truth
+    one, three = problem.fit(far, iterations=1), problem.fit(far, iterations=3)
+    assert one[1] > three[1]  # the further steps would lower it
+    settled = problem.fit(far, iterations=3, settled_above=0.5 * one[1])
+    assert settled[1] == one[1]
+    np.testing.assert_array_equal(settled[0].lin, one[0].lin)
+    unsettled = problem.fit(far, iterations=3, settled_above=2.0 * one[1])  # below the bound after one step
+    assert unsettled[1] == three[1]
+    trials = Trials(problem, column_grids(columns, system.z_inv))
+    best = trials.full(truth)
+    kept = trials.moved(best, [(0, 0)], settled_above=best[1] + 1.0)
+    assert kept[1] > best[1] + 1.0 and trials.tried[(0, -1, 0)] is kept
+    assert trials.moved(best, [(0, 0)]) is kept  # tried once: the same fit, whatever the bound
+
+
 def test_an_interaction_template_is_placed_by_the_search():
     """The lag's time constant stays where the search put it (grid, interpolated): its gain within 1 %."""
     columns = [_ratio_column(), _lag_column()]

@@ -184,11 +184,15 @@ class RowProblem:
         quad = np.einsum("fk,fk->", theta.conj(), Mt).real
         return float(system.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), system.v).real + quad), Mt
 
-    def fit(self, start: RowParameters, *, iterations: int = MAX_ITERATIONS) -> tuple[RowParameters, float]:
+    def fit(
+        self, start: RowParameters, *, iterations: int = MAX_ITERATIONS, settled_above: float = np.inf
+    ) -> tuple[RowParameters, float]:
         """Fit ``lin`` and ``s`` from ``start`` with its delays held: ``(parameters, cost)``.
 
         ``iterations`` caps the steps (a few from a good start already give
-        the cost to far below one unit of chi-square).
+        the cost to far below one unit of chi-square); a cost still above
+        ``settled_above`` after the first step ends the fit there (a delay
+        neighbour whose outcome is settled: :data:`~.fit.SETTLED`).
         """
         lower, upper = self._bounds()
         x = np.clip(self._pack(start), lower, upper)
@@ -211,6 +215,6 @@ class RowProblem:
             decrease = cost - trial_cost
             x, coefficients, cost, product = trial, trial_coefficients, trial_cost, trial_product
             damping = max(damping / 10.0, 1e-9)
-            if decrease <= COST_TOLERANCE:
+            if decrease <= COST_TOLERANCE or cost > settled_above:
                 break
         return self._unpack(x, start), float(cost)
