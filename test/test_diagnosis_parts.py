@@ -481,3 +481,36 @@ def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_wit
     left = np.abs(row.zy[bins] - offset[bins] - product[bins]).max() / scale
     assert leakage > 1e-3  # what the fit saw before
     assert left < 1e-3 * leakage
+
+
+def test_the_excitation_guard_holds_a_row_of_many_elements_to_a_fair_share():
+    from pmr_ros.core.pmr.identifiable import RowLayout
+    from pmr_ros.core.pmr.parametric.guard import FAIR_SHARE_ELEMENTS, RowQuality
+
+    settings = replace(load_config(None).parametric, excitation_min=0.02)
+
+    def quality(gains, shares):
+        n = len(gains)
+        layout = RowLayout(0, np.arange(n))
+        return RowQuality(
+            layout, np.arange(3), 0.9, 1.0, 1.0, np.array(shares), (), (), np.zeros(n, bool), np.array(gains)
+        )
+
+    small = quality([1.0, 0.5, 0.0, 2.0], [0.6, 0.015, 0.0, 0.385])  # 3 modeled elements: 2 % itself
+    assert small.excitation_least(settings) == (0.02, 3)
+    reasons = small.element_reasons(1, settings, modeled=True, input_name="u2", element_name="G12")
+    assert (
+        len(reasons) == 1
+        and "(1.5 % of the row's instrument-driven output < parametric.excitation_min 2 %)" in reasons[0]
+    )
+    gains = np.ones(16)
+    big = quality(gains, np.full(16, 1 / 16))  # 16 modeled elements: 2 % x 4/16 = 0.5 %
+    least, elements = big.excitation_least(settings)
+    np.testing.assert_allclose(least, 0.02 * FAIR_SHARE_ELEMENTS / 16, rtol=1e-12)
+    assert elements == 16
+    shares = np.full(16, 0.006)
+    shares[3] = 0.004
+    big = quality(gains, shares)
+    assert big.element_reasons(0, settings, modeled=True, input_name="u1", element_name="G11") == ()  # 0.6 % > 0.5 %
+    (reason,) = big.element_reasons(3, settings, modeled=True, input_name="u4", element_name="G14")
+    assert "0.4 %" in reason and "x 4/16 elements" in reason and "move u4 more" in reason
