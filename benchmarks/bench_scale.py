@@ -8,10 +8,15 @@ the plant with the model's mismatch) runs 16,384 samples, then the record is dia
 by the classic method alone and by the parametric one (which keeps the classic numbers
 beside its own: that is the whole diagnosis).  Printed per size: closed-loop steps/s,
 both diagnosis times, and how many modeled elements come out within the specification
-(dK 3 pp, dtau 5 pp, dD exact) and how many elements are inconclusive.
+(dK 3 pp, dtau 5 pp, dD exact) and how many elements are inconclusive; on a second line the CPU
+times, the peak memory of the process so far, how many modelled elements are decided (ok or
+mismatch) and the estimates' errors against the injected mismatch (median and largest).  Big
+units need more samples than the default: ``--sizes 32,48 --shapes square --samples 65536``
+(a 48x48 half-empty unit needs 49,797 unbroken samples; its closed loop takes about 20 min of
+CPU); ``--cache DIR`` keeps each record and reuses it (with the times of the run that made it).
 
 Run: .venv/bin/python benchmarks/bench_scale.py [--sizes 2,4,8,16,32] [--samples 16384] [--shapes square,wide]
-[--empty 0.5]
+[--empty 0.5] [--cache DIR]
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import resource
 import tempfile
 import time
 from dataclasses import dataclass
@@ -29,6 +35,7 @@ import yaml
 
 from pmr_ros.config import PmrConfig, load_config
 from pmr_ros.core.pmr.diagnosis import diagnose
+from pmr_ros.core.records import Record
 from pmr_ros.core.results import Diagnosis
 from pmr_ros.core.sim.closed_loop import simulate
 
@@ -88,6 +95,10 @@ class Row:
     parametric_s: float
     within: int
     inconclusive: int
+    simulation_cpu_s: float = float("nan")
+    parametric_cpu_s: float = float("nan")
+    peak_mb: float = float("nan")
+    errors: dict | None = None
 
 
 def within_specification(config: PmrConfig, diagnosis: Diagnosis) -> tuple[int, int]:
@@ -105,14 +116,60 @@ def within_specification(config: PmrConfig, diagnosis: Diagnosis) -> tuple[int, 
     return good, sum(e.verdict == "inconclusive" for e in diagnosis)
 
 
-def measure(config: PmrConfig, samples: int) -> Row:
-    """Simulate, diagnose with each method, time both and check the numbers against the injected mismatch."""
-    start = time.perf_counter()
+def estimate_errors(config: PmrConfig, diagnosis: Diagnosis) -> dict:
+    """Of the modelled elements: how many are decided, and their estimates' errors against the injected mismatch.
+
+    ``decided``: verdict ok or mismatch; ``gain_pp``/``tau_pp``: (median, largest) absolute error [pp] of the
+    elements with an estimate; ``delay_exact``: share of them whose delay change is the injected one.
+    """
+    mm = config.mismatch.for_scenario("full")
+    decided, gain, tau, delay = 0, [], [], []
+    for e in diagnosis:
+        p = e.parametric
+        if e.model.kind == "none" or p is None:
+            continue
+        decided += int(e.verdict in ("ok", "mismatch"))
+        if p.gain_mismatch_pct is None:
+            continue
+        i, k = e.row, e.column
+        gain.append(abs(p.gain_mismatch_pct - mm.gain_pct[i, k]))
+        if p.tau_mismatch_pct is not None:
+            tau.append(abs(p.tau_mismatch_pct - mm.time_constant_pct[i, k]))
+        delay.append(p.delay_mismatch_samples == mm.delay_samples[i, k])
+
+    def spread(values: list) -> tuple[float, float]:
+        return (float(np.median(values)), float(np.max(values))) if values else (float("nan"), float("nan"))
+
+    share = float(np.mean(delay)) if delay else float("nan")
+    return {"decided": decided, "gain_pp": spread(gain), "tau_pp": spread(tau), "delay_exact": share}
+
+
+def closed_loop(config: PmrConfig, samples: int, cache: Path | None = None) -> tuple[Record, float, float]:
+    """The closed-loop record, its simulation's wall and CPU time [s]; kept in (read from) ``cache`` if given.
+
+    A record read from the cache reports the times of the run that made it.
+    """
+    path = None if cache is None else cache / f"{config.model.name}_{int(config.model.present.sum())}el_{samples}.npz"
+    if path is not None and path.exists():
+        held = np.load(path)
+        dither = held["dither"] if "dither" in held else None
+        record = Record(held["r"], held["u"], held["y"], dither)
+        return record, float(held["simulation_wall_s"]), float(held["simulation_cpu_s"])
+    start, cpu = time.perf_counter(), time.process_time()
     record = simulate(config, samples=samples)
-    rate = samples / (time.perf_counter() - start)
-    times = {}
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    if path is not None:
+        extra = {} if record.dither is None else {"dither": record.dither}
+        np.savez(path, r=record.r, u=record.u, y=record.y, simulation_wall_s=wall, simulation_cpu_s=cpu, **extra)
+    return record, wall, cpu
+
+
+def measure(config: PmrConfig, samples: int, cache: Path | None = None) -> Row:
+    """Simulate, diagnose with each method, time both and check the numbers against the injected mismatch."""
+    record, simulation_s, simulation_cpu = closed_loop(config, samples, cache)
+    times, cpu = {}, 0.0
     for method in ("classic", "parametric"):
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         diagnosis = diagnose(
             record.r,
             record.u,
@@ -123,17 +180,33 @@ def measure(config: PmrConfig, samples: int) -> Row:
             method=method,
             dither=record.dither,
         )
-        times[method] = time.perf_counter() - start
+        times[method], cpu = time.perf_counter() - start, time.process_time() - cpu
     within, inconclusive = within_specification(config, diagnosis)
     m = config.model
     return Row(
         f"{m.n_outputs}x{m.n_inputs}",
         int(m.present.sum()),
-        rate,
+        samples / simulation_s,
         times["classic"],
         times["parametric"],
         within,
         inconclusive,
+        simulation_cpu_s=simulation_cpu,
+        parametric_cpu_s=cpu,
+        peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        errors=estimate_errors(config, diagnosis),
+    )
+
+
+def details(row: Row) -> str:
+    """The second line of a size: CPU times, peak memory, decided elements and the estimates' errors."""
+    e = row.errors or {}
+    gain, tau = e.get("gain_pp", (np.nan, np.nan)), e.get("tau_pp", (np.nan, np.nan))
+    return (
+        f"{'':>7s} CPU: closed loop {row.simulation_cpu_s:.0f} s, parametric {row.parametric_cpu_s:.1f} s; "
+        f"peak memory {row.peak_mb:.0f} MB; decided {e.get('decided', 0)}/{row.present}; |error| median/max: "
+        f"dK {gain[0]:.2f}/{gain[1]:.1f} pp, dtau {tau[0]:.2f}/{tau[1]:.1f} pp; "
+        f"dD exact {100 * e.get('delay_exact', np.nan):.0f} %"
     )
 
 
@@ -150,6 +223,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=16384)
     parser.add_argument("--shapes", default="square,wide", help="square: n x n; wide: n/2 x n")
     parser.add_argument("--empty", type=float, default=0.5, help="fraction of the cells that are empty")
+    parser.add_argument("--cache", type=Path, default=None, help="keep (and reuse) each closed-loop record here")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     print(
@@ -167,13 +241,14 @@ def main() -> None:
             for n_in in sizes:
                 n_out = n_in if shape == "square" else max(1, n_in // 2)
                 config = load(industrial_system(n_out, n_in, empty=args.empty), Path(folder))
-                row = measure(config, args.samples)
+                row = measure(config, args.samples, args.cache)
                 rows.append(row)
                 print(
                     f"{row.shape:>7s} {row.present:8d} {row.steps_per_s:12,.0f} {row.classic_s:9.2f} "
                     f"{row.parametric_s:12.2f} {row.within:>6d}/{row.present:<4d} {row.inconclusive:12d}",
                     flush=True,
                 )
+                print(details(row), flush=True)
             if len(rows) > 2:
                 print(
                     f"  {shape}: parametric time ~ elements^{growth(rows, 'parametric_s'):.2f}, "

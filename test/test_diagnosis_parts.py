@@ -196,6 +196,28 @@ def test_the_search_and_the_joint_fit_recover_the_parameters_exactly_without_noi
     np.testing.assert_allclose(params.s, truth.s, atol=1e-6)
 
 
+def test_a_fit_settled_above_a_cost_stops_after_one_step_and_a_neighbour_settled_so_is_kept():
+    from pmr_ros.core.pmr.parametric.trials import Trials
+
+    columns = [_ratio_column(), ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-3, 3), True), _ratio_column()]
+    truth = RowParameters(np.array([1.15, 0.9, 0.8]), np.array([0.25, 0.0, -0.4]), np.array([2, -1, 0]))
+    system, _, _ = _system(columns, truth, noise=0.05)
+    problem = RowProblem(system, columns)
+    far = truth.with_delay(0, 0)  # two samples off: far worse than the truth
+    one, three = problem.fit(far, iterations=1), problem.fit(far, iterations=3)
+    assert one[1] > three[1]  # the further steps would lower it
+    settled = problem.fit(far, iterations=3, settled_above=0.5 * one[1])
+    assert settled[1] == one[1]
+    np.testing.assert_array_equal(settled[0].lin, one[0].lin)
+    unsettled = problem.fit(far, iterations=3, settled_above=2.0 * one[1])  # below the bound after one step
+    assert unsettled[1] == three[1]
+    trials = Trials(problem, column_grids(columns, system.z_inv))
+    best = trials.full(truth)
+    kept = trials.moved(best, [(0, 0)], settled_above=best[1] + 1.0)
+    assert kept[1] > best[1] + 1.0 and trials.tried[(0, -1, 0)] is kept
+    assert trials.moved(best, [(0, 0)]) is kept  # tried once: the same fit, whatever the bound
+
+
 def test_an_interaction_template_is_placed_by_the_search():
     """The lag's time constant stays where the search put it (grid, interpolated): its gain within 1 %."""
     columns = [_ratio_column(), _lag_column()]
@@ -459,3 +481,36 @@ def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_wit
     left = np.abs(row.zy[bins] - offset[bins] - product[bins]).max() / scale
     assert leakage > 1e-3  # what the fit saw before
     assert left < 1e-3 * leakage
+
+
+def test_the_excitation_guard_holds_a_row_of_many_elements_to_a_fair_share():
+    from pmr_ros.core.pmr.identifiable import RowLayout
+    from pmr_ros.core.pmr.parametric.guard import FAIR_SHARE_ELEMENTS, RowQuality
+
+    settings = replace(load_config(None).parametric, excitation_min=0.02)
+
+    def quality(gains, shares):
+        n = len(gains)
+        layout = RowLayout(0, np.arange(n))
+        return RowQuality(
+            layout, np.arange(3), 0.9, 1.0, 1.0, np.array(shares), (), (), np.zeros(n, bool), np.array(gains)
+        )
+
+    small = quality([1.0, 0.5, 0.0, 2.0], [0.6, 0.015, 0.0, 0.385])  # 3 modeled elements: 2 % itself
+    assert small.excitation_least(settings) == (0.02, 3)
+    reasons = small.element_reasons(1, settings, modeled=True, input_name="u2", element_name="G12")
+    assert (
+        len(reasons) == 1
+        and "(1.5 % of the row's instrument-driven output < parametric.excitation_min 2 %)" in reasons[0]
+    )
+    gains = np.ones(16)
+    big = quality(gains, np.full(16, 1 / 16))  # 16 modeled elements: 2 % x 4/16 = 0.5 %
+    least, elements = big.excitation_least(settings)
+    np.testing.assert_allclose(least, 0.02 * FAIR_SHARE_ELEMENTS / 16, rtol=1e-12)
+    assert elements == 16
+    shares = np.full(16, 0.006)
+    shares[3] = 0.004
+    big = quality(gains, shares)
+    assert big.element_reasons(0, settings, modeled=True, input_name="u1", element_name="G11") == ()  # 0.6 % > 0.5 %
+    (reason,) = big.element_reasons(3, settings, modeled=True, input_name="u4", element_name="G14")
+    assert "0.4 %" in reason and "x 4/16 elements" in reason and "move u4 more" in reason

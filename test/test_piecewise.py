@@ -87,6 +87,29 @@ def test_piecewise_spectra_equal_the_record_spectra(job):
         np.testing.assert_array_equal(pieced.instrument_cross(i, doubled), alone.instrument_cross(i, doubled))
 
 
+def test_a_window_solves_each_row_once_for_its_fit_and_its_data_quality(job):
+    from pmr_ros.core.pmr.implicit import implicit_row, instrument_factor, row_estimate, row_layout, spectra_factor
+
+    stretches = window_stretches(job, 0, 3 * DAY - 1)
+    model, welch = job.config.model, WelchSettings(segment_length=256)
+    alone = RecordSpectra(stretches, model, welch)
+    factor = instrument_factor(alone.rr)
+    np.testing.assert_array_equal(spectra_factor(alone), factor)
+    with PieceCache(model).window(stretches, stretch_spans(job, 0, 3 * DAY - 1)):
+        pieced = record_spectra(stretches, model, welch)
+        assert spectra_factor(pieced) is spectra_factor(pieced)  # kept for the window
+        for i in range(model.n_outputs):
+            columns = row_layout(model, i, **alone.layout_inputs).columns
+            reference = implicit_row(alone.row(i), alone.rr, factor, columns)
+            kept = row_estimate(pieced, i, columns)
+            assert row_estimate(pieced, i, columns, row=pieced.row(i)) is kept  # the second asker gets the first's
+            for name in ("ratio", "coherence", "condition", "power", "explained"):
+                np.testing.assert_array_equal(getattr(kept, name), getattr(reference, name), err_msg=name)
+                np.testing.assert_array_equal(getattr(row_estimate(alone, i, columns), name), getattr(reference, name))
+            fewer = row_estimate(pieced, i, columns[:1])  # other regressors: solved on their own
+            np.testing.assert_array_equal(fewer.ratio, implicit_row(alone.row(i), alone.rr, factor, columns[:1]).ratio)
+
+
 def test_a_filtering_transform_of_stretches_of_several_lengths_is_the_same(job):
     # stretches of one length are filtered in one call (stacked on axis 1); a short stretch in its own group
     from dataclasses import replace

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..records import Record
 from ..sim.model import TransferMatrix
-from .implicit import implicit_row, instrument_factor, row_layout
+from .implicit import row_estimate, row_layout
 from .spectra import RowSpectra, WelchSettings, record_spectra
 
 __all__ = [
@@ -176,7 +176,6 @@ def residual_spectra(
         [output unit^2 per rad/sample]; NaN for a row without regressors.
     """
     spectra = record_spectra(stretches, model, welch)
-    factor = instrument_factor(spectra.rr)
     omega = spectra.omega
     out = np.full((omega.size, model.n_outputs), np.nan)
     for i in range(model.n_outputs):
@@ -184,7 +183,7 @@ def residual_spectra(
         if layout.columns.size == 0:
             continue
         row = spectra.row(i)
-        estimate = implicit_row(row, spectra.rr, factor, layout.columns)
+        estimate = row_estimate(spectra, i, layout.columns, row=row)
         out[:, i] = _residual(row, layout.columns, estimate.ratio)
         if row.differenced:
             with np.errstate(divide="ignore", invalid="ignore"):

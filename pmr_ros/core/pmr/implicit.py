@@ -20,8 +20,9 @@ row's data can carry.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +43,9 @@ __all__ = [
     "implicit_row",
     "input_label",
     "instrument_factor",
+    "row_estimate",
     "row_layout",
+    "spectra_factor",
 ]
 
 RIDGE = 1e-12
@@ -141,6 +144,31 @@ def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: n
     power = np.sum(np.abs(design) ** 2, axis=1)
     ratio = _least_squares(design, target)
     return RowEstimate(ratio, coherence, _condition(row.zx[:, :, columns], rr), power, explained)
+
+
+def _held(spectra: RecordSpectra, key: tuple, compute: Callable[[], Any]) -> Any:
+    """``compute()``, kept by spectra that keep what their users share (a window's PiecewiseSpectra)."""
+    held = getattr(spectra, "held", None)
+    return compute() if held is None else held(key, compute)
+
+
+def spectra_factor(spectra: RecordSpectra) -> np.ndarray:
+    """:func:`instrument_factor` of ``spectra.rr``, computed once per window where the spectra keep it."""
+    return _held(spectra, ("factor",), lambda: instrument_factor(spectra.rr))
+
+
+def row_estimate(spectra: RecordSpectra, i: int, columns: np.ndarray, *, row: RowSpectra | None = None) -> RowEstimate:
+    """:func:`implicit_row` of row ``i`` of ``spectra`` with regressors ``columns``.
+
+    ``row`` is ``spectra.row(i)`` when the caller holds it already.  Spectra that keep their rows (a window's
+    :class:`~.piecewise.PiecewiseSpectra`) keep this too: the parametric fit and the data-quality figures
+    solve the same row with the same regressors, to the same numbers.
+    """
+
+    def compute() -> RowEstimate:
+        return implicit_row(spectra.row(i) if row is None else row, spectra.rr, spectra_factor(spectra), columns)
+
+    return _held(spectra, ("implicit", i, np.asarray(columns).tobytes()), compute)
 
 
 @dataclass(frozen=True)

@@ -133,6 +133,7 @@ class PiecewiseSpectra(RecordSpectra):
         model = cache.model
         self.model, self.settings, self._cache = model, welch, cache
         self._rows: dict[int, RowSpectra] = {}
+        self._kept: dict[tuple[Any, ...], Any] = {}
         self.moving = moving_instruments(stretches)
         self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
@@ -147,6 +148,12 @@ class PiecewiseSpectra(RecordSpectra):
         self.omega = self._z.omega
         self.segments = self._z.segments
         self.rr = self._z.cross(slice(None), slice(None))
+
+    def held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+        """``compute()`` once per window and ``key`` (:func:`~.implicit.row_estimate`: the same numbers)."""
+        if key not in self._kept:
+            self._kept[key] = compute()
+        return self._kept[key]
 
     def row(self, i: int) -> RowSpectra:
         """:meth:`RecordSpectra.row`, computed once per row (the window's fit and data quality both read it)."""

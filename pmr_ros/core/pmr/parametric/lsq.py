@@ -169,38 +169,52 @@ class RowProblem:
             M = self.system.M[:, owner][:, :, owner]
         return np.einsum("fp,fpq,fq->pq", derivatives.conj(), M, derivatives).real
 
-    def _gradient(self, coefficients: Coefficients) -> np.ndarray:
+    def _gradient(self, coefficients: Coefficients, product: np.ndarray | None = None) -> np.ndarray:
+        """The cost's gradient in the packed parameters; ``product`` is ``M theta`` when already computed."""
         derivatives, owner = self.jacobian(coefficients)
-        misfit = np.einsum("fkm,fm->fk", self.system.M, coefficients.theta) - self.system.v
+        if product is None:
+            product = np.einsum("fkm,fm->fk", self.system.M, coefficients.theta)
+        misfit = product - self.system.v
         return 2.0 * np.einsum("fp,fp->p", derivatives.conj(), misfit[:, owner]).real
 
-    def fit(self, start: RowParameters, *, iterations: int = MAX_ITERATIONS) -> tuple[RowParameters, float]:
+    def _cost(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
+        """:meth:`RowSystem.cost` of ``theta`` and the product ``M theta`` it computes (the gradient's, too)."""
+        system = self.system
+        Mt = np.einsum("fkm,fm->fk", system.M, theta)
+        quad = np.einsum("fk,fk->", theta.conj(), Mt).real
+        return float(system.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), system.v).real + quad), Mt
+
+    def fit(
+        self, start: RowParameters, *, iterations: int = MAX_ITERATIONS, settled_above: float = np.inf
+    ) -> tuple[RowParameters, float]:
         """Fit ``lin`` and ``s`` from ``start`` with its delays held: ``(parameters, cost)``.
 
         ``iterations`` caps the steps (a few from a good start already give
-        the cost to far below one unit of chi-square).
+        the cost to far below one unit of chi-square); a cost still above
+        ``settled_above`` after the first step ends the fit there (a delay
+        neighbour whose outcome is settled: :data:`~.fit.SETTLED`).
         """
         lower, upper = self._bounds()
         x = np.clip(self._pack(start), lower, upper)
         coefficients = self.coefficients(self._unpack(x, start))
-        cost = self.system.cost(coefficients.theta)
+        cost, product = self._cost(coefficients.theta)
         damping = 1e-3
         for _ in range(iterations):
             H = self.information(coefficients)
-            g = self._gradient(coefficients)
+            g = self._gradient(coefficients, product)
             diagonal = np.maximum(np.diag(H), 1e-12 * max(1.0, float(np.abs(np.diag(H)).max())))
             while damping < 1e12:
                 trial = np.clip(x + np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g), lower, upper)
                 trial_coefficients = self.coefficients(self._unpack(trial, start))
-                trial_cost = self.system.cost(trial_coefficients.theta)
+                trial_cost, trial_product = self._cost(trial_coefficients.theta)
                 if trial_cost <= cost:
                     break
                 damping *= 10.0
             else:
                 break
             decrease = cost - trial_cost
-            x, coefficients, cost = trial, trial_coefficients, trial_cost
+            x, coefficients, cost, product = trial, trial_coefficients, trial_cost, trial_product
             damping = max(damping / 10.0, 1e-9)
-            if decrease <= COST_TOLERANCE:
+            if decrease <= COST_TOLERANCE or cost > settled_above:
                 break
         return self._unpack(x, start), float(cost)

@@ -24,9 +24,9 @@ from ..implicit import (
     PmrEstimate,
     RowEstimate,
     RowLayout,
-    implicit_row,
-    instrument_factor,
+    row_estimate,
     row_layout,
+    spectra_factor,
 )
 from ..spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 from .attribution import instrument_shares, with_attribution
@@ -85,7 +85,7 @@ def _fit(
 ) -> _FittedRow:
     """Row ``i``'s layout, implicit estimate (from its spectra ``row``), guard and, when the guard passes it, fit."""
     layout = row_layout(model, i, **spectra.layout_inputs)
-    estimate = implicit_row(row, spectra.rr, factor, layout.columns)
+    estimate = row_estimate(spectra, i, layout.columns, row=row)
     quality = row_quality(layout, estimate, omega=spectra.omega, model=model, classic=classic, settings=settings)
     shares = instrument_shares(row.zx[:, :, layout.columns], spectra.rr, quality.bins)
     if quality.reasons:
@@ -191,7 +191,7 @@ def _results(
     welch = settings.welch(model, max(s.samples for s in stretches), classic)
     _check_segments(welch, stretches, model)
     spectra = record_spectra(stretches, model, welch)
-    factor = instrument_factor(spectra.rr)
+    factor = spectra_factor(spectra)
     shared = EstimateBuilder(spectra) if welch == classic.welch else None
     names = model.element_names()
     out: dict[str, ParametricResult] = {}
@@ -199,7 +199,7 @@ def _results(
         row_spectra = spectra.row(i)
         if shared is not None:
             layout = row_layout(model, i, **spectra.layout_inputs, test_empty=False)
-            shared.add(layout, implicit_row(row_spectra, spectra.rr, factor, layout.columns))
+            shared.add(layout, row_estimate(spectra, i, layout.columns, row=row_spectra))
         row = _fit(i, row_spectra, spectra=spectra, factor=factor, model=model, classic=classic, settings=settings)
         kinds = [str(kind) for kind in model.element_type[i]]
         results = [_element(row, k, kind, spectra=spectra, settings=settings) for k, kind in enumerate(kinds)]

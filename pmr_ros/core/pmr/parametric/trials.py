@@ -106,14 +106,20 @@ class Trials:
             start = move_delay(self.problem.system, self.grids[k], start, theta=theta, k=k, delay=delay)
         return start
 
-    def moved(self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]]) -> tuple[RowParameters, float]:
-        """The joint fit with each ``(column, delay)`` of ``moves`` applied: a few steps from :meth:`start`."""
+    def moved(
+        self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]], *, settled_above: float = math.inf
+    ) -> tuple[RowParameters, float]:
+        """The joint fit with each ``(column, delay)`` of ``moves`` applied: a few steps from :meth:`start`.
+
+        A cost still above ``settled_above`` after the first step ends that fit (:meth:`.RowProblem.fit`).
+        """
         params = fit[0]
         for k, delay in moves:
             params = params.with_delay(k, delay)
         key = _key(params.delays)
         if key not in self.tried:
-            self.tried[key] = self.problem.fit(self.start(fit, moves), iterations=NEIGHBOUR_ITERATIONS)
+            start = self.start(fit, moves)
+            self.tried[key] = self.problem.fit(start, iterations=NEIGHBOUR_ITERATIONS, settled_above=settled_above)
         return self.tried[key]
 
     def best(self) -> tuple[RowParameters, float]:
