@@ -42,6 +42,7 @@ class QpSolver:
         self.hessian, self.constraints, self.statistics = hessian, constraints, statistics
         self.qp = DenseQp(hessian, constraints)
         self._fallback: osqp.OSQP | None = None  # set up on first need
+        self._active: tuple[int, ...] = ()  # the last solve's active set: MPC steps in a row share most of it
 
     def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
         """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
@@ -64,7 +65,8 @@ class QpSolver:
     def solve(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
         """The minimizer, or None when both solvers fail; counts the solve (and its time when kept)."""
         t0 = time.perf_counter()
-        solution = self.qp.solve(q, lower=lower, upper=upper)
+        solution = self.qp.solve(q, lower=lower, upper=upper, guess=self._active)
+        self._active = solution.active if solution.solved else ()  # the next step's first guess
         x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         stats = self.statistics
         stats.solves += 1
