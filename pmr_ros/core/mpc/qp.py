@@ -50,6 +50,14 @@ class QpSolution:
     solved: bool
 
 
+def _upper_inverse(triangle: np.ndarray) -> np.ndarray:
+    """The inverse of an upper triangular matrix (LAPACK ``trtri``: a twentieth of ``solve_triangular``'s overhead)."""
+    inverse, info = scipy.linalg.lapack.dtrtri(triangle, lower=0)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular active-set factor (trtri info {info})")
+    return np.asarray(inverse)
+
+
 class _ActiveSet:
     """The active constraints, their multipliers and the factorisation ``J' N = [R; 0]`` (with ``R^-1``)."""
 
@@ -72,7 +80,7 @@ class _ActiveSet:
             return None
         active.J = j0 @ orthogonal
         active.R[:k, :k] = triangle[:k]
-        active.R_inverse[:k, :k] = scipy.linalg.solve_triangular(triangle[:k], np.eye(k), check_finite=False)
+        active.R_inverse[:k, :k] = _upper_inverse(triangle[:k])
         active.signed = list(signed)
         return active
 
@@ -120,9 +128,7 @@ class _ActiveSet:
         del self.signed[index]
         self.R_inverse[:] = 0.0
         if q > 1:
-            self.R_inverse[: q - 1, : q - 1] = scipy.linalg.solve_triangular(
-                triangle[: q - 1], np.eye(q - 1), check_finite=False
-            )
+            self.R_inverse[: q - 1, : q - 1] = _upper_inverse(triangle[: q - 1])
 
     def copy(self) -> _ActiveSet:
         """An independent copy (the factorisation depends on the active normals only, not on q or the bounds)."""
