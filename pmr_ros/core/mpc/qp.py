@@ -74,6 +74,8 @@ class _ActiveSet:
         """The factorisation with active set ``signed`` (``normals`` its columns); None if they are dependent."""
         active = cls(j0)
         k = len(signed)
+        if not 0 < k <= j0.shape[0]:
+            return None  # more constraints than variables are dependent
         orthogonal, triangle = np.linalg.qr(j0.T @ normals, mode="complete")
         diagonal = np.abs(np.diag(triangle))
         if not diagonal.min() > 1e-10 * diagonal.max():
@@ -204,11 +206,11 @@ class DenseQp:
             signed = np.asarray(active.signed)
             rows, at_lower = np.abs(signed) - 1, signed > 0
             bound = np.where(at_lower, lower[rows], -upper[rows])
+            if not np.all(np.isfinite(bound)):
+                return None  # a guessed bound that is gone
             r_inverse = active.R_inverse[:k, :k]
             slack = bound - np.where(at_lower, 1.0, -1.0) * (self._A[rows] @ x0)
             multipliers = r_inverse @ (r_inverse.T @ slack)
-            if not np.all(np.isfinite(multipliers)):
-                return None
             worst = int(np.argmin(multipliers))
             if multipliers[worst] >= 0.0:
                 active.u[:] = multipliers
