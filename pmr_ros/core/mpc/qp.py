@@ -7,6 +7,10 @@ bounds.  The method starts from the unconstrained minimum ``-H^-1 q`` and adds
 the most violated constraint, one at a time, keeping the dual feasible, so it
 ends at the exact optimum (to rounding) after about as many iterations as
 there are active constraints -- few in an MPC step, however many variables.
+Given a guess of the active set (the previous MPC step's), it starts instead
+from the minimizer on the guessed constraints, those with negative multipliers
+dropped -- dual feasible, so the method applies unchanged and ends at the same
+unique minimizer in the few iterations the active set changed by.
 The MPC's QP always has the feasible point ``dU = 0`` (the previous input is
 within its limits), so a failure can only be numerical; :meth:`solve` then
 says so and the caller falls back.

@@ -1,7 +1,8 @@
 """One MPC QP with fixed Hessian and constraint matrix, solved exactly, OSQP standing by, the input held last.
 
 The dual active-set method (:class:`~pmr_ros.core.mpc.qp.DenseQp`) solves it
-exactly; should it break down, OSQP (set up on first need, warm-started after);
+exactly, warm-started from the last solve's active set; should it break down,
+OSQP (set up on first need, warm-started after);
 should that fail too, the caller holds the input (a zero move), the safe
 fallback of industrial MPC.  :class:`~pmr_ros.core.mpc.spec.MpcStatistics`
 counts the solves, fallbacks and failures.
