@@ -216,6 +216,8 @@ class DenseQp:
             slack = bound - np.where(at_lower, 1.0, -1.0) * (self._A[rows] @ x0)
             multipliers = r_inverse @ (r_inverse.T @ slack)
             worst = int(np.argmin(multipliers))
+            if not multipliers.max() >= 0.0:
+                return None  # nothing of the guess stays: the cold start is as near
             if multipliers[worst] >= 0.0:
                 active.u[:] = multipliers
                 return x0 + active.J[:, :k] @ (active.R[:k, :k] @ multipliers), active

@@ -44,6 +44,7 @@ class QpSolver:
         self.qp = DenseQp(hessian, constraints)
         self._fallback: osqp.OSQP | None = None  # set up on first need
         self._active: tuple[int, ...] = ()  # the last solve's active set: MPC steps in a row share most of it
+        self._solved_at = -1  # statistics.steps at the last solve
 
     def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
         """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
@@ -66,10 +67,12 @@ class QpSolver:
     def solve(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
         """The minimizer, or None when both solvers fail; counts the solve (and its time when kept)."""
         t0 = time.perf_counter()
-        solution = self.qp.solve(q, lower=lower, upper=upper, guess=self._active)
-        self._active = solution.active if solution.solved else ()  # the next step's first guess
-        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         stats = self.statistics
+        # the last solve's active set is a guess only when it was the previous step's (not one before shortcuts)
+        guess = self._active if self._solved_at >= stats.steps - 1 else ()
+        solution = self.qp.solve(q, lower=lower, upper=upper, guess=guess)
+        self._active, self._solved_at = (solution.active if solution.solved else ()), stats.steps
+        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         stats.solves += 1
         if stats.solve_time_s is not None:
             stats.solve_time_s.append(time.perf_counter() - t0)
