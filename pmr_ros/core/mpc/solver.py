@@ -19,7 +19,10 @@ import scipy.sparse as sp
 from .qp import DenseQp
 from .spec import MpcStatistics
 
-__all__ = ["QpSolver"]
+__all__ = ["WARM_START_MIN_ACTIVE", "QpSolver"]
+
+WARM_START_MIN_ACTIVE = 4
+"""The fewest active constraints of the previous step from which the next solve starts (smaller sets: cold)."""
 
 
 class QpSolver:
@@ -68,8 +71,10 @@ class QpSolver:
         """The minimizer, or None when both solvers fail; counts the solve (and its time when kept)."""
         t0 = time.perf_counter()
         stats = self.statistics
-        # the last solve's active set is a guess only when it was the previous step's (not one before shortcuts)
-        guess = self._active if self._solved_at >= stats.steps - 1 else ()
+        # the last solve's active set is a guess when it was the previous step's (not one before shortcuts) and
+        # large enough for a warm start to pay: a few constraints the cold start adds as fast as it checks them
+        recent = self._solved_at >= stats.steps - 1 and len(self._active) >= WARM_START_MIN_ACTIVE
+        guess = self._active if recent else ()
         solution = self.qp.solve(q, lower=lower, upper=upper, guess=guess)
         self._active, self._solved_at = (solution.active if solution.solved else ()), stats.steps
         x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
