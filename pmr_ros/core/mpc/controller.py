@@ -145,6 +145,8 @@ class LinearMpc(GivenInputs, ModelSwitch):
         self._du = _vector(tuning.du_max, n_in)
         self._u_min, self._u_max = _vector(tuning.u_min, n_in), _vector(tuning.u_max, n_in)
         constraints = np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
+        du = np.tile(self._du, Nc)
+        self._bounds = np.concatenate([np.tile(self._u_min, Nc), -du]), np.concatenate([np.tile(self._u_max, Nc), du])
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
         self._solver = QpSolver(qp.hessian, constraints, self.statistics)
         self._zones: ZoneQp | None = None
@@ -358,12 +360,10 @@ class LinearMpc(GivenInputs, ModelSwitch):
 
     def move_bounds(self, u_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the QP's constraints ``[L dU; dU]`` after input ``u_prev`` [input unit]."""
-        Nc = self.tuning.control_horizon
-        u_rep, du = np.tile(u_prev, Nc), np.tile(self._du, Nc)
-        return (
-            np.concatenate([np.tile(self._u_min, Nc) - u_rep, -du]),
-            np.concatenate([np.tile(self._u_max, Nc) - u_rep, du]),
-        )
+        lower, upper = self._bounds  # fixed parts, tiled once; the magnitude rows move with u_prev
+        n = lower.size // 2
+        u_rep = np.tile(u_prev, self.tuning.control_horizon)
+        return np.concatenate([lower[:n] - u_rep, lower[n:]]), np.concatenate([upper[:n] - u_rep, upper[n:]])
 
     def apply_move(
         self, u_prev: np.ndarray, move: np.ndarray, dither: np.ndarray | None

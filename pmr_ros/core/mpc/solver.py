@@ -1,7 +1,8 @@
 """One MPC QP with fixed Hessian and constraint matrix, solved exactly, OSQP standing by, the input held last.
 
 The dual active-set method (:class:`~pmr_ros.core.mpc.qp.DenseQp`) solves it
-exactly; should it break down, OSQP (set up on first need, warm-started after);
+exactly, warm-started from the last solve's active set; should it break down,
+OSQP (set up on first need, warm-started after);
 should that fail too, the caller holds the input (a zero move), the safe
 fallback of industrial MPC.  :class:`~pmr_ros.core.mpc.spec.MpcStatistics`
 counts the solves, fallbacks and failures.
@@ -18,7 +19,10 @@ import scipy.sparse as sp
 from .qp import DenseQp
 from .spec import MpcStatistics
 
-__all__ = ["QpSolver"]
+__all__ = ["WARM_START_MIN_ACTIVE", "QpSolver"]
+
+WARM_START_MIN_ACTIVE = 4
+"""The fewest active constraints of the previous step from which the next solve starts (smaller sets: cold)."""
 
 
 class QpSolver:
@@ -42,6 +46,8 @@ class QpSolver:
         self.hessian, self.constraints, self.statistics = hessian, constraints, statistics
         self.qp = DenseQp(hessian, constraints)
         self._fallback: osqp.OSQP | None = None  # set up on first need
+        self._active: tuple[int, ...] = ()  # the last solve's active set: MPC steps in a row share most of it
+        self._solved_at = -1  # statistics.steps at the last solve
 
     def _setup_fallback(self, lower: np.ndarray, upper: np.ndarray) -> osqp.OSQP:
         """OSQP with the fixed Hessian and constraint matrix: the fallback should the active-set solver fail."""
@@ -64,9 +70,14 @@ class QpSolver:
     def solve(self, q: np.ndarray, *, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
         """The minimizer, or None when both solvers fail; counts the solve (and its time when kept)."""
         t0 = time.perf_counter()
-        solution = self.qp.solve(q, lower=lower, upper=upper)
-        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         stats = self.statistics
+        # the last solve's active set is a guess when it was the previous step's (not one before shortcuts) and
+        # large enough for a warm start to pay: a few constraints the cold start adds as fast as it checks them
+        recent = self._solved_at >= stats.steps - 1 and len(self._active) >= WARM_START_MIN_ACTIVE
+        guess = self._active if recent else ()
+        solution = self.qp.solve(q, lower=lower, upper=upper, guess=guess)
+        self._active, self._solved_at = (solution.active if solution.solved else ()), stats.steps
+        x = solution.x if solution.solved else self._solve_fallback(q, lower, upper)
         stats.solves += 1
         if stats.solve_time_s is not None:
             stats.solve_time_s.append(time.perf_counter() - t0)
