@@ -2,27 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+from benchmark_scripts import load_benchmark
 from numpy.testing import assert_allclose
 
 from pmr_ros.core.records import Record
 
-
-def _bench():
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_routine.py"
-    spec = importlib.util.spec_from_file_location("bench_routine", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _bench()
+bench = load_benchmark("bench_routine")
 
 
 def _element(verdict, gain_pct=0.0):

@@ -6,13 +6,11 @@ A reduced ``benchmarks/bench_disturbance.py`` (fewer seeds, shorter runs) with b
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmark_scripts import load_benchmark
 from binomial import max_failures, min_successes
 
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
@@ -28,16 +26,7 @@ CASE_SAMPLES = {"saturation": SAMPLES, "disturbance": 2 * SAMPLES}
 tolerance in most elements (at 8,192 samples 41 % of the no-mismatch elements stay inconclusive, 20 seeds)."""
 
 
-def _bench():
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_disturbance.py"
-    spec = importlib.util.spec_from_file_location("bench_disturbance", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _bench()
+bench = load_benchmark("bench_disturbance")
 
 
 @pytest.fixture(scope="module")

@@ -5,42 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import osqp
 import pytest
-import scipy.sparse as sp
+from qp_cases import osqp_solution, random_qp
 
 from pmr_ros.config import config_dir, load_config
 from pmr_ros.core.mpc.controller import LinearMpc
 from pmr_ros.core.mpc.qp import DenseQp
 from pmr_ros.core.mpc.solver import QpSolver
 from pmr_ros.core.sim.closed_loop import simulate
-
-
-def _problem(rng, n=12, m=20):
-    M = rng.normal(size=(n, n))
-    H = M @ M.T + 0.1 * np.eye(n)
-    A = rng.normal(size=(m, n))
-    centre = A @ rng.normal(scale=0.2, size=n)  # a feasible point inside every box
-    lower, upper = centre - rng.uniform(0.05, 1.0, m), centre + rng.uniform(0.05, 1.0, m)
-    lower[rng.random(m) < 0.2] = -np.inf  # some one-sided rows
-    return H, A, rng.normal(scale=5.0, size=n), lower, upper
-
-
-def _osqp(H, A, q, lower, upper):
-    solver = osqp.OSQP()
-    solver.setup(
-        sp.triu(sp.csc_matrix(H), format="csc"),
-        q,
-        sp.csc_matrix(A),
-        lower,
-        upper,
-        verbose=False,
-        eps_abs=1e-11,
-        eps_rel=1e-11,
-        max_iter=200000,
-        polishing=True,
-    )
-    return solver.solve(raise_error=False).x
 
 
 def _guesses(exact, other, m):
@@ -53,12 +25,12 @@ def _guesses(exact, other, m):
 @pytest.mark.parametrize("seed", range(12))
 def test_a_warm_start_from_any_guess_gives_the_cold_minimizer_and_osqps(seed):
     rng = np.random.default_rng(seed)
-    H, A, q, lower, upper = _problem(rng)
+    H, A, q, lower, upper = random_qp(rng)
     qp = DenseQp(H, A)
     cold = qp.solve(q, lower=lower, upper=upper)
     other = qp.solve(rng.normal(scale=5.0, size=q.size), lower=lower, upper=upper)
     assert cold.solved and other.solved and len(cold.active) >= 2
-    reference = _osqp(H, A, q, lower, upper)
+    reference = osqp_solution(H, A, q, lower, upper)
     for name, guess in _guesses(cold.active, other.active, A.shape[0]).items():
         warm = DenseQp(H, A).solve(q, lower=lower, upper=upper, guess=guess)
         assert warm.solved, name
@@ -69,7 +41,7 @@ def test_a_warm_start_from_any_guess_gives_the_cold_minimizer_and_osqps(seed):
 
 def test_the_exact_guess_needs_no_iteration_and_a_dependent_one_falls_back_to_a_cold_start():
     rng = np.random.default_rng(4)
-    H, A, q, lower, upper = _problem(rng)
+    H, A, q, lower, upper = random_qp(rng)
     qp = DenseQp(H, A)
     cold = qp.solve(q, lower=lower, upper=upper)
     again = qp.solve(q, lower=lower, upper=upper, guess=cold.active)
@@ -112,7 +84,9 @@ def test_every_warm_started_mpc_step_equals_a_qp_solved_from_scratch(wood_berry)
     for q, lower, upper, x in recording.problems:
         cold = DenseQp(recording.hessian, recording.constraints).solve(q, lower=lower, upper=upper)
         np.testing.assert_allclose(x, cold.x, rtol=1e-9, atol=1e-11)
-        np.testing.assert_allclose(x, _osqp(recording.hessian, recording.constraints, q, lower, upper), atol=1e-6)
+        np.testing.assert_allclose(
+            x, osqp_solution(recording.hessian, recording.constraints, q, lower, upper), atol=1e-6
+        )
 
 
 @pytest.mark.parametrize("system", ["three_by_three.yaml", "sparse_sixteen.yaml"])
