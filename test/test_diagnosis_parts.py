@@ -178,6 +178,9 @@ def test_row_system_cost_is_the_squared_residual_and_the_free_estimate_its_least
     theta = np.random.default_rng(4).standard_normal((A.shape[0], 2)) + 0j
     direct = np.sum(np.abs(b - np.einsum("fzk,fk->fz", A, theta)) ** 2)
     assert system.cost(theta) == pytest.approx(direct, rel=1e-10)
+    cost, product = system.cost_and_product(theta)
+    assert cost == pytest.approx(direct, rel=1e-10)
+    np.testing.assert_allclose(product, (system.M @ theta[:, :, None])[:, :, 0], rtol=1e-12, atol=1e-12)
     free, variance = system.free_estimate()
     for f in (0, 40):
         np.testing.assert_allclose(free[f], np.linalg.lstsq(A[f], b[f], rcond=None)[0], rtol=1e-8)

@@ -177,13 +177,6 @@ class RowProblem:
         misfit = product - self.system.v
         return 2.0 * np.einsum("fp,fp->p", derivatives.conj(), misfit[:, owner]).real
 
-    def _cost(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
-        """:meth:`RowSystem.cost` of ``theta`` and the product ``M theta`` it computes (the gradient's, too)."""
-        system = self.system
-        Mt = np.einsum("fkm,fm->fk", system.M, theta)
-        quad = np.einsum("fk,fk->", theta.conj(), Mt).real
-        return float(system.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), system.v).real + quad), Mt
-
     def fit(
         self, start: RowParameters, *, iterations: int = MAX_ITERATIONS, settled_above: float = np.inf
     ) -> tuple[RowParameters, float]:
@@ -197,7 +190,7 @@ class RowProblem:
         lower, upper = self._bounds()
         x = np.clip(self._pack(start), lower, upper)
         coefficients = self.coefficients(self._unpack(x, start))
-        cost, product = self._cost(coefficients.theta)
+        cost, product = self.system.cost_and_product(coefficients.theta)
         damping = 1e-3
         for _ in range(iterations):
             H = self.information(coefficients)
@@ -206,7 +199,7 @@ class RowProblem:
             while damping < 1e12:
                 trial = np.clip(x + np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g), lower, upper)
                 trial_coefficients = self.coefficients(self._unpack(trial, start))
-                trial_cost, trial_product = self._cost(trial_coefficients.theta)
+                trial_cost, trial_product = self.system.cost_and_product(trial_coefficients.theta)
                 if trial_cost <= cost:
                     break
                 damping *= 10.0

@@ -240,9 +240,13 @@ class RowSystem:
 
     def cost(self, theta: np.ndarray) -> float:
         """Weighted squared residual of coefficients ``theta`` (F', n)."""
+        return self.cost_and_product(theta)[0]
+
+    def cost_and_product(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
+        """:meth:`cost` of ``theta`` and the product ``M theta`` it computes (a fit's gradient needs it too)."""
         Mt = np.einsum("fkm,fm->fk", self.M, theta)
         quad = np.einsum("fk,fk->", theta.conj(), Mt).real
-        return float(self.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), self.v).real + quad)
+        return float(self.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), self.v).real + quad), Mt
 
     def free_estimate(self) -> tuple[np.ndarray, np.ndarray]:
         """The per-bin least-squares coefficients and each one's variance, shapes (F', n)."""
