@@ -24,6 +24,7 @@ constraint is added with one Householder reflection of the free columns of
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +61,12 @@ def _upper_inverse(triangle: np.ndarray) -> np.ndarray:
     if info != 0:
         raise np.linalg.LinAlgError(f"singular active-set factor (trtri info {info})")
     return np.asarray(inverse)
+
+
+def _signed_rows(signed: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and which are at their lower bound, of signed rows (``+(row+1)`` lower, ``-(row+1)`` upper)."""
+    signed = np.asarray(signed, dtype=int)
+    return np.abs(signed) - 1, signed > 0
 
 
 class _ActiveSet:
@@ -207,8 +214,7 @@ class DenseQp:
         active = last.copy() if last is not None and tuple(last.signed) == guess else self._factorised(list(guess))
         while active is not None and active.size:
             k = active.size
-            signed = np.asarray(active.signed)
-            rows, at_lower = np.abs(signed) - 1, signed > 0
+            rows, at_lower = _signed_rows(active.signed)
             bound = np.where(at_lower, lower[rows], -upper[rows])
             if not np.all(np.isfinite(bound)):
                 return None  # a guessed bound that is gone
@@ -226,7 +232,7 @@ class DenseQp:
 
     def _factorised(self, signed: list[int]) -> _ActiveSet | None:
         """The factorisation of active set ``signed``, None when its normals are dependent."""
-        rows, at_lower = np.abs(signed) - 1, np.asarray(signed) > 0
+        rows, at_lower = _signed_rows(signed)
         normals = (self._A[rows] * np.where(at_lower, 1.0, -1.0)[:, None]).T
         return _ActiveSet.with_constraints(self._j0, signed, normals)
 
@@ -238,8 +244,7 @@ class DenseQp:
         below = (lower - ax) * inverse_scale
         above = (ax - upper) * inverse_scale
         if skip:
-            rows = np.abs(skip) - 1
-            at_lower = np.asarray(skip) > 0
+            rows, at_lower = _signed_rows(skip)
             below[rows[at_lower]] = -np.inf
             above[rows[~at_lower]] = -np.inf
         i_low, i_up = int(below.argmax()), int(above.argmax())
