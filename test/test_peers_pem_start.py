@@ -15,7 +15,7 @@ from numpy.testing import assert_allclose
 from pmr_ros.config import load_config
 from pmr_ros.core.sim.model import Mismatch
 from pmr_ros.peers import pem_diagnosis
-from pmr_ros.peers.pem_start import fir_start, impulse_responses
+from pmr_ros.peers.pem_start import delay_candidates, fir_start, impulse_responses
 
 INJECTED = Mismatch(np.array([[0.0, 0.0], [0.0, 7.3]]), np.array([[0.0, 0.0], [0.0, 9.4]]), np.array([[0, 0], [0, 2]]))
 """x_B's row of Wood-Berry: G22 2 samples slower, +7.3 % gain, +9.4 % time constant; G21 right."""
@@ -75,3 +75,9 @@ def test_impulse_responses_recover_a_pulse_and_refuse_a_short_record():
     expected[0, 2], expected[1, 1] = 0.7, 0.1  # lag 3 of u1; lag 2 of u2, integrated
     assert_allclose(h, expected, atol=1e-9)
     assert impulse_responses(y[:50], u[:50], integrating=np.array([False, True]), start=0, lags=6) is None
+
+
+def test_delay_candidates_are_the_model_delay_within_the_shift_and_never_negative():
+    assert list(delay_candidates(5, 2)) == [3, 4, 5, 6, 7]
+    assert list(delay_candidates(1, 3)) == [0, 1, 2, 3, 4]
+    assert list(delay_candidates(0, 0)) == [0]

@@ -27,7 +27,7 @@ from scipy.optimize import least_squares
 from scipy.signal import lfilter
 from scipy.special import expit
 
-from .pem_start import fir_start
+from .pem_start import delay_candidates, fir_start
 
 __all__ = ["RowData", "RowFit", "fit_row"]
 
@@ -221,10 +221,6 @@ def _fit_delays(data: RowData, delays: np.ndarray, theta0: np.ndarray, *, tol: f
     return RowFit(delays.copy(), theta, covariance, cost, sigma2, eps.size)
 
 
-def _candidates(model_delay: int, max_shift: int) -> range:
-    return range(max(model_delay - max_shift, 0), model_delay + max_shift + 1)
-
-
 def _noise_start(data: RowData, oe: RowFit) -> np.ndarray:
     """Starting parameters of a Box-Jenkins fit: the output-error fit ``oe``, ``D`` from the AR fit of its residual.
 
@@ -235,8 +231,7 @@ def _noise_start(data: RowData, oe: RowFit) -> np.ndarray:
     fitted to its residual.
     """
     nc, nd = data.noise_orders
-    plain = RowData(data.y, data.inputs, data.integrating, data.start)
-    w = data.y - _residual_free_output(oe.theta, plain, oe.delays)
+    w = data.y - _residual_free_output(oe.theta, data, oe.delays)
     w = w[data.start :] - w[data.start :].mean()
     acf = np.array([w[: w.size - k] @ w[k:] for k in range(nd + 1)]) / w.size
     ar = solve_toeplitz(acf[:nd], acf[1 : nd + 1]) if nd else np.zeros(0)
@@ -299,7 +294,7 @@ def fit_row(data: RowData, *, model_delays: np.ndarray, initial: np.ndarray, max
         for j in range(data.columns):
             profile = {int(best.delays[j]): best.cost}
             champion = best
-            for delay in _candidates(int(model_delays[j]), max_shift):
+            for delay in delay_candidates(int(model_delays[j]), max_shift):
                 if delay == best.delays[j]:
                     continue
                 trial = best.delays.copy()

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-__all__ = ["FIR_TAU_MULTIPLE", "MIN_SAMPLES_PER_REGRESSOR", "fir_start", "impulse_responses"]
+__all__ = ["FIR_TAU_MULTIPLE", "MIN_SAMPLES_PER_REGRESSOR", "delay_candidates", "fir_start", "impulse_responses"]
 
 FIR_TAU_MULTIPLE = 5.0
 """FIR lags beyond the longest delay searched, in model time constants (the response has decayed to e^-5)."""
@@ -31,6 +31,11 @@ MIN_SAMPLES_PER_REGRESSOR = 8
 
 TAU_FACTORS = np.geomspace(0.25, 4.0, 49)
 """Time constants tried for a column's pole, as multiples of the model's."""
+
+
+def delay_candidates(model_delay: int, max_shift: int) -> range:
+    """The delays a column's search tries: within ``max_shift`` of the model's, none negative [samples]."""
+    return range(max(model_delay - max_shift, 0), model_delay + max_shift + 1)
 
 
 def _lagged(signal: np.ndarray, lags: int) -> np.ndarray:
@@ -114,7 +119,7 @@ def fir_start(
     if h is None:
         return None
     chosen = [
-        _column(h[j], range(max(int(d) - max_shift, 0), int(d) + max_shift + 1), None if integrating[j] else pole)
+        _column(h[j], delay_candidates(int(d), max_shift), None if integrating[j] else pole)
         for j, (d, pole) in enumerate(zip(model_delays, model_poles, strict=True))
     ]
     delays = np.array([c[0] for c in chosen], dtype=int)
