@@ -116,6 +116,9 @@ SETUP = """## How the runs were made
   A `-` is a number that does not apply (no clean element, no interval, no estimate).
 - **Dataset**: `pmr-ros benchmark --export DIR` writes every run's r, u, y as Parquet, the models
   and the labels, with a schema (SCHEMA.md in DIR); pandas alone reads it.
+- **Stopping and resuming**: each run's result rows are kept in `DIR/runs` the moment the run ends;
+  `pmr-ros benchmark --resume` runs only the (run, method) pairs not there yet (the whole scenario
+  file is many hours of CPU), and refuses a journal of another scenario file.
 """
 
 

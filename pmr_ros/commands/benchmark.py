@@ -56,6 +56,8 @@ def handle(args: argparse.Namespace) -> int:
     """Run ``pmr-ros benchmark``; the exit code."""
     from ..service.benchmark_run import BenchmarkRequest, rescore, run_benchmark
 
+    if args.force and args.resume:
+        raise CommandError("--force and --resume contradict each other: choose one")
     check_outputs(args, inputs=(args.scenarios,), files=("report",), folders=("out", "export"))
     out = Path(args.out)
     if args.scenarios is not None and not Path(args.scenarios).is_file():
@@ -74,11 +76,19 @@ def handle(args: argparse.Namespace) -> int:
         scenarios=Path(args.scenarios) if args.scenarios else None,
         pem_runs_per_cell=args.pem_runs_per_cell,
         progress=not args.quiet,
+        resume=args.resume,
+        force=args.force,
     )
     if args.report_only:
         summary = rescore(request)
         print(f"pmr-ros benchmark: {summary.runs} runs scored again; report {request.report}")
         return 0
     summary = run_benchmark(request)
-    print(f"pmr-ros benchmark: {summary.runs} runs in {summary.wall_s / 60:.1f} min; report {request.report}")
+    kept = summary.scored - summary.runs
+    resumed = f" and {kept} from the journal" if kept > 0 else ""
+    print(
+        f"pmr-ros benchmark: {summary.runs} run{'' if summary.runs == 1 else 's'} in {summary.wall_s / 60:.1f} "
+        f"min{resumed}; "
+        f"{summary.scored} scored; report {request.report}"
+    )
     return 0

@@ -35,6 +35,10 @@ OPTIONS = (
            "labels.csv with the injected truth, SCHEMA.md"),
     option("--report-only", action="store_true", help="do not run: score DIR/results.parquet again and rewrite "
            "scores.csv and the report"),
+    option("--resume", action="store_true", help="continue the benchmark in DIR: every run's results are kept in "
+           "DIR/runs the moment it ends, and this runs only the (run, method) pairs not there yet (without it, a "
+           "benchmark refuses a DIR/runs that holds runs)"),
+    option("--force", action="store_true", help="start DIR/runs anew, dropping the runs it holds"),
     option("--jobs", type=positive_int, default=1, metavar="N", help="worker processes (default: 1)"),
     option("--scheduler", metavar="ADDRESS", help="run the runs on the Dask distributed cluster of this scheduler "
            "(e.g. tcp://10.0.0.5:8786) instead of --jobs local processes"),

@@ -1,6 +1,8 @@
 """``pmr-ros benchmark``: pick the scenario runs, run every method on each (here, a pool or Dask), score, write.
 
-What is written to ``out``: ``results.parquet`` (one row per run, method and
+What is written to ``out``: ``runs/`` (the journal, :mod:`pmr_ros.benchmark.journal`:
+each run's rows the moment it is done, so that ``resume`` runs only what a
+stopped benchmark left), ``results.parquet`` (one row per run, method and
 element: :func:`pmr_ros.benchmark.runner.method_rows` and the run's cell),
 ``scores.csv`` (:func:`pmr_ros.benchmark.scoring.score`), ``roc.csv``
 (:func:`pmr_ros.benchmark.scoring.roc_table`) and the markdown
@@ -20,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..benchmark import dataset, markdown, plots, scoring
+from ..benchmark.journal import Journal, fingerprint
 from ..benchmark.runner import METHODS, RunTask, run_one
 from ..benchmark.scenarios import read_scenarios, run_table
 from ..benchmark.units import all_units, unit_config
@@ -33,6 +36,9 @@ if TYPE_CHECKING:
     import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
+
+JOURNAL = "runs"
+"""The journal folder in ``out``."""
 
 MANIFEST = "benchmark.json"
 """Beside results.parquet: the run's wall time [s] and number of runs, for ``--report-only``."""
@@ -69,6 +75,10 @@ class BenchmarkRequest:
         only the first this many runs of each cell (None: on every run).
     progress : bool
         A progress bar on stderr.
+    resume : bool
+        Keep the journal ``out/runs`` and run only the (run, method) pairs not in it.
+    force : bool
+        Start the journal anew even if it holds runs (without ``resume`` or ``force`` such a journal is refused).
     """
 
     out: Path
@@ -84,15 +94,21 @@ class BenchmarkRequest:
     scenarios: Path | None = None
     pem_runs_per_cell: int | None = None
     progress: bool = False
+    resume: bool = False
+    force: bool = False
 
 
 @dataclass(frozen=True)
 class BenchmarkSummary:
-    """What a benchmark did: the runs, the scores, its wall time [s]."""
+    """What a benchmark did: the runs it ran, the scores, its wall time [s], the runs scored.
+
+    ``scored`` counts every run of the results; with ``resume`` it includes the runs taken from the journal.
+    """
 
     runs: int
     scores: pd.DataFrame
     wall_s: float
+    scored: int
 
 
 def select_runs(scenarios: pd.DataFrame, request: BenchmarkRequest) -> pd.DataFrame:
@@ -251,37 +267,77 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     manifest = request.out / MANIFEST
     wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
     scores = _score_and_write(request, results, lines, wall_s)
-    return BenchmarkSummary(int(results["run"].nunique()), scores, wall_s)
+    scored = int(results["run"].nunique())
+    return BenchmarkSummary(scored, scores, wall_s, scored)
+
+
+def _left_to_do(tasks: list[RunTask], done: set[tuple[int, str]]) -> list[RunTask]:
+    """``tasks`` without the methods ``done`` has for their run; tasks with no method left dropped."""
+    left = [replace(t, methods=tuple(m for m in t.methods if (t.run, m) not in done)) for t in tasks]
+    return [t for t in left if t.methods]
+
+
+def _planned_rows(journal: Journal, tasks: list[RunTask]) -> pd.DataFrame:
+    """The journal's rows of the (run, method) pairs of ``tasks``."""
+    rows = journal.read()
+    planned = {(t.run, m) for t in tasks for m in t.methods}
+    wanted = [(int(r), str(m)) in planned for r, m in zip(rows["run"], rows["method"], strict=True)]
+    return rows[wanted].reset_index(drop=True)
+
+
+def _open_journal(request: BenchmarkRequest, key: str) -> Journal:
+    """``out``'s journal, continued (``resume``) or begun anew; one that holds runs is kept unless told.
+
+    Raises
+    ------
+    ServiceError
+        ``resume`` with runs of another scenario file, or neither ``resume`` nor ``force`` with runs kept.
+    """
+    journal = Journal(request.out / JOURNAL)
+    if request.resume:
+        try:
+            journal.check(key)
+        except ValueError as exc:
+            raise ServiceError(f"--resume: {exc}; use --force to start afresh") from None
+    elif journal.count() and not request.force:
+        raise ServiceError(
+            f"--out {request.out}: {journal.folder} holds {journal.count()} finished run(s); "
+            "use --resume to continue them or --force to start afresh"
+        )
+    else:
+        journal.start(key)
+    return journal
 
 
 def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     """Run, score and write what ``request`` asks for (see the module docstring)."""
-    import pandas as pd
-
-    lines = select_runs(_scenarios(request), request)
+    scenarios = _scenarios(request)
+    lines = select_runs(scenarios, request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
+    journal = _open_journal(request, fingerprint(scenarios))
+    todo = _left_to_do(tasks, journal.done() if request.resume else set())
     if request.export is not None:
         for unit in sorted(set(lines["unit"])):
             dataset.write_model(request.export, unit, unit_config(unit).model)
         dataset.write_labels(request.export, lines, run_table(lines))
-    bar = ProgressBar(len(tasks), label="benchmark", stream=sys.stderr) if request.progress else None
-    rows: list[dict] = []
+    bar = ProgressBar(len(todo), label="benchmark", stream=sys.stderr) if request.progress and todo else None
     start = time.perf_counter()
 
     def record(task: RunTask, task_rows: list[dict], data: Record | None) -> None:
-        rows.extend(task_rows)
+        journal.write(task.run, task.methods, task_rows)
         if request.export is not None and data is not None:
             dataset.write_run(request.export, task.run, data, unit_config(task.unit).model)
         if bar:
             bar.update(1)
 
-    _execute(tasks, request, record)
+    if todo:
+        _execute(todo, request, record)
     if bar:
         bar.close()
     wall_s = time.perf_counter() - start
-    results = _cell_columns(pd.DataFrame(rows), lines).sort_values(["run", "method", "element"])
+    results = _cell_columns(_planned_rows(journal, tasks), lines).sort_values(["run", "method", "element"])
     results.to_parquet(request.out / "results.parquet", index=False)
-    write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(tasks)}) + "\n")
+    write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(todo)}) + "\n")
     scores = _score_and_write(request, results, lines, wall_s)
-    return BenchmarkSummary(len(tasks), scores, wall_s)
+    return BenchmarkSummary(len(todo), scores, wall_s, int(results["run"].nunique()))

@@ -1,0 +1,135 @@
+"""The benchmark's journal: finished runs kept on disk at once, ``--resume`` runs only the rest (issue 26)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from pmr_ros.benchmark.journal import Journal, fingerprint
+from pmr_ros.benchmark.scenarios import read_scenarios
+from pmr_ros.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+SELECTION = ["--units", "wood_berry", "--samples", "2048", "--runs-per-cell", "1", "--quiet"]
+"""Two Wood-Berry runs of 2,048 samples (one without, one with the coloured disturbance)."""
+METHODS = ["--methods", "parametric,classic"]
+WORDS = ["run", "method", "element", "verdict", "detected"]
+NUMBERS = ["evidence", "gain_pct", "gain_lo", "gain_hi", "tau_pct", "delay_samples"]
+
+
+def _rows(run: int, method: str, detected: bool) -> list[dict]:
+    return [{"run": run, "method": method, "element": e, "detected": detected} for e in ("G11", "G12")]
+
+
+def test_the_journal_keeps_each_piece_and_reads_the_newest_of_a_pair(tmp_path):
+    journal = Journal(tmp_path / "runs")
+    assert journal.count() == 0 and journal.done() == set() and journal.read().empty
+    journal.write(3, ("classic", "parametric"), _rows(3, "classic", False) + _rows(3, "parametric", True))
+    journal.write(5, ("classic",), _rows(5, "classic", True))
+    assert journal.count() == 2 and journal.done() == {(3, "classic"), (3, "parametric"), (5, "classic")}
+    time.sleep(0.01)  # a later piece of the same pair (a copied-in piece): the newer one counts, not both
+    journal.write(3, ("classic",), _rows(3, "classic", True))
+    rows = journal.read()
+    assert len(rows) == 6 and rows[(rows["run"] == 3) & (rows["method"] == "classic")]["detected"].all()
+    assert not list(journal.folder.glob("*.tmp"))  # each piece whole or absent
+
+
+def test_a_journal_refuses_another_scenario_file_and_starts_anew_when_told(tmp_path):
+    scenarios = read_scenarios()
+    key, other = fingerprint(scenarios), fingerprint(scenarios.iloc[:-1])
+    assert key == fingerprint(read_scenarios()) and key != other
+    journal = Journal(tmp_path / "runs")
+    journal.check(key)  # a journal not begun is begun
+    journal.write(1, ("classic",), _rows(1, "classic", False))
+    journal.check(key)
+    with pytest.raises(ValueError, match="another scenario file"):
+        journal.check(other)
+    journal.start(other)
+    assert journal.count() == 0
+    journal.check(other)
+
+
+@pytest.fixture(scope="module")
+def whole(tmp_path_factory):
+    """The selection run once without a stop: the reference."""
+    out = tmp_path_factory.mktemp("whole")
+    assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out)]) == 0
+    return pd.read_parquet(out / "results.parquet")
+
+
+@pytest.fixture(scope="module")
+def classic(tmp_path_factory):
+    """The selection run with the classic PMR alone (tests copy it before they change it)."""
+    out = tmp_path_factory.mktemp("classic") / "out"
+    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 0
+    return out
+
+
+def _same_results(got: pd.DataFrame, want: pd.DataFrame) -> None:
+    got, want = got.reset_index(drop=True), want.reset_index(drop=True)
+    pd.testing.assert_frame_equal(got[WORDS], want[WORDS])
+    assert_allclose(got[NUMBERS].to_numpy(float), want[NUMBERS].to_numpy(float), rtol=1e-9, atol=1e-12)
+
+
+def test_a_killed_benchmark_resumes_to_the_results_of_one_without_a_stop(whole, tmp_path, capsys):
+    out = tmp_path / "killed"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    argv = [sys.executable, "-m", "pmr_ros.cli", "benchmark", *SELECTION, *METHODS, "--out", str(out)]
+    child = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 300
+        while Journal(out / "runs").count() < 1 and child.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        child.send_signal(signal.SIGKILL)
+    finally:
+        child.wait(timeout=60)
+    kept = Journal(out / "runs").count()
+    assert kept == 1 and not (out / "results.parquet").exists()
+    assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out), "--resume"]) == 0
+    said = capsys.readouterr().out
+    assert "1 run in" in said and "and 1 from the journal; 2 scored" in said
+    _same_results(pd.read_parquet(out / "results.parquet"), whole)
+
+
+def test_resume_with_another_method_runs_only_that_method(whole, classic, tmp_path):
+    out = shutil.copytree(classic, tmp_path / "more")
+    classic_before = Journal(out / "runs").read()
+    assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out), "--resume"]) == 0
+    journal = Journal(out / "runs")
+    assert journal.count() == 4  # two runs of the classic PMR, then two of ours alone
+    assert {p.name.split(".")[1] for p in journal.folder.glob("run_*.parquet")} == {"classic", "parametric"}
+    results = pd.read_parquet(out / "results.parquet")
+    _same_results(results, whole)
+    classic_after = results[results["method"] == "classic"].reset_index(drop=True)
+    assert_allclose(classic_after["cpu_s"], classic_before.sort_values(["run", "element"])["cpu_s"], rtol=0)
+
+
+def test_a_journal_with_runs_is_kept_unless_resumed_or_forced(classic, tmp_path, capsys):
+    out = shutil.copytree(classic, tmp_path / "kept")
+    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds 2 finished run(s); use --resume" in err[0] and str(out) in err[0]
+    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out), "--resume", "--force"]) == 2
+    assert "contradict" in capsys.readouterr().err
+    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out), "--force"]) == 0
+    assert Journal(out / "runs").count() == 2
+
+
+def test_resume_refuses_the_journal_of_another_scenario_file(classic, tmp_path, capsys):
+    out = classic
+    shorter = tmp_path / "scenarios.csv"
+    lines = (REPO / "config" / "benchmark_scenarios.csv").read_text().splitlines()
+    shorter.write_text("\n".join(lines[:-1]) + "\n")
+    argv = ["benchmark", *SELECTION, "--methods", "classic", "--out", str(out), "--resume", "--scenarios", str(shorter)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--resume:" in err[0] and "another scenario file" in err[0]
