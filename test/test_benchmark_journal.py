@@ -133,3 +133,17 @@ def test_resume_refuses_the_journal_of_another_scenario_file(classic, tmp_path, 
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--resume:" in err[0] and "another scenario file" in err[0]
+
+
+def test_report_only_scores_every_run_the_journal_holds(classic, tmp_path, capsys):
+    out = shutil.copytree(classic, tmp_path / "two")
+    longer = ["--units", "wood_berry", "--samples", "4096", "--runs-per-cell", "1", "--quiet", "--methods", "classic"]
+    assert main(["benchmark", *longer, "--out", str(out), "--resume"]) == 0
+    assert pd.read_parquet(out / "results.parquet")["samples"].unique().tolist() == [4096]  # this selection
+    capsys.readouterr()
+    assert main(["benchmark", "--report-only", "--out", str(out), "--quiet"]) == 0
+    assert "4 runs scored again" in capsys.readouterr().out
+    results = pd.read_parquet(out / "results.parquet")
+    assert sorted(results["samples"].unique()) == [2048, 4096] and results["run"].nunique() == 4
+    _same_results(results[results["samples"] == 2048], pd.read_parquet(classic / "results.parquet"))
+    assert "wood_berry" in (out / "benchmark.md").read_text()

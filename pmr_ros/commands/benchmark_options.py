@@ -33,8 +33,8 @@ OPTIONS = (
            "(default: DIR/benchmark.md)"),
     option("--export", metavar="DIR", help="also write the dataset: every run's r, u, y as Parquet, the models, "
            "labels.csv with the injected truth, SCHEMA.md"),
-    option("--report-only", action="store_true", help="do not run: score DIR/results.parquet again and rewrite "
-           "scores.csv and the report"),
+    option("--report-only", action="store_true", help="do not run: score every run DIR holds again (its journal "
+           "DIR/runs, else DIR/results.parquet) and rewrite results.parquet, scores.csv and the report"),
     option("--resume", action="store_true", help="continue the benchmark in DIR: every run's results are kept in "
            "DIR/runs the moment it ends, and this runs only the (run, method) pairs not there yet (without it, a "
            "benchmark refuses a DIR/runs that holds runs)"),

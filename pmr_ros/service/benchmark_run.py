@@ -249,21 +249,35 @@ def _score_and_write(
 
 
 def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
-    """Score ``request.out``'s results.parquet again and write scores.csv and the report (no run).
+    """Score what ``request.out`` holds again and write scores.csv and the report (no run).
+
+    What it holds: every run of its journal (``out/runs``, however many invocations and ``--resume`` s
+    wrote it; results.parquet is rewritten from it), else its results.parquet.
 
     Raises
     ------
     ServiceError
-        No results.parquet in ``request.out``.
+        Neither a journal nor results.parquet in ``request.out``, or a journal of another scenario file.
     """
     import pandas as pd
 
     path = request.out / "results.parquet"
-    if not path.is_file():
-        raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
-    results = pd.read_parquet(path)
     scenarios = _scenarios(request)
-    lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
+    journal = Journal(request.out / JOURNAL)
+    if journal.count():
+        try:
+            journal.check(fingerprint(scenarios))
+        except ValueError as exc:
+            raise ServiceError(f"--report-only: {exc}") from None
+        rows = journal.read()
+        lines = scenarios[scenarios["run"].isin(rows["run"])].reset_index(drop=True)
+        results = _cell_columns(rows, lines).sort_values(["run", "method", "element"])
+        results.to_parquet(path, index=False)
+    elif path.is_file():
+        results = pd.read_parquet(path)
+        lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
+    else:
+        raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
     manifest = request.out / MANIFEST
     wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
     scores = _score_and_write(request, results, lines, wall_s)
