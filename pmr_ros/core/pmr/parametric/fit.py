@@ -327,7 +327,7 @@ def fit_row(
     RowFit
     """
     # pass 1: weights from the nonparametric estimate's residual; delays searched
-    first = data.system(theta_start)
+    first, as_is = data.systems(theta_start)  # as_is: without the bias correction, for the lack of fit
     problem = RowProblem(first, columns)
     grids = column_grids(columns, first.z_inv)
     fit = first_pass(problem, grids, columns, sweep_columns(first, grids))
@@ -359,7 +359,7 @@ def fit_row(
         chi_square=cost,
         dof=dof,
         delay_profile=joint_profiles(trials, params),
-        lack_of_fit=_lack_of_fit(data.system(theta_start, debiased=False), problem, params),
+        lack_of_fit=_lack_of_fit(as_is, problem, params),
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -249,7 +250,11 @@ class RowSystem:
         return float(self.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), self.v).real + quad), Mt
 
     def free_estimate(self) -> tuple[np.ndarray, np.ndarray]:
-        """The per-bin least-squares coefficients and each one's variance, shapes (F', n)."""
+        """The per-bin least-squares coefficients and each one's variance, shapes (F', n) (computed once; read only)."""
+        return self._free
+
+    @cached_property
+    def _free(self) -> tuple[np.ndarray, np.ndarray]:
         try:
             inverse = np.linalg.inv(self.M)
         except np.linalg.LinAlgError:

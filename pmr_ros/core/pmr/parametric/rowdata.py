@@ -66,6 +66,15 @@ class RowData:
         ``unbiased`` and ``debiased``, the finite-segment bias of the
         instrumental equations is taken out (:mod:`.bias`).
         """
+        return self.systems(theta, offset, debiased=debiased)[0]
+
+    def systems(
+        self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True
+    ) -> tuple[RowSystem, RowSystem]:
+        """:meth:`system` and the same equations without the bias correction (the same when there is none).
+
+        The one noise spectrum and whitening serve both.
+        """
         noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
         bins, omega, segments = self.bins, self.omega, self.equivalent_segments
@@ -78,12 +87,13 @@ class RowData:
         }
         system = row_system(spectra, self.factor, **shared)
         if not (debiased and self.unbiased):
-            return system
+            return system, system
         # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
         residual = residual_moments(self.spectra, self.factor, **shared)
-        return without_instrument_bias(
+        corrected = without_instrument_bias(
             system,
             residual,
             instruments=int(self.factor.shape[1]),
             equivalent_segments=self.equivalent_segments,
         )
+        return corrected, system
