@@ -452,6 +452,9 @@ def test_instrument_cross_of_the_regressors_themselves_is_the_rows_spectra(wood_
     for i in range(2):
         regressors = spectra.instrument_cross(i, lambda x, u: x)
         np.testing.assert_allclose(regressors, spectra.row(i).zx, rtol=1e-12, atol=1e-14)
+        bins = np.array([1, 4, 9, 30])  # only some bins: those of the whole
+        at_bins = spectra.instrument_cross(i, lambda x, u: x, bins)
+        np.testing.assert_allclose(at_bins, spectra.row(i).zx[bins], rtol=1e-12, atol=1e-14)
 
 
 def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_without_noise():
@@ -484,6 +487,7 @@ def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_wit
     left = np.abs(row.zy[bins] - offset[bins] - product[bins]).max() / scale
     assert leakage > 1e-3  # what the fit saw before
     assert left < 1e-3 * leakage
+    assert offset.shape == row.zy.shape and not np.any(np.delete(offset, bins, axis=0))  # 0 where no fit reads
 
 
 def test_the_excitation_guard_holds_a_row_of_many_elements_to_a_fair_share():

@@ -176,6 +176,8 @@ class RowFit:
 def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) -> np.ndarray:
     """What the Welch segments' edges add to ``S_{z y}`` beyond ``sum_k theta_k(w) S_{z x_k}``, shape (F, n_z).
 
+    At the fitted bins ``data.bins``, 0 at the others (no fit reads them).
+
     A segment's transform of ``y = theta(q) x`` is not ``theta(w)`` times the
     transform of ``x``: the response inside a segment to the input before it,
     and the part of its own input's response that falls after it, differ (the
@@ -213,10 +215,12 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
                 total += np.stack(each, axis=1).reshape(total.shape)
         return total[..., None]
 
-    exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
-    theta = problem.coefficients(params, np.exp(-1j * data.omega)).theta
-    product = np.einsum("fzk,fk->fz", data.spectra.zx[:, :, data.columns], theta)
-    return exact - product
+    bins = data.bins  # the fit reads the equations there only
+    exact = data.record.instrument_cross(data.row, model_output, bins)[:, :, 0]
+    theta = problem.coefficients(params, np.exp(-1j * data.omega[bins])).theta
+    offset = np.zeros(data.spectra.zy.shape, dtype=complex)
+    offset[bins] = exact - np.einsum("fzk,fk->fz", data.spectra.zx[bins][:, :, data.columns], theta)
+    return offset
 
 
 def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) -> tuple[RowParameters, float]:
