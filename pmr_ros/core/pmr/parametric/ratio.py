@@ -67,6 +67,7 @@ __all__ = [
     "noise_spectrum",
     "ratio_shape",
     "row_system",
+    "whitened_regressors",
 ]
 
 NOISE_SMOOTHING_BINS = 9
@@ -282,6 +283,7 @@ def row_system(
     bins: np.ndarray,
     omega: np.ndarray,
     equivalent_segments: float,
+    whitened: np.ndarray | None = None,
 ) -> RowSystem:
     """The row's equations whitened to unit-variance real components, in information form.
 
@@ -299,11 +301,16 @@ def row_system(
     omega : ndarray, shape (F,)
         All frequencies [rad/sample].
     equivalent_segments : float
+    whitened : ndarray, optional
+        ``L^-1 S_{z x}`` at ``bins`` and ``columns`` (:func:`whitened_regressors`) when already computed: it
+        does not depend on the weights, and a row's fit whitens the same regressors four times.
     """
     L = factor[bins]
     scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=equivalent_segments)
     b = np.linalg.solve(L, spectra.zy[bins][:, :, None])[:, :, 0] * scale[:, None]
-    A = np.linalg.solve(L, spectra.zx[bins][:, :, columns]) * scale[:, None, None]
+    if whitened is None:
+        whitened = whitened_regressors(spectra, factor, columns=columns, bins=bins)
+    A = whitened * scale[:, None, None]
     return RowSystem(
         M=hermitian_product(A, A),
         v=hermitian_product(A, b[:, :, None])[:, :, 0],
@@ -311,6 +318,13 @@ def row_system(
         z_inv=np.exp(-1j * omega[bins]),
         components=2 * b.size,
     )
+
+
+def whitened_regressors(
+    spectra: RowSpectra, factor: np.ndarray, *, columns: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
+    """``L^-1 S_{z x}`` of the regressors ``columns`` at ``bins``, shape (F', n_z, n): row_system's A unweighted."""
+    return np.linalg.solve(factor[bins], spectra.zx[bins][:, :, columns])
 
 
 def noise_spectrum(spectra: RowSpectra, columns: np.ndarray, theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
