@@ -129,8 +129,12 @@ class RowProblem:
             delay = z_inv ** params.delays[None, :]
             numerator = (1 - self.pole_model * z_inv) / (1 - self.pole_model)
             numerator_dz = numerator * (z_inv - 1)
-        tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
-        a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
+        if self._all_tau:  # the np.where below would keep every value
+            tau = self.tau_reference * np.exp(params.s)
+            a = np.exp(-1.0 / tau)
+        else:
+            tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
+            a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
         denominator = 1 - a * z_inv
         shape = (1 - a) * numerator / denominator
         d_shape = numerator_dz / denominator**2 * (a / tau)
@@ -203,7 +207,8 @@ class RowProblem:
         damping = 1e-3
         for _ in range(iterations):
             H, g = self._step_terms(coefficients, product)
-            diagonal = np.maximum(np.diag(H), 1e-12 * max(1.0, float(np.abs(np.diag(H)).max())))
+            diagonal = np.diag(H)
+            diagonal = np.maximum(diagonal, 1e-12 * max(1.0, float(np.abs(diagonal).max())))
             while damping < 1e12:
                 step = np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g)
                 trial = np.minimum(np.maximum(x + step, lower), upper)

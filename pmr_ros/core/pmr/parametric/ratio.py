@@ -247,8 +247,13 @@ class RowSystem:
     def cost_and_product(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
         """:meth:`cost` of ``theta`` and the product ``M theta`` it computes (a fit's gradient needs it too)."""
         Mt = np.einsum("fkm,fm->fk", self.M, theta)
-        quad = np.einsum("fk,fk->", theta.conj(), Mt).real
-        return float(self.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), self.v).real + quad), Mt
+        conjugate = theta.conj()
+        quad = np.einsum("fk,fk->", conjugate, Mt).real
+        return float(self._beta_total - 2.0 * np.einsum("fk,fk->", conjugate, self.v).real + quad), Mt
+
+    @cached_property
+    def _beta_total(self) -> float:
+        return self.beta.sum()
 
     def free_estimate(self) -> tuple[np.ndarray, np.ndarray]:
         """The per-bin least-squares coefficients and each one's variance, shapes (F', n) (computed once; read only)."""
