@@ -20,7 +20,13 @@ from pmr_ros.core.pmr.parametric.guard import fitted_bins
 from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict, search_candidates
 from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
-from pmr_ros.core.pmr.parametric.search import column_grids, column_search, move_delay, sweep_columns
+from pmr_ros.core.pmr.parametric.search import (
+    column_grids,
+    column_search,
+    conditional_target,
+    move_delay,
+    sweep_columns,
+)
 from pmr_ros.core.pmr.parametric.verdicts import element_result, trust_reasons
 from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
 from pmr_ros.core.records import Record
@@ -243,6 +249,11 @@ def test_column_search_and_move_delay():
     assert delay == 0 and lin == pytest.approx(0.9, abs=0.02) and s == pytest.approx(-0.3, abs=0.1)
     moved = move_delay(system, grids[1], truth, theta=theta, k=1, delay=6)
     assert moved.delays.tolist() == [0, 6] and truth.delays.tolist() == [0, 5]
+    # the column's target given once (every delay of the column shares it): the same move
+    target = conditional_target(system, theta, 1)
+    again = move_delay(system, grids[1], truth, theta=theta, k=1, delay=6, target=target)
+    np.testing.assert_allclose(again.lin, moved.lin, rtol=1e-14)
+    np.testing.assert_allclose(again.s, moved.s, rtol=1e-14)
 
 
 def test_column_models_follow_the_element_kinds():

@@ -163,15 +163,23 @@ def conditional_target(system: RowSystem, theta: np.ndarray, k: int) -> tuple[np
 
 
 def move_delay(
-    system: RowSystem, grid: ColumnGrid, params: RowParameters, *, theta: np.ndarray, k: int, delay: int
+    system: RowSystem,
+    grid: ColumnGrid,
+    params: RowParameters,
+    *,
+    theta: np.ndarray,
+    k: int,
+    delay: int,
+    target: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> RowParameters:
     """``params`` with column ``k`` moved to ``delay`` and its gain and time constant refitted, the others held.
 
     The start of a joint fit at a neighbouring delay: the column's own
-    parameters are the ones a new delay moves most.
+    parameters are the ones a new delay moves most.  ``target``: column ``k``'s
+    :func:`conditional_target` given ``theta``, when already computed (every delay of the column shares it).
     """
-    target, weight = conditional_target(system, theta, k)
-    lin, s, _ = column_search(grid, target, weight, delay=delay)
+    wanted, weight = conditional_target(system, theta, k) if target is None else target
+    lin, s, _ = column_search(grid, wanted, weight, delay=delay)
     moved = params.with_delay(k, delay)
     moved.lin[k], moved.s[k] = lin, s
     return moved

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .lsq import RowParameters, RowProblem
-from .search import ColumnGrid, move_delay
+from .search import ColumnGrid, conditional_target, move_delay
 from .stacked import fit_stacked
 
 __all__ = [
@@ -98,6 +98,9 @@ class Trials:
         self.tried: dict[tuple[int, ...], tuple[RowParameters, float]] = {}
         self._ready: dict[tuple[tuple[int, ...], float], tuple[RowParameters, float]] = {}
         self._ready_for: tuple[RowParameters, float] | None = None
+        self._target_of: RowParameters | None = None
+        self._targets: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._theta = np.zeros(0)
 
     def full(self, start: RowParameters) -> tuple[RowParameters, float]:
         """The converged joint fit at ``start``'s delays."""
@@ -112,9 +115,22 @@ class Trials:
         """
         start = fit[0]
         for k, delay in moves:
-            theta = self.problem.coefficients(start).theta
-            start = move_delay(self.problem.system, self.grids[k], start, theta=theta, k=k, delay=delay)
+            if start is fit[0]:  # the fit's coefficients and each column's target serve all its neighbours
+                theta, target = self._target(start, k)
+            else:
+                theta, target = self.problem.coefficients(start).theta, None
+            system = self.problem.system
+            start = move_delay(system, self.grids[k], start, theta=theta, k=k, delay=delay, target=target)
         return start
+
+    def _target(self, params: RowParameters, k: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """The coefficients at ``params`` and column ``k``'s conditional target, kept for the last ``params``."""
+        if self._target_of is not params:
+            self._target_of, self._targets = params, {}
+            self._theta = self.problem.coefficients(params).theta
+        if k not in self._targets:
+            self._targets[k] = conditional_target(self.problem.system, self._theta, k)
+        return self._theta, self._targets[k]
 
     def moved(
         self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]], *, settled_above: float = math.inf
