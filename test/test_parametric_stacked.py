@@ -133,3 +133,18 @@ def test_hermitian_product_of_any_width_equals_numpy(m, n):
     np.testing.assert_allclose(hermitian_product(a, b), expected, rtol=1e-12, atol=1e-12)
     strided = np.transpose(np.transpose(a, (1, 0, 2)).copy(), (1, 0, 2))  # non-contiguous, as a window's segments
     np.testing.assert_allclose(hermitian_product(strided, b), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_coefficients_with_their_delays_gathered_once_are_the_ratio_shapes():
+    """Evaluated again at delay vectors seen before (the gathered z^-d reused), each coefficient is its shape."""
+    from pmr_ros.core.pmr.parametric.ratio import ratio_shape
+
+    problem = _problem()
+    z_inv = problem.system.z_inv
+    for delays in ([2, 3, -1, 0], [1, 3, -1, 2], [2, 3, -1, 0], [1, 3, -1, 2]):
+        params = RowParameters(TRUTH.lin, TRUTH.s, np.array(delays))
+        theta = problem.coefficients(params).theta
+        for k, column in enumerate(problem.columns):
+            pole = column.pole(float(TRUTH.s[k])) if column.has_tau else 0.0
+            expected = TRUTH.lin[k] * ratio_shape(z_inv, column.pole_model, pole, delays[k])
+            np.testing.assert_allclose(theta[:, k], expected, rtol=1e-12, atol=1e-13)

@@ -117,12 +117,13 @@ class RowProblem:
         self._owner = np.concatenate([np.arange(self.n), self.free_tau])
         self._m_owner = system.M[:, self._owner][:, :, self._owner]
         self._all_tau = bool(self.has_tau.all())  # then the np.where of the shapes below keeps every value
+        self._gathered: dict[bytes, np.ndarray] = {}
 
     def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
         """``theta`` and its derivatives at ``params``, on the fitted bins or at ``z_inv = exp(-j w)``."""
         if z_inv is None:
             z_inv = self.system.z_inv[:, None]
-            delay = self._turns[:, params.delays - self._lowest]
+            delay = self._delay_turns(params.delays)
             numerator, numerator_dz = self._numerator, self._numerator_dz
         else:
             z_inv = z_inv[:, None]
@@ -145,6 +146,21 @@ class RowProblem:
             shape[:, c], d_shape[:, c] = scaled[0], d_scaled[0]
         d_lin = shape * delay
         return Coefficients(params.lin * d_lin, d_lin, params.lin * d_shape * delay)
+
+    def _delay_turns(self, delays: np.ndarray) -> np.ndarray:
+        """``z^-d`` of each column's delay on the fitted bins (F', n), gathered once per delay vector (read only).
+
+        A fit's every step and trial holds its delays; the gather of a complex column per column cost a sixth
+        of a coefficient evaluation.
+        """
+        key = delays.tobytes()
+        if key not in self._gathered:
+            if len(self._gathered) >= 256:  # a row's fit tries some tens of delay vectors
+                self._gathered.clear()
+            gathered = self._turns[:, delays - self._lowest]
+            gathered.flags.writeable = False
+            self._gathered[key] = gathered
+        return self._gathered[key]
 
     def _pack(self, params: RowParameters) -> np.ndarray:
         return np.concatenate([params.lin, params.s[self.free_tau]])
