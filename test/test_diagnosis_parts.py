@@ -419,13 +419,17 @@ def test_results_of_every_kind_round_trip_and_read():
 
 
 def test_complex_products_from_real_ones_equal_numpy():
-    from pmr_ros.core.pmr.products import hermitian_product, product
+    from pmr_ros.core.pmr.products import hermitian_product, product, real_product
 
     rng = np.random.default_rng(5)
     a = rng.standard_normal((7, 5, 3)) + 1j * rng.standard_normal((7, 5, 3))
     b = rng.standard_normal((7, 5, 4)) + 1j * rng.standard_normal((7, 5, 4))
     np.testing.assert_allclose(hermitian_product(a, b), np.conj(np.swapaxes(a, 1, 2)) @ b, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(product(np.swapaxes(a, 1, 2), b), np.swapaxes(a, 1, 2) @ b, rtol=1e-12, atol=1e-12)
+    expected = np.real(np.swapaxes(a, 1, 2) @ b)
+    np.testing.assert_allclose(real_product(np.swapaxes(a, 1, 2), b), expected, rtol=1e-12, atol=1e-12)
+    # the real part product() computes, to the bit
+    np.testing.assert_array_equal(real_product(np.swapaxes(a, 1, 2), b), np.real(product(np.swapaxes(a, 1, 2), b)))
 
 
 # -- the Welch segments' leakage --------------------------------------------------------------------

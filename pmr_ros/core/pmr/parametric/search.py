@@ -25,7 +25,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..products import product
+from ..products import real_product
 from .lsq import RowParameters
 from .ratio import GAIN_RATIO_BOUND, ColumnModel, RowSystem
 
@@ -146,7 +146,8 @@ def _searched(
 ) -> tuple[float, float, int, np.ndarray]:
     """:func:`column_search`'s ``(lin, s, delay)`` and the column's shape (without delay) at that ``s``."""
     candidates = np.arange(grid.delays.size) if delay is None else np.array([delay - int(grid.delays[0])])
-    numerator = np.real(product(grid.conjugate_shapes * (weight * target), grid.turns[:, candidates]))  # (G, n_d)
+    turns = grid.turns if delay is None else grid.turns[:, candidates]
+    numerator = real_product(grid.conjugate_shapes * (weight * target), turns)  # (G, n_d)
     denominator = grid.power @ weight  # (G,)
     _, gain = _best_linear(numerator, denominator[:, None], grid.column)
     g, d = np.unravel_index(int(np.argmax(gain)), gain.shape)
