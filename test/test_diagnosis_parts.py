@@ -20,7 +20,13 @@ from pmr_ros.core.pmr.parametric.guard import fitted_bins
 from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict, search_candidates
 from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
-from pmr_ros.core.pmr.parametric.search import column_grids, column_search, move_delay, sweep_columns
+from pmr_ros.core.pmr.parametric.search import (
+    column_grids,
+    column_search,
+    conditional_target,
+    move_delay,
+    sweep_columns,
+)
 from pmr_ros.core.pmr.parametric.verdicts import element_result, trust_reasons
 from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
 from pmr_ros.core.records import Record
@@ -243,6 +249,11 @@ def test_column_search_and_move_delay():
     assert delay == 0 and lin == pytest.approx(0.9, abs=0.02) and s == pytest.approx(-0.3, abs=0.1)
     moved = move_delay(system, grids[1], truth, theta=theta, k=1, delay=6)
     assert moved.delays.tolist() == [0, 6] and truth.delays.tolist() == [0, 5]
+    # the column's target given once (every delay of the column shares it): the same move
+    target = conditional_target(system, theta, 1)
+    again = move_delay(system, grids[1], truth, theta=theta, k=1, delay=6, target=target)
+    np.testing.assert_allclose(again.lin, moved.lin, rtol=1e-14)
+    np.testing.assert_allclose(again.s, moved.s, rtol=1e-14)
 
 
 def test_column_models_follow_the_element_kinds():
@@ -408,13 +419,17 @@ def test_results_of_every_kind_round_trip_and_read():
 
 
 def test_complex_products_from_real_ones_equal_numpy():
-    from pmr_ros.core.pmr.products import hermitian_product, product
+    from pmr_ros.core.pmr.products import hermitian_product, product, real_product
 
     rng = np.random.default_rng(5)
     a = rng.standard_normal((7, 5, 3)) + 1j * rng.standard_normal((7, 5, 3))
     b = rng.standard_normal((7, 5, 4)) + 1j * rng.standard_normal((7, 5, 4))
     np.testing.assert_allclose(hermitian_product(a, b), np.conj(np.swapaxes(a, 1, 2)) @ b, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(product(np.swapaxes(a, 1, 2), b), np.swapaxes(a, 1, 2) @ b, rtol=1e-12, atol=1e-12)
+    expected = np.real(np.swapaxes(a, 1, 2) @ b)
+    np.testing.assert_allclose(real_product(np.swapaxes(a, 1, 2), b), expected, rtol=1e-12, atol=1e-12)
+    # the real part product() computes, to the bit
+    np.testing.assert_array_equal(real_product(np.swapaxes(a, 1, 2), b), np.real(product(np.swapaxes(a, 1, 2), b)))
 
 
 # -- the Welch segments' leakage --------------------------------------------------------------------
@@ -452,6 +467,9 @@ def test_instrument_cross_of_the_regressors_themselves_is_the_rows_spectra(wood_
     for i in range(2):
         regressors = spectra.instrument_cross(i, lambda x, u: x)
         np.testing.assert_allclose(regressors, spectra.row(i).zx, rtol=1e-12, atol=1e-14)
+        bins = np.array([1, 4, 9, 30])  # only some bins: those of the whole
+        at_bins = spectra.instrument_cross(i, lambda x, u: x, bins)
+        np.testing.assert_allclose(at_bins, spectra.row(i).zx[bins], rtol=1e-12, atol=1e-14)
 
 
 def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_without_noise():
@@ -484,6 +502,7 @@ def test_the_leakage_offset_makes_the_equations_exact_at_the_true_parameters_wit
     left = np.abs(row.zy[bins] - offset[bins] - product[bins]).max() / scale
     assert leakage > 1e-3  # what the fit saw before
     assert left < 1e-3 * leakage
+    assert offset.shape == row.zy.shape and not np.any(np.delete(offset, bins, axis=0))  # 0 where no fit reads
 
 
 def test_the_excitation_guard_holds_a_row_of_many_elements_to_a_fair_share():

@@ -16,9 +16,9 @@ from dataclasses import replace
 import numpy as np
 
 from pmr_ros.core.pmr.implicit import instrument_factor
-from pmr_ros.core.pmr.parametric.bias import residual_moments, without_instrument_bias
+from pmr_ros.core.pmr.parametric.bias import residual_moments, unscaled_residual_moments, without_instrument_bias
 from pmr_ros.core.pmr.parametric.fit import RowFit
-from pmr_ros.core.pmr.parametric.ratio import row_system
+from pmr_ros.core.pmr.parametric.ratio import bin_scale, row_system, whitened_regressors
 from pmr_ros.core.pmr.spectra import RowSpectra
 
 K, NZ, BINS = 12, 3, 6000
@@ -130,3 +130,30 @@ def test_the_delay_likelihood_is_tempered_by_the_bin_correlation():
     np.testing.assert_allclose(fit.scale, 3.0 * 1.94, rtol=1e-12)
     # a reduced chi-square below one does not sharpen it
     np.testing.assert_allclose(replace(fit, chi_square=50.0).scale, 1.94, rtol=1e-12)
+
+
+def test_the_unweighted_parts_are_kept_once_and_give_the_same_equations():
+    """What a row's fit keeps once (whitened regressors, unscaled residual moments) gives the same equations.
+
+    The same as computing them again at every weighting.
+    """
+    spectra, factor, z, _ = _spectra(seed=3)
+    bins, omega = np.arange(0, BINS, 7), np.linspace(0.1, 3.0, BINS)
+    noise = np.exp(np.sin(omega))  # any positive weights
+    weights = {"noise": noise, "bins": bins, "omega": omega, "equivalent_segments": float(K)}
+    columns = np.array([0])
+    whitened = whitened_regressors(spectra, factor, columns=columns, bins=bins)
+    # the whitened regressors are L^-1 S_zx: L whitened L^H = S_zz's factor times S_zx
+    np.testing.assert_allclose(factor[bins] @ whitened, spectra.zx[bins][:, :, columns], rtol=1e-10, atol=1e-12)
+    alone = row_system(spectra, factor, columns=columns, **weights)
+    kept = row_system(spectra, factor, columns=columns, whitened=whitened, **weights)
+    for name in ("M", "v", "beta"):
+        np.testing.assert_allclose(getattr(kept, name), getattr(alone, name), rtol=1e-13, atol=1e-13)
+    scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=float(K))
+    unscaled = unscaled_residual_moments(spectra, factor, columns=columns, bins=bins)
+    np.testing.assert_allclose(
+        unscaled * (scale**2)[:, None, None],
+        residual_moments(spectra, factor, columns=columns, **weights),
+        rtol=1e-13,
+        atol=1e-13,
+    )

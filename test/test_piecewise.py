@@ -16,8 +16,8 @@ from scipy.signal import lfilter_zi
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.parametric.ratio import _first_order_zi
 from pmr_ros.core.pmr.parametric.verdicts import mixture_interval
-from pmr_ros.core.pmr.piecewise import PieceCache, PiecewiseSpectra
-from pmr_ros.core.pmr.spectra import RecordSpectra, WelchSettings, record_spectra
+from pmr_ros.core.pmr.piecewise import PieceCache, PiecewiseSpectra, stacked_segment_ffts
+from pmr_ros.core.pmr.spectra import RecordSpectra, WelchSettings, record_spectra, segment_spectra
 from pmr_ros.core.results.codec import diagnosis_to_json
 from pmr_ros.core.sim.model import Mismatch
 from pmr_ros.service.monitoring import WindowJob, diagnose_window, stretch_spans, window_stretches
@@ -173,3 +173,16 @@ def test_mixture_interval_of_one_normal_is_its_central_interval():
     # a mixture of two equal normals is that normal: mean +- 1.96 sd (scipy.stats.norm)
     low, high = mixture_interval(np.array([1.0, 1.0]), np.array([0.5, 0.5]), np.array([0.3, 0.7]), level=0.95)
     np.testing.assert_allclose([low, high], [1.0 - 1.959964 * 0.5, 1.0 + 1.959964 * 0.5], rtol=1e-6)
+
+
+@pytest.mark.parametrize(("samples", "stretches", "columns", "length"), [(1340, 14, 1, 512), (900, 3, 2, 256)])
+def test_stacked_segment_ffts_are_each_blocks_segment_spectra(samples, stretches, columns, length):
+    """Stretches of one length in one call: each one's Welch segments as its own call gives them (means its own)."""
+    rng = np.random.default_rng(stretches)
+    blocks = np.cumsum(rng.standard_normal((samples, stretches, columns)), axis=0) + 5.0 * np.arange(stretches)[:, None]
+    welch = WelchSettings(segment_length=length)
+    stacked = stacked_segment_ffts(blocks, welch)
+    for j in range(stretches):
+        alone = segment_spectra(blocks[:, j], welch).ffts
+        assert stacked[j].shape == alone.shape
+        np.testing.assert_allclose(stacked[j], alone, rtol=1e-13, atol=1e-12)

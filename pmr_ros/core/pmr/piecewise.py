@@ -28,13 +28,14 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .spectra import RecordSpectra, RowSpectra, SegmentSpectra, WelchSettings, row_regressors, segment_spectra
 from .spectra_source import SPECTRA_SOURCE
 
-__all__ = ["PieceCache", "PiecewiseSpectra"]
+__all__ = ["PieceCache", "PiecewiseSpectra", "stacked_segment_ffts"]
 
 Span = tuple[int, int]
 
@@ -43,6 +44,31 @@ def _signature(moving: InstrumentSet) -> tuple[bytes, ...]:
     """A key of the instrument set (which columns are instruments)."""
     parts = (moving.setpoints, moving.dither, moving.manual)
     return tuple(np.asarray(p, dtype=bool).tobytes() for p in parts)
+
+
+def stacked_segment_ffts(blocks: np.ndarray, settings: WelchSettings) -> np.ndarray:
+    """:func:`~.spectra.segment_spectra`'s ``ffts`` of S blocks of one length at once, shape (S, K, F, q).
+
+    ``blocks`` (N, S, q): block ``j`` is ``blocks[:, j]``.  Each block's means come from its own contiguous
+    samples, its segments are cut, tapered, transformed and scaled as one block's call does them: the same
+    numbers (test_piecewise.py), in one call instead of one per day-long stretch.
+
+    Parameters
+    ----------
+    blocks : ndarray, shape (N, S, q)
+    settings : WelchSettings
+    """
+    x = np.ascontiguousarray(np.transpose(np.asarray(blocks, dtype=float), (1, 0, 2)))  # (S, N, q): each a block
+    x = x - x.mean(axis=1)[:, None, :]
+    L = settings.segment_length
+    frames = sliding_window_view(x, L, axis=1)[:, :: settings.step][:, : settings.segments(x.shape[1])]  # (S,K,q,L)
+    taper = settings.taper
+    X = np.fft.rfft(frames * taper, axis=-1)  # (S, K, q, F)
+    scale = np.full(X.shape[-1], np.sqrt(2.0 / np.sum(taper**2)))
+    scale[0] = np.sqrt(1.0 / np.sum(taper**2))
+    if L % 2 == 0:
+        scale[-1] = scale[0]
+    return np.swapaxes(X * scale, 2, 3)
 
 
 class PieceCache:
@@ -190,12 +216,19 @@ class PiecewiseSpectra(RecordSpectra):
             by_length.setdefault(u.shape[0], []).append(j)
         parts: list[Any] = [None] * len(self._pieces)
         for group in by_length.values():
-            x = np.stack([self._cache.regressors(self._pieces[j][2], self._pieces[j][0], i) for j in group], axis=1)
-            signals = transform(x, np.stack([self._pieces[j][0] for j in group], axis=1))
+            # the stacks are the window's (the fit's leakage rounds transform them again)
+            x = self.held(("stacked x", i, tuple(group)), partial(self._stacked, group, i))
+            u = self.held(("stacked u", tuple(group)), partial(self._stacked, group, None))
+            ffts = stacked_segment_ffts(self._block(transform(x, u), i), self.settings)
             for place, j in enumerate(group):
-                block = np.ascontiguousarray(signals[:, place])  # the layout one stretch's call gives
-                parts[j] = segment_spectra(self._block(block, i), self.settings)
+                parts[j] = SegmentSpectra(self.omega, ffts[place], self.settings)
         return parts
+
+    def _stacked(self, group: Sequence[int], i: int | None) -> np.ndarray:
+        """Row ``i``'s regressors (None: the inputs) of the stretches ``group``, stacked on axis 1."""
+        if i is None:
+            return np.stack([self._pieces[j][0] for j in group], axis=1)
+        return np.stack([self._cache.regressors(self._pieces[j][2], self._pieces[j][0], i) for j in group], axis=1)
 
     def _row_part(self, u: np.ndarray, y: np.ndarray, span: Span, i: int) -> SegmentSpectra:
         """One stretch's segment transforms of ``[y_i, x_i1 .. x_in]``."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["hermitian_product", "product"]
+__all__ = ["hermitian_product", "product", "real_product"]
 
 
 def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -30,6 +30,17 @@ def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return (ar @ br - ai @ bi) + 1j * (ar @ bi + ai @ br)
 
 
+def real_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``Re(a @ b)``, the real part :func:`product` computes, from two real products instead of four.
+
+    Parameters
+    ----------
+    a : ndarray, shape (..., m, k)
+    b : ndarray, shape (..., k, n)
+    """
+    return np.real(a) @ np.real(b) - np.imag(a) @ np.imag(b)
+
+
 def hermitian_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``conj(a).T @ b`` over the last two axes (leading axes broadcast), from four real products.
 
@@ -40,4 +51,12 @@ def hermitian_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
     ar, ai = np.swapaxes(np.real(a), -1, -2), np.swapaxes(np.imag(a), -1, -2)
     br, bi = np.real(b), np.imag(b)
-    return (ar @ br + ai @ bi) + 1j * (ar @ bi - ai @ br)
+    if min(a.shape[-1], b.shape[-1]) < 2:  # a matrix-vector product: kept as it is, numpy's path for it
+        return (ar @ br + ai @ bi) + 1j * (ar @ bi - ai @ br)
+    # the real and imaginary parts made contiguous first (numpy copies strided operands per matrix otherwise,
+    # measured at twice the time of a window's cross-spectra), and written straight into the result
+    ar, ai, br, bi = (np.ascontiguousarray(part) for part in (ar, ai, br, bi))
+    real = ar @ br + ai @ bi
+    out = np.empty(real.shape, dtype=np.result_type(a, b, 1j))
+    out.real, out.imag = real, ar @ bi - ai @ br
+    return out

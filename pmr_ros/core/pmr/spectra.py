@@ -353,9 +353,12 @@ class RecordSpectra:
         seg, _ = stretch_segments(blocks, self.settings)
         return np.transpose(seg.ffts, (1, 0, 2))
 
-    def instrument_cross(self, i: int, transform: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
+    def instrument_cross(
+        self, i: int, transform: Callable[[np.ndarray, np.ndarray], np.ndarray], bins: np.ndarray | None = None
+    ) -> np.ndarray:
         """Cross-spectra of the instruments with ``transform`` of row ``i``'s regressors, shape (F, n_z, q).
 
+        Only at ``bins`` when given (shape (len(bins), n_z, q)).
         ``transform`` maps a stretch's regressors (N, n_in), filtered in the
         time domain over the whole stretch, and its inputs u (N, n_in) to q signals (N, q) (a
         :class:`~.piecewise.PiecewiseSpectra` passes the stretches of one length stacked on axis 1,
@@ -364,8 +367,9 @@ class RecordSpectra:
         time domain gives ``S_{z, H x}`` without the leakage of a Welch segment's
         edges, which ``H(w) S_{z x}`` has (:func:`~pmr_ros.core.pmr.parametric.fit.leakage_offset`).
         """
-        Z = np.transpose(self._z.ffts, (1, 0, 2))
-        X = self._row_segments(i, transform)
+        Z, X = np.transpose(self._z.ffts, (1, 0, 2)), self._row_segments(i, transform)
+        if bins is not None:
+            Z, X = Z[bins], X[bins]
         return hermitian_product(Z, X) / X.shape[1]
 
     def row(self, i: int) -> RowSpectra:

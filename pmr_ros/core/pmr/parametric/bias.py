@@ -38,7 +38,7 @@ from ..products import hermitian_product
 from ..spectra import RowSpectra
 from .ratio import RowSystem, bin_scale
 
-__all__ = ["residual_moments", "without_instrument_bias"]
+__all__ = ["residual_moments", "unscaled_residual_moments", "without_instrument_bias"]
 
 
 def residual_moments(
@@ -57,6 +57,13 @@ def residual_moments(
     instruments (``S_cz S_zz^-1 S_zc``), scaled as :func:`~.ratio.row_system` scales.
     """
     scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=equivalent_segments)
+    return unscaled_residual_moments(spectra, factor, columns=columns, bins=bins) * (scale**2)[:, None, None]
+
+
+def unscaled_residual_moments(
+    spectra: RowSpectra, factor: np.ndarray, *, columns: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
+    """:func:`residual_moments` before the weights' scaling (which alone changes with the noise spectrum)."""
     xy = spectra.xy[bins][:, columns]
     full = np.empty((bins.size, columns.size + 1, columns.size + 1), dtype=complex)
     full[:, 0, 0] = spectra.yy[bins]
@@ -66,7 +73,7 @@ def residual_moments(
     cz = np.concatenate([spectra.zy[bins][:, :, None], spectra.zx[bins][:, :, columns]], axis=2)
     whitened = np.linalg.solve(factor[bins], cz)
     projected = hermitian_product(whitened, whitened)
-    return (full - projected) * (scale**2)[:, None, None]
+    return full - projected
 
 
 def without_instrument_bias(

@@ -176,6 +176,8 @@ class RowFit:
 def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) -> np.ndarray:
     """What the Welch segments' edges add to ``S_{z y}`` beyond ``sum_k theta_k(w) S_{z x_k}``, shape (F, n_z).
 
+    At the fitted bins ``data.bins``, 0 at the others (no fit reads them).
+
     A segment's transform of ``y = theta(q) x`` is not ``theta(w)`` times the
     transform of ``x``: the response inside a segment to the input before it,
     and the part of its own input's response that falls after it, differ (the
@@ -213,10 +215,12 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
                 total += np.stack(each, axis=1).reshape(total.shape)
         return total[..., None]
 
-    exact = data.record.instrument_cross(data.row, model_output)[:, :, 0]
-    theta = problem.coefficients(params, np.exp(-1j * data.omega)).theta
-    product = np.einsum("fzk,fk->fz", data.spectra.zx[:, :, data.columns], theta)
-    return exact - product
+    bins = data.bins  # the fit reads the equations there only
+    exact = data.record.instrument_cross(data.row, model_output, bins)[:, :, 0]
+    theta = problem.coefficients(params, np.exp(-1j * data.omega[bins])).theta
+    offset = np.zeros(data.spectra.zy.shape, dtype=complex)
+    offset[bins] = exact - np.einsum("fzk,fk->fz", data.spectra.zx[bins][:, :, data.columns], theta)
+    return offset
 
 
 def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) -> tuple[RowParameters, float]:
@@ -327,7 +331,7 @@ def fit_row(
     RowFit
     """
     # pass 1: weights from the nonparametric estimate's residual; delays searched
-    first = data.system(theta_start)
+    first, as_is = data.systems(theta_start)  # as_is: without the bias correction, for the lack of fit
     problem = RowProblem(first, columns)
     grids = column_grids(columns, first.z_inv)
     fit = first_pass(problem, grids, columns, sweep_columns(first, grids))
@@ -359,7 +363,7 @@ def fit_row(
         chi_square=cost,
         dof=dof,
         delay_profile=joint_profiles(trials, params),
-        lack_of_fit=_lack_of_fit(data.system(theta_start, debiased=False), problem, params),
+        lack_of_fit=_lack_of_fit(as_is, problem, params),
         columns=tuple(columns),
         separation=separation(final, params),
         alternatives=_weighted(trials, params, scale=searched_scale, inflation=inflation),

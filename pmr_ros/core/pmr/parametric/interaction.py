@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from scipy.stats import norm
+from scipy.special import ndtri  # norm.ppf's own function (the same numbers)
 
 from ...results import ParametricResult
 from .fit import RowFit
@@ -37,7 +37,7 @@ def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, set
     The share's interval is widened to the Bonferroni level of ``candidates``
     searched templates; then :func:`parameter_verdict` with the gain tolerance.
     """
-    z = float(norm.ppf(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
+    z = float(ndtri(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
     interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
     z_one = z_score(settings)
     return parameter_verdict(

@@ -116,28 +116,51 @@ class RowProblem:
         self._numerator_dz = self._numerator * (z_fitted - 1)
         self._owner = np.concatenate([np.arange(self.n), self.free_tau])
         self._m_owner = system.M[:, self._owner][:, :, self._owner]
+        self._all_tau = bool(self.has_tau.all())  # then the np.where of the shapes below keeps every value
+        self._gathered: dict[bytes, np.ndarray] = {}
 
     def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
         """``theta`` and its derivatives at ``params``, on the fitted bins or at ``z_inv = exp(-j w)``."""
         if z_inv is None:
             z_inv = self.system.z_inv[:, None]
-            delay = self._turns[:, params.delays - self._lowest]
+            delay = self._delay_turns(params.delays)
             numerator, numerator_dz = self._numerator, self._numerator_dz
         else:
             z_inv = z_inv[:, None]
             delay = z_inv ** params.delays[None, :]
             numerator = (1 - self.pole_model * z_inv) / (1 - self.pole_model)
             numerator_dz = numerator * (z_inv - 1)
-        tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
-        a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
+        if self._all_tau:  # the np.where below would keep every value
+            tau = self.tau_reference * np.exp(params.s)
+            a = np.exp(-1.0 / tau)
+        else:
+            tau = self.tau_reference * np.exp(np.where(self.has_tau, params.s, 0.0))
+            a = np.where(self.has_tau, np.exp(-1.0 / tau), 0.0)
         denominator = 1 - a * z_inv
-        shape = np.where(self.has_tau, (1 - a) * numerator / denominator, 1.0)
-        d_shape = np.where(self.has_tau, numerator_dz / denominator**2 * (a / tau), 0.0)
+        shape = (1 - a) * numerator / denominator
+        d_shape = numerator_dz / denominator**2 * (a / tau)
+        if not self._all_tau:
+            shape, d_shape = np.where(self.has_tau, shape, 1.0), np.where(self.has_tau, d_shape, 0.0)
         for c in self.scaled_index:  # a tf/step_response element: its own shape (:mod:`.scaled`)
             scaled, d_scaled = self.columns[c].shapes(z_inv[:, 0], params.s[c : c + 1])
             shape[:, c], d_shape[:, c] = scaled[0], d_scaled[0]
         d_lin = shape * delay
         return Coefficients(params.lin * d_lin, d_lin, params.lin * d_shape * delay)
+
+    def _delay_turns(self, delays: np.ndarray) -> np.ndarray:
+        """``z^-d`` of each column's delay on the fitted bins (F', n), gathered once per delay vector (read only).
+
+        A fit's every step and trial holds its delays; the gather of a complex column per column cost a sixth
+        of a coefficient evaluation.
+        """
+        key = delays.tobytes()
+        if key not in self._gathered:
+            if len(self._gathered) >= 256:  # a row's fit tries some tens of delay vectors
+                self._gathered.clear()
+            gathered = self._turns[:, delays - self._lowest]
+            gathered.flags.writeable = False
+            self._gathered[key] = gathered
+        return self._gathered[key]
 
     def _pack(self, params: RowParameters) -> np.ndarray:
         return np.concatenate([params.lin, params.s[self.free_tau]])
@@ -171,11 +194,17 @@ class RowProblem:
 
     def _gradient(self, coefficients: Coefficients, product: np.ndarray | None = None) -> np.ndarray:
         """The cost's gradient in the packed parameters; ``product`` is ``M theta`` when already computed."""
-        derivatives, owner = self.jacobian(coefficients)
         if product is None:
             product = np.einsum("fkm,fm->fk", self.system.M, coefficients.theta)
+        return self._step_terms(coefficients, product)[1]
+
+    def _step_terms(self, coefficients: Coefficients, product: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`information` and :meth:`_gradient` from one Jacobian (``product`` is ``M theta``)."""
+        derivatives, owner = self.jacobian(coefficients)
+        conjugate = derivatives.conj()
+        H = np.einsum("fp,fpq,fq->pq", conjugate, self._m_owner, derivatives).real
         misfit = product - self.system.v
-        return 2.0 * np.einsum("fp,fp->p", derivatives.conj(), misfit[:, owner]).real
+        return H, 2.0 * np.einsum("fp,fp->p", conjugate, misfit[:, owner]).real
 
     def fit(
         self, start: RowParameters, *, iterations: int = MAX_ITERATIONS, settled_above: float = np.inf
@@ -188,16 +217,17 @@ class RowProblem:
         neighbour whose outcome is settled: :data:`~.fit.SETTLED`).
         """
         lower, upper = self._bounds()
-        x = np.clip(self._pack(start), lower, upper)
+        x = np.minimum(np.maximum(self._pack(start), lower), upper)  # np.clip without its wrapper's cost
         coefficients = self.coefficients(self._unpack(x, start))
         cost, product = self.system.cost_and_product(coefficients.theta)
         damping = 1e-3
         for _ in range(iterations):
-            H = self.information(coefficients)
-            g = self._gradient(coefficients, product)
-            diagonal = np.maximum(np.diag(H), 1e-12 * max(1.0, float(np.abs(np.diag(H)).max())))
+            H, g = self._step_terms(coefficients, product)
+            diagonal = np.diag(H)
+            diagonal = np.maximum(diagonal, 1e-12 * max(1.0, float(np.abs(diagonal).max())))
             while damping < 1e12:
-                trial = np.clip(x + np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g), lower, upper)
+                step = np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g)
+                trial = np.minimum(np.maximum(x + step, lower), upper)
                 trial_coefficients = self.coefficients(self._unpack(trial, start))
                 trial_cost, trial_product = self.system.cost_and_product(trial_coefficients.theta)
                 if trial_cost <= cost:

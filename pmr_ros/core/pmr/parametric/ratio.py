@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -66,6 +67,7 @@ __all__ = [
     "noise_spectrum",
     "ratio_shape",
     "row_system",
+    "whitened_regressors",
 ]
 
 NOISE_SMOOTHING_BINS = 9
@@ -245,11 +247,20 @@ class RowSystem:
     def cost_and_product(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
         """:meth:`cost` of ``theta`` and the product ``M theta`` it computes (a fit's gradient needs it too)."""
         Mt = np.einsum("fkm,fm->fk", self.M, theta)
-        quad = np.einsum("fk,fk->", theta.conj(), Mt).real
-        return float(self.beta.sum() - 2.0 * np.einsum("fk,fk->", theta.conj(), self.v).real + quad), Mt
+        conjugate = theta.conj()
+        quad = np.einsum("fk,fk->", conjugate, Mt).real
+        return float(self._beta_total - 2.0 * np.einsum("fk,fk->", conjugate, self.v).real + quad), Mt
+
+    @cached_property
+    def _beta_total(self) -> float:
+        return self.beta.sum()
 
     def free_estimate(self) -> tuple[np.ndarray, np.ndarray]:
-        """The per-bin least-squares coefficients and each one's variance, shapes (F', n)."""
+        """The per-bin least-squares coefficients and each one's variance, shapes (F', n) (computed once; read only)."""
+        return self._free
+
+    @cached_property
+    def _free(self) -> tuple[np.ndarray, np.ndarray]:
         try:
             inverse = np.linalg.inv(self.M)
         except np.linalg.LinAlgError:
@@ -277,6 +288,7 @@ def row_system(
     bins: np.ndarray,
     omega: np.ndarray,
     equivalent_segments: float,
+    whitened: np.ndarray | None = None,
 ) -> RowSystem:
     """The row's equations whitened to unit-variance real components, in information form.
 
@@ -294,11 +306,16 @@ def row_system(
     omega : ndarray, shape (F,)
         All frequencies [rad/sample].
     equivalent_segments : float
+    whitened : ndarray, optional
+        ``L^-1 S_{z x}`` at ``bins`` and ``columns`` (:func:`whitened_regressors`) when already computed: it
+        does not depend on the weights, and a row's fit whitens the same regressors four times.
     """
     L = factor[bins]
     scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=equivalent_segments)
     b = np.linalg.solve(L, spectra.zy[bins][:, :, None])[:, :, 0] * scale[:, None]
-    A = np.linalg.solve(L, spectra.zx[bins][:, :, columns]) * scale[:, None, None]
+    if whitened is None:
+        whitened = whitened_regressors(spectra, factor, columns=columns, bins=bins)
+    A = whitened * scale[:, None, None]
     return RowSystem(
         M=hermitian_product(A, A),
         v=hermitian_product(A, b[:, :, None])[:, :, 0],
@@ -306,6 +323,13 @@ def row_system(
         z_inv=np.exp(-1j * omega[bins]),
         components=2 * b.size,
     )
+
+
+def whitened_regressors(
+    spectra: RowSpectra, factor: np.ndarray, *, columns: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
+    """``L^-1 S_{z x}`` of the regressors ``columns`` at ``bins``, shape (F', n_z, n): row_system's A unweighted."""
+    return np.linalg.solve(factor[bins], spectra.zx[bins][:, :, columns])
 
 
 def noise_spectrum(spectra: RowSpectra, columns: np.ndarray, theta: np.ndarray, omega: np.ndarray) -> np.ndarray:

@@ -8,13 +8,14 @@ finite-segment bias of the instruments removed (:mod:`.bias`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 from ..spectra import RecordSpectra, RowSpectra
-from .bias import residual_moments, without_instrument_bias
-from .ratio import RowSystem, noise_spectrum, row_system
+from .bias import unscaled_residual_moments, without_instrument_bias
+from .ratio import RowSystem, bin_scale, noise_spectrum, row_system, whitened_regressors
 
 __all__ = ["RowData"]
 
@@ -58,6 +59,16 @@ class RowData:
     row: int = 0
     unbiased: bool = False
 
+    @cached_property
+    def _whitened(self) -> np.ndarray:
+        """The whitened regressors: the same at every weighting (:func:`~.ratio.whitened_regressors`)."""
+        return whitened_regressors(self.spectra, self.factor, columns=self.columns, bins=self.bins)
+
+    @cached_property
+    def _residual(self) -> np.ndarray:
+        """The moments outside the instruments before the weights (:func:`~.bias.unscaled_residual_moments`)."""
+        return unscaled_residual_moments(self.spectra, self.factor, columns=self.columns, bins=self.bins)
+
     def system(self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True) -> RowSystem:
         """The row's whitened equations, weighted with the noise left by coefficients ``theta`` (F, n).
 
@@ -65,6 +76,15 @@ class RowData:
         segments' leakage at the current fit (:func:`~.fit.leakage_offset`).  With
         ``unbiased`` and ``debiased``, the finite-segment bias of the
         instrumental equations is taken out (:mod:`.bias`).
+        """
+        return self.systems(theta, offset, debiased=debiased)[0]
+
+    def systems(
+        self, theta: np.ndarray, offset: np.ndarray | None = None, *, debiased: bool = True
+    ) -> tuple[RowSystem, RowSystem]:
+        """:meth:`system` and the same equations without the bias correction (the same when there is none).
+
+        The one noise spectrum and whitening serve both.
         """
         noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
@@ -76,14 +96,16 @@ class RowData:
             "omega": omega,
             "equivalent_segments": segments,
         }
-        system = row_system(spectra, self.factor, **shared)
+        system = row_system(spectra, self.factor, whitened=self._whitened, **shared)
         if not (debiased and self.unbiased):
-            return system
+            return system, system
         # the moments outside the instruments from the spectra as measured: the leakage offset is the instruments'
-        residual = residual_moments(self.spectra, self.factor, **shared)
-        return without_instrument_bias(
+        scale = bin_scale(noise, bins=bins, omega=omega, equivalent_segments=segments)
+        residual = self._residual * (scale**2)[:, None, None]  # residual_moments(self.spectra, self.factor, **shared)
+        corrected = without_instrument_bias(
             system,
             residual,
             instruments=int(self.factor.shape[1]),
             equivalent_segments=self.equivalent_segments,
         )
+        return corrected, system

@@ -21,10 +21,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ..products import product
+from ..products import real_product
 from .lsq import RowParameters
 from .ratio import GAIN_RATIO_BOUND, ColumnModel, RowSystem
 
@@ -71,6 +72,16 @@ class ColumnGrid:
     turns: np.ndarray
     z_inv: np.ndarray
 
+    @cached_property
+    def conjugate_shapes(self) -> np.ndarray:
+        """``conj(shapes)``, computed once per grid (every search of the column reads it)."""
+        return np.conj(self.shapes)
+
+    @cached_property
+    def power(self) -> np.ndarray:
+        """``|shapes|^2``, shape (G, F'), computed once per grid."""
+        return np.abs(self.shapes) ** 2
+
 
 def column_grids(columns: Sequence[ColumnModel], z_inv: np.ndarray) -> list[ColumnGrid]:
     """The search grid of every column of a row."""
@@ -87,8 +98,8 @@ def column_grids(columns: Sequence[ColumnModel], z_inv: np.ndarray) -> list[Colu
 def _best_linear(numerator: np.ndarray, denominator: np.ndarray, column: ColumnModel) -> tuple[np.ndarray, np.ndarray]:
     """The linear parameter and the cost reduction ``2 lin N - lin^2 D`` it achieves, bounds applied."""
     lin = numerator / np.maximum(denominator, 1e-300)
-    if not column.interaction:
-        lin = np.clip(lin, -GAIN_RATIO_BOUND, GAIN_RATIO_BOUND)
+    if not column.interaction:  # np.clip's arithmetic without its wrapper's cost
+        lin = np.minimum(np.maximum(lin, -GAIN_RATIO_BOUND), GAIN_RATIO_BOUND)
     return lin, 2.0 * lin * numerator - lin**2 * denominator
 
 
@@ -105,12 +116,12 @@ def _refine(grid: ColumnGrid, gains: np.ndarray, g: int) -> float:
     return float(grid.s[g] + np.clip(offset, -0.5, 0.5) * (grid.s[1] - grid.s[0]))
 
 
-def _linear_at(grid: ColumnGrid, target: np.ndarray, weight: np.ndarray, s: float, d: int) -> float:
-    """The closed-form linear parameter of the column at ``s`` and delay index ``d``."""
+def _linear_at(grid: ColumnGrid, target: np.ndarray, weight: np.ndarray, s: float, d: int) -> tuple[float, np.ndarray]:
+    """The closed-form linear parameter of the column at ``s`` and delay index ``d``, and the shape at ``s``."""
     shape, _ = grid.column.shapes(grid.z_inv, np.array([s]))
     numerator = np.real(np.sum(weight * np.conj(shape[0]) * target * grid.turns[:, d]))
     lin, _ = _best_linear(np.array(numerator), np.array(np.sum(weight * np.abs(shape[0]) ** 2)), grid.column)
-    return float(lin)
+    return float(lin), shape[0]
 
 
 def column_search(
@@ -126,13 +137,23 @@ def column_search(
     delay : int, optional
         Search only this delay (one of ``grid.delays``).
     """
+    lin, s, found, _ = _searched(grid, target, weight, delay=delay)
+    return lin, s, found
+
+
+def _searched(
+    grid: ColumnGrid, target: np.ndarray, weight: np.ndarray, *, delay: int | None = None
+) -> tuple[float, float, int, np.ndarray]:
+    """:func:`column_search`'s ``(lin, s, delay)`` and the column's shape (without delay) at that ``s``."""
     candidates = np.arange(grid.delays.size) if delay is None else np.array([delay - int(grid.delays[0])])
-    numerator = np.real(product(np.conj(grid.shapes) * (weight * target), grid.turns[:, candidates]))  # (G, n_d)
-    denominator = (np.abs(grid.shapes) ** 2) @ weight  # (G,)
+    turns = grid.turns if delay is None else grid.turns[:, candidates]
+    numerator = real_product(grid.conjugate_shapes * (weight * target), turns)  # (G, n_d)
+    denominator = grid.power @ weight  # (G,)
     _, gain = _best_linear(numerator, denominator[:, None], grid.column)
     g, d = np.unravel_index(int(np.argmax(gain)), gain.shape)
     s = _refine(grid, gain[:, d], int(g))
-    return _linear_at(grid, target, weight, s, int(candidates[d])), s, int(grid.delays[candidates[d]])
+    lin, shape = _linear_at(grid, target, weight, s, int(candidates[d]))
+    return lin, s, int(grid.delays[candidates[d]]), shape
 
 
 def conditional_target(system: RowSystem, theta: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -143,15 +164,23 @@ def conditional_target(system: RowSystem, theta: np.ndarray, k: int) -> tuple[np
 
 
 def move_delay(
-    system: RowSystem, grid: ColumnGrid, params: RowParameters, *, theta: np.ndarray, k: int, delay: int
+    system: RowSystem,
+    grid: ColumnGrid,
+    params: RowParameters,
+    *,
+    theta: np.ndarray,
+    k: int,
+    delay: int,
+    target: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> RowParameters:
     """``params`` with column ``k`` moved to ``delay`` and its gain and time constant refitted, the others held.
 
     The start of a joint fit at a neighbouring delay: the column's own
-    parameters are the ones a new delay moves most.
+    parameters are the ones a new delay moves most.  ``target``: column ``k``'s
+    :func:`conditional_target` given ``theta``, when already computed (every delay of the column shares it).
     """
-    target, weight = conditional_target(system, theta, k)
-    lin, s, _ = column_search(grid, target, weight, delay=delay)
+    wanted, weight = conditional_target(system, theta, k) if target is None else target
+    lin, s, _ = column_search(grid, wanted, weight, delay=delay)
     moved = params.with_delay(k, delay)
     moved.lin[k], moved.s[k] = lin, s
     return moved
@@ -176,10 +205,9 @@ def sweep_columns(system: RowSystem, grids: Sequence[ColumnGrid]) -> RowParamete
                 target, weight = free[:, k], 1.0 / variance[:, k]
             else:
                 target, weight = conditional_target(system, theta, k)
-            lin, s, delay = column_search(grid, target, weight)
+            lin, s, delay, shape = _searched(grid, target, weight)
             params.lin[k], params.s[k], params.delays[k] = lin, s, delay
-            shape, _ = grid.column.shapes(z_inv, np.array([s]))
-            theta[:, k] = lin * shape[0] * z_inv**delay
+            theta[:, k] = lin * shape * z_inv**delay
         if sweep > 0 and np.array_equal(before, params.delays):
             break
     return params

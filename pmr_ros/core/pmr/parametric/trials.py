@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .lsq import RowParameters, RowProblem
-from .search import ColumnGrid, move_delay
+from .search import ColumnGrid, conditional_target, move_delay
+from .stacked import fit_stacked
 
 __all__ = [
     "ALTERNATIVE_WEIGHT_MIN",
@@ -75,6 +76,13 @@ def _key(delays: np.ndarray) -> tuple[int, ...]:
     return tuple(int(v) for v in delays)
 
 
+def _moved_key(fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]]) -> tuple[int, ...]:
+    delays = fit[0].delays.copy()
+    for k, delay in moves:
+        delays[k] = delay
+    return _key(delays)
+
+
 class Trials:
     """Fits of one row with one weighting, cached by delay vector.
 
@@ -88,6 +96,11 @@ class Trials:
     def __init__(self, problem: RowProblem, grids: Sequence[ColumnGrid]) -> None:
         self.problem, self.grids = problem, grids
         self.tried: dict[tuple[int, ...], tuple[RowParameters, float]] = {}
+        self._ready: dict[tuple[tuple[int, ...], float], tuple[RowParameters, float]] = {}
+        self._ready_for: tuple[RowParameters, float] | None = None
+        self._target_of: RowParameters | None = None
+        self._targets: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._theta = np.zeros(0)
 
     def full(self, start: RowParameters) -> tuple[RowParameters, float]:
         """The converged joint fit at ``start``'s delays."""
@@ -102,9 +115,22 @@ class Trials:
         """
         start = fit[0]
         for k, delay in moves:
-            theta = self.problem.coefficients(start).theta
-            start = move_delay(self.problem.system, self.grids[k], start, theta=theta, k=k, delay=delay)
+            if start is fit[0]:  # the fit's coefficients and each column's target serve all its neighbours
+                theta, target = self._target(start, k)
+            else:
+                theta, target = self.problem.coefficients(start).theta, None
+            system = self.problem.system
+            start = move_delay(system, self.grids[k], start, theta=theta, k=k, delay=delay, target=target)
         return start
+
+    def _target(self, params: RowParameters, k: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """The coefficients at ``params`` and column ``k``'s conditional target, kept for the last ``params``."""
+        if self._target_of is not params:
+            self._target_of, self._targets = params, {}
+            self._theta = self.problem.coefficients(params).theta
+        if k not in self._targets:
+            self._targets[k] = conditional_target(self.problem.system, self._theta, k)
+        return self._theta, self._targets[k]
 
     def moved(
         self, fit: tuple[RowParameters, float], moves: Sequence[tuple[int, int]], *, settled_above: float = math.inf
@@ -113,14 +139,40 @@ class Trials:
 
         A cost still above ``settled_above`` after the first step ends that fit (:meth:`.RowProblem.fit`).
         """
-        params = fit[0]
-        for k, delay in moves:
-            params = params.with_delay(k, delay)
-        key = _key(params.delays)
+        key = _moved_key(fit, moves)
         if key not in self.tried:
-            start = self.start(fit, moves)
-            self.tried[key] = self.problem.fit(start, iterations=NEIGHBOUR_ITERATIONS, settled_above=settled_above)
+            ready = self._ready.pop((key, settled_above), None) if self._ready_for is fit else None
+            if ready is None:
+                start = self.start(fit, moves)
+                ready = self.problem.fit(start, iterations=NEIGHBOUR_ITERATIONS, settled_above=settled_above)
+            self.tried[key] = ready
         return self.tried[key]
+
+    def prefetch(
+        self,
+        fit: tuple[RowParameters, float],
+        moves: Sequence[Sequence[tuple[int, int]]],
+        *,
+        settled_above: float = math.inf,
+        given: Sequence[RowParameters] | None = None,
+    ) -> None:
+        """Fit the neighbours ``moves`` of ``fit`` not tried yet together (:func:`~.stacked.fit_stacked`).
+
+        :meth:`moved` with the same ``fit`` (the same object) and ``settled_above`` then takes each one's
+        fit from here: the same numbers it would compute alone.  Prefetched fits of another ``fit`` are
+        dropped.  ``given``: each move's start (:meth:`start`), when already computed.
+        """
+        if self._ready_for is not fit:
+            self._ready, self._ready_for = {}, fit
+        keys, starts = [], []
+        for j, each in enumerate(moves):
+            key = _moved_key(fit, each)
+            if key not in self.tried and (key, settled_above) not in self._ready and key not in keys:
+                keys.append(key)
+                starts.append(self.start(fit, each) if given is None else given[j])
+        fitted = fit_stacked(self.problem, starts, iterations=NEIGHBOUR_ITERATIONS, settled_above=settled_above)
+        for key, found in zip(keys, fitted, strict=True):
+            self._ready[(key, settled_above)] = found
 
     def best(self) -> tuple[RowParameters, float]:
         """The best fit tried."""
@@ -142,8 +194,13 @@ def coupled_pairs(coupling: np.ndarray, threshold: float) -> list[tuple[int, int
     return [(int(k[j]), int(m[j])) for j in order]
 
 
-def _grid(trials: Trials, fit: tuple[RowParameters, float], k: int, m: int) -> list[list[tuple[int, int]]]:
-    """The moves of pair ``(k, m)``'s joint grid around ``fit`` (within bounds), cheapest start first."""
+def _grid(
+    trials: Trials, fit: tuple[RowParameters, float], k: int, m: int
+) -> list[tuple[float, list[tuple[int, int]], RowParameters]]:
+    """The points of pair ``(k, m)``'s joint grid around ``fit`` (within bounds), cheapest start first.
+
+    Each point: its start's cost, its moves and its start (:meth:`Trials.start`).
+    """
     columns = trials.problem.columns
     (low_k, high_k), (low_m, high_m) = columns[k].delay_bounds, columns[m].delay_bounds
     dk, dm = int(fit[0].delays[k]), int(fit[0].delays[m])
@@ -153,8 +210,8 @@ def _grid(trials: Trials, fit: tuple[RowParameters, float], k: int, m: int) -> l
             if (a, b) != (0, 0) and low_k <= dk + a <= high_k and low_m <= dm + b <= high_m:
                 moves = [(k, dk + a), (m, dm + b)]
                 start = trials.start(fit, moves)
-                grid.append((trials.problem.system.cost(trials.problem.coefficients(start).theta), moves))
-    return [moves for _, moves in sorted(grid, key=lambda point: point[0])]
+                grid.append((trials.problem.system.cost(trials.problem.coefficients(start).theta), moves, start))
+    return sorted(grid, key=lambda point: point[0])
 
 
 def joint_search(trials: Trials, fit: tuple[RowParameters, float], pairs: Sequence[tuple[int, int]]) -> bool:
@@ -168,7 +225,9 @@ def joint_search(trials: Trials, fit: tuple[RowParameters, float], pairs: Sequen
     """
     better = False
     for k, m in pairs:
-        for moves in _grid(trials, fit, k, m)[:JOINT_CANDIDATES]:
+        chosen = _grid(trials, fit, k, m)[:JOINT_CANDIDATES]
+        trials.prefetch(fit, [moves for _, moves, _ in chosen], given=[start for _, _, start in chosen])
+        for _, moves, _ in chosen:
             better |= trials.moved(fit, moves)[1] < fit[1]
     return better
 

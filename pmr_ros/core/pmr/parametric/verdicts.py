@@ -26,8 +26,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import brentq
-from scipy.special import ndtr  # norm.cdf's own function, without scipy.stats' argument handling
-from scipy.stats import norm
+from scipy.special import ndtr, ndtri  # norm.cdf and norm.ppf without scipy.stats' argument handling
 
 from ...results import ParametricResult
 from ..delay import search_limit_reason
@@ -171,7 +170,7 @@ def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *,
         return -math.inf, math.inf
     sds = np.maximum(sds, 1e-300)
     if means.size == 1:
-        z = float(norm.ppf(0.5 + level / 2.0))
+        z = float(ndtri(0.5 + level / 2.0))
         return float(means[0] - z * sds[0]), float(means[0] + z * sds[0])
     low, high = float(np.min(means - 40.0 * sds)), float(np.max(means + 40.0 * sds))
 
@@ -244,7 +243,7 @@ def separation_reason(
 
 def z_score(settings: ParametricSettings) -> float:
     """The two-sided normal quantile of ``settings.confidence_level`` (1.96 at 95 %)."""
-    return float(norm.ppf(0.5 + settings.confidence_level / 2.0))
+    return float(ndtri(0.5 + settings.confidence_level / 2.0))
 
 
 def _halfwidth(interval: tuple[float, float]) -> float:
