@@ -121,7 +121,7 @@ class _ActiveSet:
         vv = float(v @ v)
         if vv > 0.0:
             free = self.J[:, q:]
-            free -= np.outer(free @ v, v * (2.0 / vv))
+            free -= (free @ v)[:, None] * (v * (2.0 / vv))  # np.outer's product, without its overhead
         delta = -math.copysign(norm, d2[0])
         self.R[:q, q] = d[:q]
         self.R[q, q] = delta
@@ -288,9 +288,9 @@ class DenseQp:
             curvature = float(z @ normal)
             full = -(normal @ x - bound) / curvature if curvature > flat else np.inf
             step = min(partial, full)
-            if not np.isfinite(step):
+            if not math.isfinite(step):
                 return x, iterations, False  # primal infeasible: cannot happen with dU = 0 feasible
-            if np.isfinite(full):
+            if math.isfinite(full):
                 x = x + step * z
             active.u[:] -= step * r
             multiplier += step
