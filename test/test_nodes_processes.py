@@ -164,9 +164,12 @@ def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
     # diagnosis of the 2,000 samples, and of the 1,000 after the break, is "ok" as at 3,000: measured)
     samples = 2000
     pmr = {"method": "classic", "segment_length": 128}
-    run_file = _params_file(
-        tmp_path, samples, pmr=pmr, diagnostician={"update_period_samples": 1000, "min_samples": 1000}
-    )
+    # the restarted plant learns where the run is from the controller's newest input; under load that input
+    # reached it only after the default 3 s settle and the 0.5 s resume settle (seen once in 6 runs: it started
+    # over from sample 0).  15 s, as the test had by accident while its watcher was a silent subscriber of y.
+    simulation = {"discovery_settle_s": 15.0}
+    diagnostician = {"update_period_samples": 1000, "min_samples": 1000}
+    run_file = _params_file(tmp_path, samples, pmr=pmr, diagnostician=diagnostician, simulation=simulation)
     watcher = _Watcher(ros, samples - 1)
     procs = _start_nodes(ros, tmp_path, run_file)
     assert ros.spin_until(lambda: watcher.newest_sample >= 1000, 300.0), _logs(tmp_path)
