@@ -19,7 +19,13 @@ from pmr_ros.contract.model_topics import read_active_model
 from pmr_ros.contract.topics import topic
 from pmr_ros.service.bag_diagnosis import diagnose_bag
 
-WINDOW = 8192
+WINDOW = 4096
+"""One window of the adapted runs (was 8,192).  Measured with the batch core (the node set's data equal it):
+the corrected model from 4,096 samples of the full-mismatch run is within dK 1.1 % and dtau 1.3 % of the true
+plant on Wood-Berry, 1.4 % and 1.2 % on the 3x3 (8,192: 0.8/0.8 %, 1.7/1.8 %), against the 3 % and 5 % checked.
+Adapted runs (node set, twice each): the switch at sample 4129..4162, the after window 5120..9215, no mismatch in it;
+tracking error per sample 2.41 -> 1.95 on Wood-Berry, 4.113 -> 4.050 on the 3x3 (8,192: 4.16 -> 3.99): the 3x3's
+margin is thin (1.5 %) but the figures came out the same to every digit in both runs."""
 
 
 def _run(tmp_path: Path, name: str, *args: str) -> dict:
@@ -118,7 +124,7 @@ def _check_the_namespaced_recording(bag: Path, report: dict) -> None:
     models = [read_active_model(recorded.decode(m).data, "bag") for m in on_wire]
     assert [m.revision for m in models] == [0, 1] and models[1].first_sample == adaptation["switch_sample"]
     proposals = [recorded.decode(m).data for m in recorded.messages({topic("proposed_model").resolved("/column_a")})]
-    assert proposals and "(samples 0..8191)" in proposals[0]
+    assert proposals and f"(samples 0..{WINDOW - 1})" in proposals[0]
     # the recording covers the whole adapted run (3 windows), every sample of y
     y = [
         read_signal(recorded.decode(m))[0] for m in recorded.messages({topic("measured_output").resolved("/column_a")})

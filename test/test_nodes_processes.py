@@ -20,7 +20,7 @@ from ros_fixtures import console_script  # noqa: E402
 
 from pmr_ros.bag.reader import open_bag  # noqa: E402
 from pmr_ros.config import config_dir, load_config  # noqa: E402
-from pmr_ros.contract.layout import diagnosis_from_array, read_signal  # noqa: E402
+from pmr_ros.contract.layout import diagnosis_from_array  # noqa: E402
 from pmr_ros.contract.topics import topic  # noqa: E402
 from pmr_ros.core.pmr.diagnosis import diagnose  # noqa: E402
 from pmr_ros.core.results import compare_diagnoses  # noqa: E402
@@ -61,17 +61,22 @@ def _start_nodes(ros, tmp_path: Path, run_file: Path, names=NODES) -> dict[str, 
 
 
 class _Watcher:
-    """Counts y on the wire and keeps the final /diagnostics of a run."""
+    """Follows the plant's samples on /clock and keeps the final /diagnostics of a run.
+
+    /clock, not y: a subscriber of y that reports no progress is one the plant waits for, up to
+    plant.CONSUMER_DISCOVERY_S (15 s) at each start, before it names it and goes on.  The plant publishes
+    the clock k Ts just before y(k), once it has applied u(k - 1): sample k on /clock tells the same.
+    """
 
     def __init__(self, ros, last_sample: int) -> None:
-        self.last_sample, self.newest_y, self.final = last_sample, -1, None
+        self.last_sample, self.newest_sample, self.final = last_sample, -1, None
         node = ros.create_node("test_watcher")
-        for key, callback in (("measured_output", self._on_y), ("diagnostics", self._on_diagnostics)):
+        for key, callback in (("clock", self._on_clock), ("diagnostics", self._on_diagnostics)):
             t = topic(key)
             node.create_subscription(message_class(t), t.name, callback, qos_profile(t.qos))
 
-    def _on_y(self, msg) -> None:
-        self.newest_y = max(self.newest_y, int(round(read_signal(msg)[0])))
+    def _on_clock(self, msg) -> None:
+        self.newest_sample = max(self.newest_sample, int(round(read_signal_or_clock(msg))))
 
     def _on_diagnostics(self, msg) -> None:
         diagnosis, info = diagnosis_from_array(msg, "pmr_diagnostician")
@@ -109,9 +114,11 @@ def read_signal_or_clock(msg) -> float:
 
 
 def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothing(ros, tmp_path):
-    samples = 3000
-    # the plant starts once all five subscribers of y are there: controller, diagnostician, watcher, two recorders
-    run_file = _params_file(tmp_path, samples, simulation={"wait_for_subscribers": 5})
+    # 2,000 samples (was 3,000; the run's latency-bound hops cost ~25 ms a sample under load): the batch
+    # diagnosis of 2,000 samples is "ok" with every verdict decided, as at 3,000 (measured)
+    samples = 2000
+    # the plant starts once all four subscribers of y are there: controller, diagnostician, two recorders
+    run_file = _params_file(tmp_path, samples, simulation={"wait_for_subscribers": 4})
     # two recorders of the live set, stopped half-way, one by Ctrl-C and one by SIGTERM
     recorders = {
         how: ros.start(
@@ -124,9 +131,9 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
     watcher = _Watcher(ros, samples - 1)
     procs = _start_nodes(ros, tmp_path, run_file)
     stopped_at = {}
-    for how, at in ((signal.SIGINT, 800), (signal.SIGTERM, 1600)):
-        assert ros.spin_until(lambda at=at: watcher.newest_y >= at, 300.0), (at, _logs(tmp_path))
-        stopped_at[how] = watcher.newest_y
+    for how, at in ((signal.SIGINT, 600), (signal.SIGTERM, 1200)):
+        assert ros.spin_until(lambda at=at: watcher.newest_sample >= at, 300.0), (at, _logs(tmp_path))
+        stopped_at[how] = watcher.newest_sample
         assert _stop(ros, recorders[how], how) == 0
     assert ros.spin_until(lambda: watcher.final is not None, 300.0), _logs(tmp_path)
     diagnosis, info = watcher.final
@@ -153,15 +160,20 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
 
 
 def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
-    samples = 3000  # killed at 1500 or later: 1500 samples still to run after the restart
+    # killed at 1000 or later: 1000 samples still to run after the restart (was 3,000 and 1,500; the classic
+    # diagnosis of the 2,000 samples, and of the 1,000 after the break, is "ok" as at 3,000: measured)
+    samples = 2000
     pmr = {"method": "classic", "segment_length": 128}
-    run_file = _params_file(
-        tmp_path, samples, pmr=pmr, diagnostician={"update_period_samples": 1000, "min_samples": 1500}
-    )
+    # the restarted plant learns where the run is from the controller's newest input; under load that input
+    # reached it only after the default 3 s settle and the 0.5 s resume settle (seen once in 6 runs: it started
+    # over from sample 0).  15 s, as the test had by accident while its watcher was a silent subscriber of y.
+    simulation = {"discovery_settle_s": 15.0}
+    diagnostician = {"update_period_samples": 1000, "min_samples": 1000}
+    run_file = _params_file(tmp_path, samples, pmr=pmr, diagnostician=diagnostician, simulation=simulation)
     watcher = _Watcher(ros, samples - 1)
     procs = _start_nodes(ros, tmp_path, run_file)
-    assert ros.spin_until(lambda: watcher.newest_y >= 1500, 300.0), _logs(tmp_path)
-    seen = watcher.newest_y  # y(seen) was published, so the controller had answered u(seen - 1)
+    assert ros.spin_until(lambda: watcher.newest_sample >= 1000, 300.0), _logs(tmp_path)
+    seen = watcher.newest_sample  # sample seen was published, so the controller had answered u(seen - 1)
     procs["wood_berry_plant"].send_signal(signal.SIGKILL)  # a crash: no clean-up at all
     procs["wood_berry_plant"].wait(timeout=30)
     (tmp_path / "wood_berry_plant.log").rename(tmp_path / "crashed_plant.log")
@@ -207,7 +219,7 @@ def _run(ros, tmp_path: Path, name: str, *arguments: str) -> subprocess.Popen:
 
 
 def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_own_verdicts(ros, tmp_path):
-    samples = 4000
+    samples = 3000  # was 4,000: the batch diagnosis of seeds 1 and 2 is "ok" at 3,000 too (measured)
     bag = tmp_path / "column_a_bag"
     recorder = ros.start(
         [console_script("pmr-ros"), "record", str(bag), "--namespace", "column_a", "--no-parameters"],

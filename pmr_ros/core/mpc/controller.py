@@ -147,6 +147,7 @@ class LinearMpc(GivenInputs, ModelSwitch):
         constraints = np.vstack([qp.cumulative, np.eye(qp.cumulative.shape[0])])
         du = np.tile(self._du, Nc)
         self._bounds = np.concatenate([np.tile(self._u_min, Nc), -du]), np.concatenate([np.tile(self._u_max, Nc), du])
+        self._tiled_input = np.tile(np.arange(n_in), Nc)  # u_prev[this] is np.tile(u_prev, Nc), without its overhead
         self.statistics = MpcStatistics(solve_time_s=[] if record_solve_times else None)
         self._solver = QpSolver(qp.hessian, constraints, self.statistics)
         self._zones: ZoneQp | None = None
@@ -360,9 +361,8 @@ class LinearMpc(GivenInputs, ModelSwitch):
 
     def move_bounds(self, u_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the QP's constraints ``[L dU; dU]`` after input ``u_prev`` [input unit]."""
-        lower, upper = self._bounds  # fixed parts, tiled once; the magnitude rows move with u_prev
-        n = lower.size // 2
-        u_rep = np.tile(u_prev, self.tuning.control_horizon)
+        (lower, upper), u_rep = self._bounds, u_prev[self._tiled_input]  # fixed parts tiled once; u_prev, Nc times
+        n = u_rep.size  # the magnitude rows move with u_prev
         return np.concatenate([lower[:n] - u_rep, lower[n:]]), np.concatenate([upper[:n] - u_rep, upper[n:]])
 
     def apply_move(

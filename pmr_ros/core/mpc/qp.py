@@ -55,6 +55,11 @@ class QpSolution:
     solved: bool
 
 
+_qr_delete = getattr(scipy.linalg.qr_delete, "__wrapped__", scipy.linalg.qr_delete)
+"""``scipy.linalg.qr_delete`` itself, without the wrapper that scipy >= 1.15 puts around it for stacks of
+matrices (two thirds of a drop's time on the MPC's small matrices; one matrix here, so the same result)."""
+
+
 def _upper_inverse(triangle: np.ndarray) -> np.ndarray:
     """The inverse of an upper triangular matrix (LAPACK ``trtri``: a twentieth of ``solve_triangular``'s overhead)."""
     inverse, info = scipy.linalg.lapack.dtrtri(triangle, lower=0)
@@ -116,7 +121,7 @@ class _ActiveSet:
         vv = float(v @ v)
         if vv > 0.0:
             free = self.J[:, q:]
-            free -= np.outer(free @ v, v * (2.0 / vv))
+            free -= (free @ v)[:, None] * (v * (2.0 / vv))  # np.outer's product, without its overhead
         delta = -math.copysign(norm, d2[0])
         self.R[:q, q] = d[:q]
         self.R[q, q] = delta
@@ -132,9 +137,7 @@ class _ActiveSet:
         The rotations ``G`` act on ``R`` from the left and on ``J`` from the right, so ``J' N = [R; 0]`` holds on.
         """
         q = self.size
-        self.J, triangle = scipy.linalg.qr_delete(
-            self.J, self.R[:, :q], index, which="col", overwrite_qr=True, check_finite=False
-        )
+        self.J, triangle = _qr_delete(self.J, self.R[:, :q], index, which="col", overwrite_qr=True, check_finite=False)
         self.R[:, : q - 1] = triangle
         self.R[:, q - 1] = 0.0
         self._u[index : q - 1] = self._u[index + 1 : q].copy()
@@ -167,7 +170,7 @@ class DenseQp:
     def __init__(self, H: np.ndarray, A: np.ndarray, *, max_iterations: int | None = None) -> None:
         lower_factor = scipy.linalg.cholesky(H, lower=True)
         self._j0 = scipy.linalg.solve_triangular(lower_factor, np.eye(H.shape[0]), lower=True).T  # L^-T
-        self._h_inverse = self._j0 @ self._j0.T
+        self._minus_h_inverse = -(self._j0 @ self._j0.T)  # negated once, not at each solve (the same numbers)
         self._A = np.asarray(A, dtype=float)
         self._max_iterations = max_iterations or 5 * (H.shape[0] + self._A.shape[0])
         self._tolerance = 1e-12
@@ -182,7 +185,7 @@ class DenseQp:
         needs), so it ends at the same unique minimizer in fewer iterations; should that start break
         down, the method starts again from scratch.
         """
-        x = -self._h_inverse @ q
+        x = self._minus_h_inverse @ q
         finite_lower, finite_upper = np.where(np.isfinite(lower), lower, 0.0), np.where(np.isfinite(upper), upper, 0.0)
         inverse_scale = 1.0 / (1.0 + np.maximum(np.abs(finite_lower), np.abs(finite_upper)))
         start = self._warm_start(x, guess, bounds=(lower, upper)) if guess else None
@@ -243,10 +246,11 @@ class DenseQp:
         ax = self._A @ x
         below = (lower - ax) * inverse_scale
         above = (ax - upper) * inverse_scale
-        if skip:
-            rows, at_lower = _signed_rows(skip)
-            below[rows[at_lower]] = -np.inf
-            above[rows[~at_lower]] = -np.inf
+        for signed in skip:  # a few active rows: plain indexing beats building index arrays
+            if signed > 0:
+                below[signed - 1] = -np.inf
+            else:
+                above[-signed - 1] = -np.inf
         i_low, i_up = int(below.argmax()), int(above.argmax())
         worst = max(below[i_low], above[i_up])
         if not worst > self._tolerance:
@@ -268,6 +272,7 @@ class DenseQp:
         normal = self._A[row] if signed > 0 else -self._A[row]
         bound = lower[row] if signed > 0 else -upper[row]
         multiplier = 0.0
+        flat = 1e-14 * float(normal @ normal)  # curvature below this: a step along the constraint changes nothing
         while iterations < self._max_iterations:
             iterations += 1
             q = active.size
@@ -281,11 +286,11 @@ class DenseQp:
                 best = int(np.argmin(ratios))
                 partial, leaving = float(ratios[best]), int(blocking[best])
             curvature = float(z @ normal)
-            full = -(normal @ x - bound) / curvature if curvature > 1e-14 * float(normal @ normal) else np.inf
+            full = -(normal @ x - bound) / curvature if curvature > flat else np.inf
             step = min(partial, full)
-            if not np.isfinite(step):
+            if not math.isfinite(step):
                 return x, iterations, False  # primal infeasible: cannot happen with dU = 0 feasible
-            if np.isfinite(full):
+            if math.isfinite(full):
                 x = x + step * z
             active.u[:] -= step * r
             multiplier += step
