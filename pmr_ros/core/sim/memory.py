@@ -32,9 +32,10 @@ __all__ = [
 SIMULATION_BYTES_PER_VALUE = 16
 """Simulation: bytes per sample per recorded value (r, y, u, dither and the generators' temporaries); 10 measured."""
 
-DIAGNOSIS_BYTES_PER_CHANNEL = 48
+DIAGNOSIS_BYTES_PER_CHANNEL = 56
 """Diagnosis: bytes per sample per spectral channel (the instruments, then one output row at a time: the
-output and its regressors); 38-42 measured on Wood-Berry and the 3x3."""
+output and its regressors); 41-49 measured on Wood-Berry and the 3x3 at 8,192 samples (the parametric fit
+keeps a row's whitened regressors for its weightings: 49 on Wood-Berry, 42 for the classic PMR)."""
 
 WINDOW_BYTES_PER_SAMPLE = 700
 """A live window: bytes per complete sample held (three small arrays and their bookkeeping); about 500 measured."""
