@@ -87,7 +87,8 @@ def _pairs(paired: pd.DataFrame) -> Iterator[tuple[str, int, str, pd.Series, pd.
         ours, theirs = group[group["method"] == OURS], group[group["method"] == peer]
         if ours.empty or theirs.empty:
             continue
-        runs = f" on the {int(theirs['runs'].iloc[0])} runs both diagnosed" if "runs" in theirs else ""
+        n = int(theirs["runs"].iloc[0]) if "runs" in theirs else 0
+        runs = f" on the {n} run{'' if n == 1 else 's'} both diagnosed" if n else ""
         yield _case_name(str(unit), int(disturbance)), int(samples), str(peer), ours.iloc[0], theirs.iloc[0], runs
 
 
