@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose
 from pmr_ros.benchmark import markdown
 from pmr_ros.benchmark.runner import RunTask, simulate_run
 from pmr_ros.benchmark.scenarios import COLUMNS, LENGTHS, RUNS_PER_CELL, draw_scenarios, read_scenarios
-from pmr_ros.benchmark.scoring import label_results, roc_points, roc_table, score, threshold_at
+from pmr_ros.benchmark.scoring import label_results, paired_scores, roc_points, roc_table, score, threshold_at
 from pmr_ros.benchmark.units import ROUTINE_UNITS, UNITS, all_units, unit_config
 from pmr_ros.service.benchmark_run import BenchmarkRequest, select_runs
 
@@ -129,6 +129,23 @@ def test_the_report_says_where_a_peer_beats_ours():
     )
     wins = markdown.peer_wins(scores)
     assert len(wins) == 1 and "pem_bj 90 % against ours 80 %" in wins[0] and "2048 samples" in wins[0]
+
+
+def test_a_peer_run_on_fewer_runs_is_compared_with_ours_on_those_runs():
+    results, labels = _hand_made()
+    run_1 = results[(results["method"] == "parametric") & (results["run"] == 1)].assign(method="pem_bj")
+    labelled = label_results(pd.concat([results, run_1], ignore_index=True), labels)
+    paired = paired_scores(labelled)
+    pem = paired[paired["peer"] == "pem_bj"].set_index("method")
+    assert list(pem["runs"]) == [1, 1]  # ours on run 1 only, beside the peer's one run
+    assert pem.loc["parametric", "false_alarm"] == 0.0  # run 2's false alarm (G21) left out
+    assert pem.loc["parametric", "detection_at_1"] == pem.loc["pem_bj", "detection_at_1"] == 1.0
+    whole = paired[paired["peer"] == "peer"].set_index("method")
+    assert list(whole["runs"]) == [2, 2] and whole.loc["parametric", "detection_at_1"] == pytest.approx(2 / 3)
+    # each on its own runs the copy of ours on run 1 seems to beat ours (100 % against 67 %); on the same runs it ties
+    unpaired = markdown.peer_wins(score(labelled))
+    assert len(unpaired) == 1 and "pem_bj 100 % against ours 67 %" in unpaired[0]
+    assert markdown.peer_wins(paired) == []
 
 
 @pytest.fixture(scope="module")

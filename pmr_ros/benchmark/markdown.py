@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -75,20 +76,36 @@ def headline(scores: pd.DataFrame) -> str:
     return table(part.sort_values(["case", "samples", "method"]), columns)
 
 
-def peer_wins(scores: pd.DataFrame, column: str = "detection_at_1", margin: float = 0.02) -> list[str]:
-    """Sentences: each (case, length) where a peer's ``column`` exceeds ours by more than ``margin``."""
-    out = []
-    for (unit, disturbance, samples), group in scores.groupby(["unit", "disturbance", "samples"]):
-        ours = group[group["method"] == OURS][column]
-        if ours.empty or math.isnan(float(ours.iloc[0])):
+def _pairs(paired: pd.DataFrame) -> Iterator[tuple[str, int, str, pd.Series, pd.Series, str]]:
+    """Per (peer, unit, disturbance, length): ours' line and the peer's, both on the runs the peer diagnosed."""
+    import pandas as pd
+
+    if "peer" not in paired:  # a plain score table: each method on its own runs
+        peers = sorted(set(paired["method"]) - {OURS})
+        paired = pd.concat([paired[paired["method"].isin([OURS, p])].assign(peer=p) for p in peers])
+    for (peer, unit, disturbance, samples), group in paired.groupby(["peer", "unit", "disturbance", "samples"]):
+        ours, theirs = group[group["method"] == OURS], group[group["method"] == peer]
+        if ours.empty or theirs.empty:
             continue
-        mine = float(ours.iloc[0])
-        for _, line in group[group["method"] != OURS].iterrows():
-            if float(line[column]) > mine + margin:
-                out.append(
-                    f"- {_case_name(str(unit), int(disturbance))}, {samples} samples: {line['method']} "
-                    f"{100 * line[column]:.0f} % against ours {100 * mine:.0f} % ({COLUMNS[column]})"
-                )
+        n = int(theirs["runs"].iloc[0]) if "runs" in theirs else 0
+        runs = f" on the {n} run{'' if n == 1 else 's'} both diagnosed" if n else ""
+        yield _case_name(str(unit), int(disturbance)), int(samples), str(peer), ours.iloc[0], theirs.iloc[0], runs
+
+
+def peer_wins(paired: pd.DataFrame, column: str = "detection_at_1", margin: float = 0.02) -> list[str]:
+    """Sentences: each (case, length) where a peer's ``column`` exceeds ours by more than ``margin``.
+
+    ``paired``: :func:`~pmr_ros.benchmark.scoring.paired_scores` (ours on each peer's runs), or a plain
+    score table (each method on its own runs).
+    """
+    out = []
+    for case, samples, peer, ours, theirs, runs in _pairs(paired):
+        mine, other = float(ours[column]), float(theirs[column])
+        if not math.isnan(mine) and other > mine + margin:
+            out.append(
+                f"- {case}, {samples} samples: {peer} {100 * other:.0f} % against ours {100 * mine:.0f} % "
+                f"({COLUMNS[column]}{runs})"
+            )
     return out
 
 
@@ -122,8 +139,15 @@ SETUP = """## How the runs were made
 """
 
 
-def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], wall_s: float) -> str:
-    """The whole page: the subset run, the headline, peers that win, a full table per case, the figures."""
+def report_text(
+    scores: pd.DataFrame, *, subset: str, figures: dict[str, str], wall_s: float, paired: pd.DataFrame | None = None
+) -> str:
+    """The whole page: the subset run, the headline, peers that win, a full table per case, the figures.
+
+    ``paired``: :func:`~pmr_ros.benchmark.scoring.paired_scores`, so that a peer is compared with ours on
+    the runs it diagnosed (None: ``scores``, each method on its own runs).
+    """
+    paired = scores if paired is None else paired
     parts = [
         "# Benchmark: our parametric PMR beside its peers",
         "",
@@ -140,13 +164,13 @@ def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], w
         "",
         headline(scores),
         "",
-        "## Where a peer beats ours (detection at 1 % false alarms, by more than 2 points)",
+        "## Where a peer beats ours (detection at 1 % false alarms, by more than 2 points, on the same runs)",
         "",
-        *(peer_wins(scores) or ["- nowhere in this run"]),
+        *(peer_wins(paired) or ["- nowhere in this run"]),
         "",
-        "## Where a peer quantifies dK better (median abs error, by more than 0.2 pp)",
+        "## Where a peer quantifies dK better (median abs error, by more than 0.2 pp, on the same runs)",
         "",
-        *(_better_gain(scores) or ["- nowhere in this run"]),
+        *(_better_gain(paired) or ["- nowhere in this run"]),
         "",
     ]
     for (unit, disturbance), group in scores.groupby(["unit", "disturbance"]):
@@ -157,17 +181,12 @@ def report_text(scores: pd.DataFrame, *, subset: str, figures: dict[str, str], w
     return "\n".join(parts) + "\n"
 
 
-def _better_gain(scores: pd.DataFrame) -> list[str]:
+def _better_gain(paired: pd.DataFrame) -> list[str]:
     out = []
-    for (unit, disturbance, samples), group in scores.groupby(["unit", "disturbance", "samples"]):
-        ours = group[group["method"] == OURS]["gain_error"]
-        if ours.empty:
-            continue
-        mine = float(ours.iloc[0])
-        for _, line in group[group["method"] != OURS].iterrows():
-            if float(line["gain_error"]) < mine - 0.2:
-                out.append(
-                    f"- {_case_name(str(unit), int(disturbance))}, {samples} samples: {line['method']} "
-                    f"{line['gain_error']:.2f} pp against ours {mine:.2f} pp"
-                )
+    for case, samples, peer, ours, theirs, runs in _pairs(paired):
+        if float(theirs["gain_error"]) < float(ours["gain_error"]) - 0.2:
+            out.append(
+                f"- {case}, {samples} samples: {peer} {theirs['gain_error']:.2f} pp against ours "
+                f"{ours['gain_error']:.2f} pp{runs}"
+            )
     return out

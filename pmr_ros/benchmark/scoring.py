@@ -179,6 +179,28 @@ def score(labelled: pd.DataFrame, by: list[str] | None = None) -> pd.DataFrame:
     return table
 
 
+def paired_scores(labelled: pd.DataFrame, *, ours: str = "parametric") -> pd.DataFrame:
+    """Ours and each peer scored on the same runs: those of each group the peer diagnosed.
+
+    A peer run on fewer runs than ours (the prediction-error fits on the first runs of each cell,
+    ``--pem-runs-per-cell``) is compared with ours on those runs only, not with ours on all.
+
+    Returns
+    -------
+    DataFrame
+        :func:`score`'s lines of ``ours`` and of the peer on the peer's runs, with a ``peer`` column
+        naming the peer of each pair.
+    """
+    import pandas as pd
+
+    parts = []
+    for peer in sorted(set(labelled["method"]) - {ours}):
+        runs = labelled.loc[labelled["method"] == peer, "run"].unique()
+        both = labelled[labelled["method"].isin([ours, peer]) & labelled["run"].isin(runs)]
+        parts.append(score(both.reset_index(drop=True)).assign(peer=peer))
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=[*GROUP, "peer"])
+
+
 def roc_table(labelled: pd.DataFrame) -> pd.DataFrame:
     """The ROC points (:func:`roc_points`) of every group of :data:`GROUP` whose method has a score.
 

@@ -223,7 +223,9 @@ def _write_report(request: BenchmarkRequest, scores: pd.DataFrame, labelled: pd.
     write_bytes(folder / "benchmark_roc.png", plots.roc_figure(labelled, samples=longest))
     figures[f"ROC at {longest} samples"] = "figures/benchmark_roc.png"
     subset = _subset_text(labelled)
-    write_text(request.report, markdown.report_text(scores, subset=subset, figures=figures, wall_s=wall_s))
+    paired = scoring.paired_scores(labelled)
+    text = markdown.report_text(scores, subset=subset, figures=figures, wall_s=wall_s, paired=paired)
+    write_text(request.report, text)
 
 
 def _subset_text(labelled: pd.DataFrame) -> str:
