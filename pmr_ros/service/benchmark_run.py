@@ -281,7 +281,9 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     else:
         raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
     manifest = request.out / MANIFEST
-    wall_s = float(json.loads(manifest.read_text())["wall_s"]) if manifest.is_file() else math.nan
+    # a journal may hold the runs of many invocations: the last one's wall time is not theirs
+    known = manifest.is_file() and not journal.count()
+    wall_s = float(json.loads(manifest.read_text())["wall_s"]) if known else math.nan
     scores = _score_and_write(request, results, lines, wall_s)
     scored = int(results["run"].nunique())
     return BenchmarkSummary(scored, scores, wall_s, scored)
