@@ -116,8 +116,8 @@ def test_the_memory_check_uses_the_machines_available_memory(capsys, monkeypatch
     monkeypatch.setattr(memory, "available_bytes", lambda: 5_000_000)
     cfg = _with(tmp_path, {"run": {"samples": 16384}})
     err = _error(capsys, ["run", "--batch", "--config", str(cfg)])
-    # 16384 samples x (16 B x 8 values + 48 B x 5 channels: 2 instruments and one row of 3) = 6.03 MB
-    assert f"run.samples = 16384 ({cfg}): needs about 6.03 MB of memory" in err and "5 MB available" in err
+    # 16384 samples x (16 B x 8 values + 56 B x 5 channels: 2 instruments and one row of 3) = 6.68 MB
+    assert f"run.samples = 16384 ({cfg}): needs about 6.68 MB of memory" in err and "5 MB available" in err
     monkeypatch.setattr(memory, "available_bytes", lambda: None)  # unknown: no refusal
     assert main(["run", "--batch", "--samples", "600"]) == 3
 
@@ -187,7 +187,7 @@ def test_a_diagnostician_whose_window_cannot_fit_in_memory_refuses_to_start(ros_
     )
     err = proc.stderr.strip()
     assert proc.returncode == 2 and "Traceback" not in err and "\n" not in err, err
-    assert "diagnostician.window_samples = 2000000000: a full window needs about 1.98 TB of memory" in err
+    assert "diagnostician.window_samples = 2000000000: a full window needs about 2.06 TB of memory" in err
 
 
 def test_console_script_errors_are_one_line_without_traceback(tmp_path):

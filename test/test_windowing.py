@@ -145,7 +145,7 @@ def test_a_window_too_large_for_memory_is_refused_naming_the_parameter(monkeypat
         windowing.check_window_memory(huge, "parameters of node /pmr_diagnostician")
     assert str(err.value) == (
         "parameters of node /pmr_diagnostician: diagnostician.window_samples = 2000000000: a full window needs about "
-        "1.98 TB of memory (samples 1.5 TB, diagnosis 480 GB); 24 GB available"
+        "2.06 TB of memory (samples 1.5 TB, diagnosis 560 GB); 24 GB available"
     )
     windowing.check_window_memory(wood_berry, "x")  # 16384 samples: 21 MB
 
