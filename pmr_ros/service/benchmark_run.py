@@ -201,6 +201,13 @@ def _execute(tasks: list[RunTask], request: BenchmarkRequest, record: Recorder) 
                 record(*result)
 
 
+def _write_results(path: Path, rows: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
+    """``rows`` with their runs' cells, in run, method and element order, written to ``path``: the results."""
+    results = _cell_columns(rows, lines).sort_values(["run", "method", "element"])
+    results.to_parquet(path, index=False)
+    return results
+
+
 def _cell_columns(results: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
     cells = run_table(lines)[["run", "unit", "samples", "disturbance", "seed"]]
     return cells.merge(results, on="run", how="right")
@@ -266,15 +273,15 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     path = request.out / "results.parquet"
     scenarios = _scenarios(request)
     journal = Journal(request.out / JOURNAL)
-    if journal.count():
+    from_journal = journal.count() > 0
+    if from_journal:
         try:
             journal.check(fingerprint(scenarios))
         except ValueError as exc:
             raise ServiceError(f"--report-only: {exc}") from None
         rows = journal.read()
         lines = scenarios[scenarios["run"].isin(rows["run"])].reset_index(drop=True)
-        results = _cell_columns(rows, lines).sort_values(["run", "method", "element"])
-        results.to_parquet(path, index=False)
+        results = _write_results(path, rows, lines)
     elif path.is_file():
         results = pd.read_parquet(path)
         lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
@@ -282,7 +289,7 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
         raise ServiceError(f"--report-only: {path} does not exist; run the benchmark first")
     manifest = request.out / MANIFEST
     # a journal may hold the runs of many invocations: the last one's wall time is not theirs
-    known = manifest.is_file() and not journal.count()
+    known = manifest.is_file() and not from_journal
     wall_s = float(json.loads(manifest.read_text())["wall_s"]) if known else math.nan
     scores = _score_and_write(request, results, lines, wall_s)
     scored = int(results["run"].nunique())
@@ -354,8 +361,7 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     if bar:
         bar.close()
     wall_s = time.perf_counter() - start
-    results = _cell_columns(_planned_rows(journal, tasks), lines).sort_values(["run", "method", "element"])
-    results.to_parquet(request.out / "results.parquet", index=False)
+    results = _write_results(request.out / "results.parquet", _planned_rows(journal, tasks), lines)
     write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(todo)}) + "\n")
     scores = _score_and_write(request, results, lines, wall_s)
     return BenchmarkSummary(len(todo), scores, wall_s, int(results["run"].nunique()))
