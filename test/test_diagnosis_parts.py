@@ -372,6 +372,32 @@ def test_an_interaction_is_judged_by_its_share_of_the_row_with_the_search_counte
         warnings=(),
     )
     assert nothing.verdict == "ok" and not nothing.reasons  # an absent interaction's delay at the limit means nothing
+    unprofiled = replace(_fit([lag], lin=[0.8], s=[0.0], delays=[3], sd_lin=[0.01]), delay_profile=({},))
+    found = interaction_result(unprofiled, 0, share_per_gain=0.5, settings=settings, quality={}, warnings=())
+    # no profile, no confidence to claim; a verdict on a gain that grew past its chance level after the search
+    # says its delay was not profiled
+    assert found.verdict == "mismatch" and found.delay_confidence is None and found.unmodeled_delay_samples == 3
+    assert "interaction delay not profiled" in found.warnings
+
+
+def test_an_interaction_is_absent_within_the_bonferroni_level_of_its_search():
+    from scipy.stats import norm
+
+    from pmr_ros.core.pmr.parametric.parameterization import absence_z
+
+    layout = row_layout(MIXED, 0, n_instruments=3, dithered=np.zeros(3, bool))
+    columns = column_models(MIXED, layout, max_delay_samples=4)
+    z = absence_z(columns, confidence_level=0.95)
+    lag = columns[1]
+    assert lag.interaction and not columns[0].interaction
+    assert z[0] == math.inf and z[2] == math.inf  # an element is never absent
+    np.testing.assert_allclose(z[1], norm.ppf(1.0 - 0.05 / (2.0 * search_candidates(lag))), rtol=1e-12)
+    settings = _settings()
+    share = z[1] * 2.0  # at the level: inconclusive at most, never a mismatch
+    assert interaction_verdict(0.99 * share, 2.0, candidates=search_candidates(lag), settings=settings) != "mismatch"
+    assert interaction_verdict(1.01 * share + 6.0, 2.0, candidates=search_candidates(lag), settings=settings) == (
+        "mismatch"
+    )
 
 
 # -- results and tables ------------------------------------------------------------------------------

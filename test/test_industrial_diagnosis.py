@@ -224,16 +224,20 @@ def test_an_unmodeled_interaction_is_found_with_its_gain_and_delay(configs, diag
             assert p.unmodeled_delay_samples == delay, (e.name, e.summary())
             low, high = p.unmodeled_gain_interval
             assert low < p.unmodeled_gain < high and low > 0
+            assert p.delay_confidence is not None and p.delay_confidence >= 0.95  # present: its delay profiled
         # every other element as without the interactions: the modeled ones within specification, the
         # remaining empty cells ok
         rest = [e for e in diagnosis if (e.row, e.column) not in INTERACTIONS]
         truth = _truth(configs["3x5"], "full")
+        unprofiled = 0
         for e in rest:
             if e.model.kind == "none":
                 assert e.verdict == "ok", (e.name, e.summary())
+                unprofiled += e.parametric.delay_confidence is None  # absent: its flat delay not profiled
             else:
                 assert abs(e.parametric.gain_mismatch_pct - truth[0][e.row, e.column]) <= 3.0, (e.name, e.summary())
                 assert e.parametric.delay_mismatch_samples == truth[2][e.row, e.column], e.name
+        assert unprofiled >= 1
 
 
 def test_the_integrating_row_recovers_the_injected_ratio_exactly_without_noise(tmp_path):

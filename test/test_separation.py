@@ -66,6 +66,9 @@ def test_the_delay_profile_is_the_best_fit_over_every_joint_alternative():
     profiles = joint_profiles(trials, RowParameters(np.ones(2), np.zeros(2), np.array([0, 0])))
     assert profiles[0] == {-1: 80.0, 0: 10.0, 1: 12.0}
     assert profiles[1] == {-1: 12.0, 0: 10.0}
+    # a column the profile skipped (an absent interaction) has none, however its delay was tried jointly
+    skipped = joint_profiles(trials, RowParameters(np.ones(2), np.zeros(2), np.array([0, 0])), profiled={0})
+    assert skipped == (profiles[0], {})
 
 
 def test_alternatives_carry_their_likelihood_weight():

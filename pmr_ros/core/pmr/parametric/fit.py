@@ -9,8 +9,8 @@
 2. the same fit again with the noise spectrum re-estimated from the first
    fit's residual (the weights of the final fit);
 3. the profile of each column's delay over its neighbours, the others held
-   at their best (a neighbour that fits better is taken), and the joint
-   search of coupled pairs;
+   at their best (a neighbour that fits better is taken; not an empty cell's
+   interaction that is absent), and the joint search of coupled pairs;
 4. gains and time constants refitted at the chosen delays with the Welch
    segments' leakage taken out of the equations (:func:`leakage_offset`);
 5. the Gauss-Newton covariance, inflated by the Welch window's bin correlation
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .lsq import RowParameters, RowProblem
-from .parameterization import column_models, interaction_delay_range
+from .parameterization import absence_z, column_models, interaction_delay_range
 from .rank import first_pass
 from .ratio import ColumnModel, RowSystem
 from .rowdata import RowData
@@ -123,7 +123,8 @@ class RowFit:
     dof : int
         Its degrees of freedom.
     delay_profile : tuple of dict
-        Per column: ``delay -> chi_square`` with the others at their best.
+        Per column: ``delay -> chi_square`` with the others at their best; empty for an interaction that was
+        not profiled (an absent interaction: :func:`_absent`).
     lack_of_fit : ndarray, shape (n,)
         Mean squared distance of the fit from the free estimate per bin, in its noise units (about 1 when it fits).
     columns : tuple of ColumnModel
@@ -235,10 +236,29 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
     return offset
 
 
-def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) -> tuple[RowParameters, float]:
+def _absent(problem: RowProblem, params: RowParameters, *, z: Sequence[float], inflation: float) -> np.ndarray:
+    """Per column: an interaction whose gain lies within ``z`` (:func:`.absence_z`) of its deviations of zero.
+
+    Its delay is not profiled: with no interaction there the delay's likelihood is flat, and the profile walked
+    every neighbour.  In the year benchmark's windows (a 4x8 with 19 empty cells in its fitted rows) those
+    neighbours took 22 % of a window's CPU time; skipping them moved the elements' estimates by at most 0.5 pp
+    (a third of their intervals' half-widths) and changed no verdict in 20 windows.
+    """
+    interaction = np.array([column.interaction for column in problem.columns], dtype=bool)
+    if not interaction.any():
+        return interaction
+    sd_lin, _ = _uncertainty(problem, params, inflation)
+    return interaction & (np.abs(params.lin) < np.asarray(z) * sd_lin)
+
+
+def _profile(
+    trials: Trials, fit: tuple[RowParameters, float], *, scale: float, absence: _Absence
+) -> tuple[RowParameters, float]:
     """Each column's delay neighbours, the others at their best; a better neighbour is taken (and fitted in full).
 
     Passes over the columns repeat while one moves a modelled element's delay (at most :data:`PROFILE_PASSES`).
+    An interaction that is absent at the pass's start (:func:`_absent`) is not profiled in that pass;
+    ``absence.profiled`` collects the columns that were.
 
     Outwards from the chosen delay, a side stops once a neighbour's chi-square
     exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
@@ -248,7 +268,11 @@ def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) 
     """
     for _ in range(PROFILE_PASSES):
         moved = False
+        absent = _absent(trials.problem, fit[0], z=absence.z, inflation=absence.bin_correlation * scale)
         for k, column in enumerate(trials.problem.columns):
+            if absent[k]:
+                continue
+            absence.profiled.add(k)
             low, high = column.delay_bounds
             chosen = int(fit[0].delays[k])
             profile = {chosen: fit[1]}
@@ -269,13 +293,22 @@ def _profile(trials: Trials, fit: tuple[RowParameters, float], *, scale: float) 
     return fit
 
 
+@dataclass
+class _Absence:
+    """What :func:`_profile` needs to skip absent interactions, and the columns it profiled."""
+
+    z: Sequence[float]
+    bin_correlation: float
+    profiled: set[int]
+
+
 def _search_delays(
-    trials: Trials, fit: tuple[RowParameters, float], *, dof: int, joint_correlation: float
+    trials: Trials, fit: tuple[RowParameters, float], *, dof: int, joint_correlation: float, absence: _Absence
 ) -> tuple[RowParameters, float]:
     """The best delays: each column's neighbours, then the coupled pairs' joint grids, until neither improves."""
     for _ in range(JOINT_ROUNDS):
         scale = max(1.0, fit[1] / dof)
-        fit = _profile(trials, fit, scale=scale)
+        fit = _profile(trials, fit, scale=scale, absence=absence)
         pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, joint_correlation)
         if not joint_search(trials, fit, pairs[: trials.problem.n]):
             break
@@ -330,7 +363,12 @@ def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation:
 
 
 def fit_row(
-    data: RowData, columns: Sequence[ColumnModel], *, theta_start: np.ndarray, joint_correlation: float
+    data: RowData,
+    columns: Sequence[ColumnModel],
+    *,
+    theta_start: np.ndarray,
+    joint_correlation: float,
+    confidence_level: float,
 ) -> RowFit:
     """Fit every coefficient of one output row (see the module docstring).
 
@@ -344,6 +382,9 @@ def fit_row(
     joint_correlation : float
         Pairs of columns whose delay estimates correlate at least this much
         are searched jointly (``parametric.joint_delay_correlation``).
+    confidence_level : float
+        ``parametric.confidence_level``: an interaction within its chance level (:func:`.absence_z`) is not
+        profiled.
 
     Returns
     -------
@@ -361,7 +402,10 @@ def fit_row(
     trials = Trials(searched, grids)
     p = len(columns) + searched.free_tau.size
     dof = max(1, second.components - p)
-    params, cost = _search_delays(trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation)
+    absence = _Absence(absence_z(columns, confidence_level=confidence_level), data.bin_correlation, set())
+    params, cost = _search_delays(
+        trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation, absence=absence
+    )
     searched_scale = data.bin_correlation * max(1.0, cost / dof)
     # pass 3: the segments' leakage at the fit taken out of S_zy, gains and time constants refitted at the
     # chosen delays (the leakage moves with the fit: a second round follows it).  The delays' profile and
@@ -381,7 +425,7 @@ def fit_row(
         sd_s=sd_s,
         chi_square=cost,
         dof=dof,
-        delay_profile=joint_profiles(trials, params),
+        delay_profile=joint_profiles(trials, params, profiled=absence.profiled),
         lack_of_fit=_lack_of_fit(as_is, problem, params),
         columns=tuple(columns),
         separation=separation(final, params),

@@ -11,24 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from scipy.special import ndtri  # norm.ppf's own function (the same numbers)
-
 from ...results import ParametricResult
 from .fit import RowFit
-from .ratio import ColumnModel
+from .parameterization import TEMPLATE_SHAPES, bonferroni_z, search_candidates
 from .settings import ParametricSettings
 from .verdicts import chosen_delay, parameter_verdict, trust_reasons, z_score
 
 __all__ = ["TEMPLATE_SHAPES", "interaction_result", "interaction_verdict", "search_candidates"]
-
-TEMPLATE_SHAPES = 2
-"""Effectively independent template time constants counted per delay candidate in the Bonferroni bound."""
-
-
-def search_candidates(column: ColumnModel) -> int:
-    """Templates an interaction's search chooses among: delays, times :data:`TEMPLATE_SHAPES` with a time constant."""
-    low, high = column.delay_bounds
-    return (high - low + 1) * (TEMPLATE_SHAPES if column.has_tau else 1)
 
 
 def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, settings: ParametricSettings) -> str:
@@ -37,7 +26,7 @@ def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, set
     The share's interval is widened to the Bonferroni level of ``candidates``
     searched templates; then :func:`parameter_verdict` with the gain tolerance.
     """
-    z = float(ndtri(1.0 - (1.0 - settings.confidence_level) / (2.0 * candidates)))
+    z = bonferroni_z(candidates=candidates, confidence_level=settings.confidence_level)
     interval = (share_pct - z * sd_pct, share_pct + z * sd_pct)
     z_one = z_score(settings)
     return parameter_verdict(
@@ -70,7 +59,9 @@ def interaction_result(
     gamma, sd = float(fit.lin[c]), float(fit.sd_lin[c])
     share, sd_share = 100.0 * gamma * share_per_gain, 100.0 * sd * share_per_gain
     verdict = interaction_verdict(share, sd_share, candidates=search_candidates(fit.columns[c]), settings=settings)
-    delay, confidence, _ = chosen_delay(fit, c, settings)
+    delay, confidence = int(fit.delays[c]), None  # no profile: an absent interaction's (fit.py: _absent)
+    if fit.delay_profile[c]:
+        delay, confidence, _ = chosen_delay(fit, c, settings)
     reasons = list(trust_reasons(fit, c, settings)) if verdict == "mismatch" else []
     if reasons:
         verdict = "inconclusive"
@@ -80,7 +71,10 @@ def interaction_result(
             f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: cannot rule out one "
             f"beyond ±{band:g} % ({settings.ok_band_factor:g}x the gain tolerance)"
         )
-    if verdict == "mismatch" and confidence < settings.delay_confidence_min:
+    if verdict == "mismatch" and confidence is None:
+        # its gain was within the search's chance level when the delays were profiled
+        warnings = (*warnings, "interaction delay not profiled")
+    elif verdict == "mismatch" and confidence is not None and confidence < settings.delay_confidence_min:
         warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
     return ParametricResult(
         delay_confidence=confidence,

@@ -105,13 +105,14 @@ def _fit(
         unbiased=True,
     )
     columns = column_models(model, fitted, max_delay_samples=classic.max_delay_samples)
-    start, joint = estimate.ratio[:, kept], settings.joint_delay_correlation
-    fit = fit_row(data, columns, theta_start=start, joint_correlation=joint)
+    start = estimate.ratio[:, kept]
+    search = {"joint_correlation": settings.joint_delay_correlation, "confidence_level": settings.confidence_level}
+    fit = fit_row(data, columns, theta_start=start, **search)
     if not np.all(fit.lack_of_fit <= settings.lack_of_fit_max):
         # the bias correction takes what lies outside the instruments for noise; where the corrected fit leaves the
         # data, that part held more (the segments' leakage of strongly excited inputs, whose instruments are strong
         # and whose bias is small): the equations as they are
-        fit = fit_row(replace(data, unbiased=False), columns, theta_start=start, joint_correlation=joint)
+        fit = fit_row(replace(data, unbiased=False), columns, theta_start=start, **search)
     return _FittedRow(layout, estimate, quality, fit, fitted.columns, shares)
 
 

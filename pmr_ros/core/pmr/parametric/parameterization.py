@@ -9,6 +9,9 @@ empty cell an interaction template (:class:`~.ratio.ColumnModel`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+
+from scipy.special import ndtri  # norm.ppf's own function (the same numbers)
 
 from ...sim.model import TransferMatrix
 from ..implicit import RowLayout
@@ -16,7 +19,17 @@ from ..timescale import slowest_time_constant
 from .ratio import TAU_RATIO_BOUND, TEMPLATE_TAU_FLOOR, ColumnModel
 from .scaled import ScaledShape
 
-__all__ = ["column_models", "interaction_delay_range"]
+__all__ = [
+    "TEMPLATE_SHAPES",
+    "absence_z",
+    "bonferroni_z",
+    "column_models",
+    "interaction_delay_range",
+    "search_candidates",
+]
+
+TEMPLATE_SHAPES = 2
+"""Effectively independent template time constants counted per delay candidate in the Bonferroni bound."""
 
 
 def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tuple[int, int]:
@@ -26,6 +39,29 @@ def interaction_delay_range(model: TransferMatrix, max_delay_samples: int) -> tu
     interaction is taken to be no slower to appear than a modeled element could be.
     """
     return 0, int(model.delay_samples.max()) + int(max_delay_samples)
+
+
+def search_candidates(column: ColumnModel) -> int:
+    """Templates an interaction's search chooses among: delays, times :data:`TEMPLATE_SHAPES` with a time constant."""
+    low, high = column.delay_bounds
+    return (high - low + 1) * (TEMPLATE_SHAPES if column.has_tau else 1)
+
+
+def bonferroni_z(*, candidates: int, confidence_level: float) -> float:
+    """The two-sided normal quantile of ``confidence_level`` shared among ``candidates`` searched templates."""
+    return float(ndtri(1.0 - (1.0 - confidence_level) / (2.0 * candidates)))
+
+
+def absence_z(columns: Sequence[ColumnModel], *, confidence_level: float) -> list[float]:
+    """Per column: the normal quantile within which an interaction's gain is the search's chance best; inf else.
+
+    The Bonferroni level of :func:`search_candidates` (the interaction verdict's own): a gain inside it is what
+    the search over that many templates finds where the plant has no interaction.
+    """
+    return [
+        bonferroni_z(candidates=search_candidates(c), confidence_level=confidence_level) if c.interaction else math.inf
+        for c in columns
+    ]
 
 
 def _element_column(model: TransferMatrix, i: int, k: int, *, max_delay_samples: int) -> ColumnModel:

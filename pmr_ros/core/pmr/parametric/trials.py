@@ -20,7 +20,7 @@ constants into the intervals (:func:`alternatives`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -232,12 +232,20 @@ def joint_search(trials: Trials, fit: tuple[RowParameters, float], pairs: Sequen
     return better
 
 
-def joint_profiles(trials: Trials, chosen: RowParameters) -> tuple[dict[int, float], ...]:
-    """Per column: ``delay -> best chi-square`` over every delay vector tried with it, within the profile's width."""
+def joint_profiles(
+    trials: Trials, chosen: RowParameters, *, profiled: Collection[int] | None = None
+) -> tuple[dict[int, float], ...]:
+    """Per column: ``delay -> best chi-square`` over every delay vector tried with it, within the profile's width.
+
+    Empty for a column not in ``profiled`` (None: every column), whose neighbours were not tried.
+    """
     profiles = []
     for k in range(trials.problem.n):
         centre = int(chosen.delays[k])
         profile: dict[int, float] = {}
+        if profiled is not None and k not in profiled:
+            profiles.append(profile)
+            continue
         for key, (_, cost) in trials.tried.items():
             if abs(key[k] - centre) <= PROFILE_HALF_WIDTH:
                 profile[key[k]] = min(profile.get(key[k], math.inf), cost)
