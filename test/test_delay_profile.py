@@ -1,4 +1,4 @@
-"""The delay profile repeats its passes over a row until no delay moves (fit.PROFILE_PASSES).
+"""The delay profile repeats its passes over a row until no delay moves (profile.PROFILE_PASSES).
 
 Benchmark run 575 (the debutanizer 4x8, 8,192 samples, white noise) is the case that showed it: after one
 pass over the integrating drum-level row, three of its four delays were a sample off, each with delay
@@ -14,7 +14,7 @@ from numpy.testing import assert_allclose
 from pmr_ros.benchmark.runner import RunTask, simulate_run
 from pmr_ros.benchmark.scenarios import read_scenarios, run_table
 from pmr_ros.core.pmr.diagnosis import diagnose
-from pmr_ros.core.pmr.parametric import fit
+from pmr_ros.core.pmr.parametric import profile
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,7 @@ def test_every_delay_of_run_575_is_found_and_no_clean_element_is_called_mismatch
 def test_one_pass_of_the_profile_leaves_the_integrating_row_a_sample_off(run_575, monkeypatch):
     """The same run with a single pass: the defect the passes mend (so the test above can fail)."""
     config, record, truth = run_575
-    monkeypatch.setattr(fit, "PROFILE_PASSES", 1)
+    monkeypatch.setattr(profile, "PROFILE_PASSES", 1)
     found = _diagnosis(config, record)
     wrong = [
         name for name, e in found.elements.items()

@@ -237,6 +237,26 @@ def test_an_interaction_template_is_placed_by_the_search():
     assert params.lin[1] == pytest.approx(0.6, rel=0.01) and params.lin[0] == pytest.approx(1.1, rel=0.01)
 
 
+def test_an_interaction_within_its_chance_level_is_absent_and_one_beyond_it_is_not():
+    from pmr_ros.core.pmr.parametric.profile import absent, uncertainty
+
+    columns = [_ratio_column(), _lag_column()]
+    z = [math.inf, 3.0]
+    for gain, expected in ((0.0, True), (0.6, False)):
+        truth = RowParameters(np.array([1.1, gain]), np.array([0.1, -0.7]), np.array([1, 4]))
+        system, _, _ = _system(columns, truth, noise=0.02)
+        problem = RowProblem(system, columns)
+        params, _ = problem.fit(truth)
+        sd_lin, _ = uncertainty(problem, params, 1.0)
+        assert 0 < sd_lin[1] < 0.1  # well determined: the absence is the gain's, not the noise's
+        assert absent(problem, params, z=z, inflation=1.0).tolist() == [False, expected]
+    # an inflation that widens the deviations past the gain makes even a present interaction absent
+    assert absent(problem, params, z=z, inflation=(params.lin[1] / (3.0 * sd_lin[1])) ** 2 * 1.01).tolist() == [
+        False,
+        True,
+    ]
+
+
 def test_column_search_and_move_delay():
     columns = [_ratio_column(), _lag_column()]
     truth = RowParameters(np.array([0.9, 0.5]), np.array([-0.3, 0.0]), np.array([0, 5]))

@@ -30,12 +30,13 @@ import numpy as np
 
 from .lsq import RowParameters, RowProblem
 from .parameterization import absence_z, column_models, interaction_delay_range
+from .profile import DelaySearch, search_delays, uncertainty
 from .rank import first_pass
 from .ratio import ColumnModel, RowSystem
 from .rowdata import RowData
 from .search import column_grids, sweep_columns
 from .separation import Separation, separation
-from .trials import PROFILE_HALF_WIDTH, Trials, alternatives, coupled_pairs, joint_profiles, joint_search
+from .trials import Trials, alternatives, joint_profiles
 
 __all__ = [
     "LEAKAGE_ROUNDS",
@@ -48,36 +49,10 @@ __all__ = [
     "leakage_offset",
 ]
 
-PROFILE_PRUNE = 60.0
-"""A neighbour this many (reduced) chi-square units worse ends its side of the profile."""
-
-SETTLED = 200.0
-"""A neighbour this many (reduced) chi-square units worse after its first joint-fit step is not fitted further.
-
-Its likelihood weight (below ``exp(-100)``) changes no delay confidence and no interval, and it ends its side
-of the profile (:data:`PROFILE_PRUNE`) either way.  Measured on 2,069 neighbour fits of 16 windows of the
-year benchmark (``benchmarks/bench_monitor.py``): the two further steps never took such a neighbour below
-0.94 of its excess after one (none below 207 units).  About a third of the neighbours end so."""
-
 LEAKAGE_ROUNDS = 2
 """Refits with the segments' leakage taken out, each at the last fit's parameters (:func:`leakage_offset`).
 
 Measured on the Skogestad LV column: a third round moves no parameter by a hundredth of its deviation."""
-
-PROFILE_PASSES = 4
-"""Most passes of the delay profile over a row's columns: one that moved a modelled element's delay is followed
-by another.
-
-A column's best delay depends on the others' (one pass tries each against the delays of the columns
-before it as they were then).  Measured on run 575 of the benchmark (the 4x8, 8,192 samples, white noise):
-after one pass three of the integrating row's four delays were a sample off, each with confidence 1 and the
-row 416 chi-square units above its true delays; the second pass found the true delays.  A pass that moved
-only empty cells' interaction delays is not repeated: with no interaction there (gamma near 0) their
-likelihood is flat, and in the year benchmark's windows they moved pass after pass by 0-15 reduced chi-square
-units (passes for those alone cost 47 % more CPU a window and changed no verdict)."""
-
-JOINT_ROUNDS = 3
-"""Most rounds of neighbour profile and joint pair search (a better delay vector found starts another)."""
 
 
 @dataclass(frozen=True)
@@ -124,7 +99,7 @@ class RowFit:
         Its degrees of freedom.
     delay_profile : tuple of dict
         Per column: ``delay -> chi_square`` with the others at their best; empty for an interaction that was
-        not profiled (an absent interaction: :func:`_absent`).
+        not profiled (an absent interaction: :func:`.profile.absent`).
     lack_of_fit : ndarray, shape (n,)
         Mean squared distance of the fit from the free estimate per bin, in its noise units (about 1 when it fits).
     columns : tuple of ColumnModel
@@ -236,100 +211,6 @@ def leakage_offset(data: RowData, problem: RowProblem, params: RowParameters) ->
     return offset
 
 
-def _absent(problem: RowProblem, params: RowParameters, *, z: Sequence[float], inflation: float) -> np.ndarray:
-    """Per column: an interaction whose gain lies within ``z`` (:func:`.absence_z`) of its deviations of zero.
-
-    Its delay is not profiled: with no interaction there the delay's likelihood is flat, and the profile walked
-    every neighbour.  In the year benchmark's windows (a 4x8 with 19 empty cells in its fitted rows) those
-    neighbours took 22 % of a window's CPU time; skipping them moved the elements' estimates by at most 0.5 pp
-    (a third of their intervals' half-widths) and changed no verdict in 20 windows.
-    """
-    interaction = np.array([column.interaction for column in problem.columns], dtype=bool)
-    if not interaction.any():
-        return interaction
-    sd_lin, _ = _uncertainty(problem, params, inflation)
-    return interaction & (np.abs(params.lin) < np.asarray(z) * sd_lin)
-
-
-def _profile(
-    trials: Trials, fit: tuple[RowParameters, float], *, scale: float, absence: _Absence
-) -> tuple[RowParameters, float]:
-    """Each column's delay neighbours, the others at their best; a better neighbour is taken (and fitted in full).
-
-    Passes over the columns repeat while one moves a modelled element's delay (at most :data:`PROFILE_PASSES`).
-    An interaction that is absent at the pass's start (:func:`_absent`) is not profiled in that pass;
-    ``absence.profiled`` collects the columns that were.
-
-    Outwards from the chosen delay, a side stops once a neighbour's chi-square
-    exceeds the chosen one's by :data:`PROFILE_PRUNE` times ``scale`` (the
-    reduced chi-square): its likelihood weight, below ``exp(-PROFILE_PRUNE/2)``,
-    changes no confidence, and the one beyond it would weigh less still.  A
-    neighbour :data:`SETTLED` times ``scale`` worse after one step is fitted no further.
-    """
-    for _ in range(PROFILE_PASSES):
-        moved = False
-        absent = _absent(trials.problem, fit[0], z=absence.z, inflation=absence.bin_correlation * scale)
-        for k, column in enumerate(trials.problem.columns):
-            if absent[k]:
-                continue
-            absence.profiled.add(k)
-            low, high = column.delay_bounds
-            chosen = int(fit[0].delays[k])
-            profile = {chosen: fit[1]}
-            for direction in (-1, 1):
-                for step in range(1, PROFILE_HALF_WIDTH + 1):
-                    d = chosen + direction * step
-                    if not low <= d <= high:
-                        break
-                    profile[d] = trials.moved(fit, [(k, d)], settled_above=fit[1] + SETTLED * scale)[1]
-                    if profile[d] - fit[1] > PROFILE_PRUNE * scale:
-                        break
-            best = min(profile, key=profile.__getitem__)
-            if best != chosen:
-                fit = trials.full(trials.moved(fit, [(k, best)])[0])
-                moved |= not column.interaction
-        if not moved:
-            break
-    return fit
-
-
-@dataclass
-class _Absence:
-    """What :func:`_profile` needs to skip absent interactions, and the columns it profiled."""
-
-    z: Sequence[float]
-    bin_correlation: float
-    profiled: set[int]
-
-
-def _search_delays(
-    trials: Trials, fit: tuple[RowParameters, float], *, dof: int, joint_correlation: float, absence: _Absence
-) -> tuple[RowParameters, float]:
-    """The best delays: each column's neighbours, then the coupled pairs' joint grids, until neither improves."""
-    for _ in range(JOINT_ROUNDS):
-        scale = max(1.0, fit[1] / dof)
-        fit = _profile(trials, fit, scale=scale, absence=absence)
-        pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, joint_correlation)
-        if not joint_search(trials, fit, pairs[: trials.problem.n]):
-            break
-        fit = trials.full(trials.best()[0])
-    return fit
-
-
-def _uncertainty(problem: RowProblem, params: RowParameters, inflation: float) -> tuple[np.ndarray, np.ndarray]:
-    """Standard deviations of ``lin`` and of the fitted ``s`` (an interaction's time constant is held)."""
-    n = problem.n
-    info = problem.information(problem.coefficients(params))
-    packed = np.full(info.shape[0], np.inf)
-    try:
-        packed = np.sqrt(np.maximum(np.diag(np.linalg.inv(info)) * inflation, 0.0))
-    except np.linalg.LinAlgError:
-        pass
-    sd_s = np.full(n, np.nan)
-    sd_s[problem.free_tau] = packed[n:]
-    return packed[:n], sd_s
-
-
 def _lack_of_fit(system: RowSystem, problem: RowProblem, params: RowParameters) -> np.ndarray:
     """Per column: mean over bins of ``|free - fitted|^2 / var(free)`` (complex variance ``2 [M^-1]_kk``)."""
     free, variance = system.free_estimate()
@@ -356,10 +237,25 @@ def _weighted(trials: Trials, chosen: RowParameters, *, scale: float, inflation:
     for alternative in alternatives(trials, scale=scale):
         if np.array_equal(alternative.params.delays, chosen.delays):
             continue
-        sd_lin, sd_s = _uncertainty(trials.problem, alternative.params, inflation)
+        sd_lin, sd_s = uncertainty(trials.problem, alternative.params, inflation)
         params = alternative.params
         out.append(WeightedFit(alternative.weight, params.lin, params.s, params.delays, sd_lin, sd_s))
     return tuple(out)
+
+
+def _without_leakage(
+    data: RowData, problem: RowProblem, params: RowParameters, cost: float
+) -> tuple[RowProblem, RowParameters, float]:
+    """The segments' leakage at the fit taken out of S_zy, gains and time constants refitted at ``params``' delays.
+
+    The leakage moves with the fit: :data:`LEAKAGE_ROUNDS` rounds follow it (none without the record).
+    """
+    z_inv = np.exp(-1j * data.omega)
+    for _ in range(LEAKAGE_ROUNDS if data.record is not None else 0):
+        offset = leakage_offset(data, problem, params)
+        problem = RowProblem(data.system(problem.coefficients(params, z_inv).theta, offset), problem.columns)
+        params, cost = problem.fit(params)
+    return problem, params, cost
 
 
 def fit_row(
@@ -379,12 +275,8 @@ def fit_row(
         One per column of ``data.columns``.
     theta_start : ndarray of complex, shape (F, n)
         A first estimate of the row (the nonparametric one) for the first noise spectrum.
-    joint_correlation : float
-        Pairs of columns whose delay estimates correlate at least this much
-        are searched jointly (``parametric.joint_delay_correlation``).
-    confidence_level : float
-        ``parametric.confidence_level``: an interaction within its chance level (:func:`.absence_z`) is not
-        profiled.
+    joint_correlation, confidence_level : float
+        ``parametric.joint_delay_correlation`` and ``parametric.confidence_level`` (:class:`.DelaySearch`).
 
     Returns
     -------
@@ -400,23 +292,15 @@ def fit_row(
     second = data.system(problem.coefficients(fit[0], z_inv).theta)
     searched = RowProblem(second, columns)
     trials = Trials(searched, grids)
-    p = len(columns) + searched.free_tau.size
-    dof = max(1, second.components - p)
-    absence = _Absence(absence_z(columns, confidence_level=confidence_level), data.bin_correlation, set())
-    params, cost = _search_delays(
-        trials, trials.full(fit[0]), dof=dof, joint_correlation=joint_correlation, absence=absence
-    )
+    dof = max(1, second.components - len(columns) - searched.free_tau.size)
+    search = DelaySearch(joint_correlation, absence_z(columns, confidence_level=confidence_level), data.bin_correlation)
+    params, cost = search_delays(trials, trials.full(fit[0]), dof=dof, search=search)
     searched_scale = data.bin_correlation * max(1.0, cost / dof)
-    # pass 3: the segments' leakage at the fit taken out of S_zy, gains and time constants refitted at the
-    # chosen delays (the leakage moves with the fit: a second round follows it).  The delays' profile and
-    # alternatives stay pass 2's: a correction made at one delay vector would favour it over the others.
-    final = searched
-    for _ in range(LEAKAGE_ROUNDS if data.record is not None else 0):
-        offset = leakage_offset(data, final, params)
-        final = RowProblem(data.system(final.coefficients(params, z_inv).theta, offset), columns)
-        params, cost = final.fit(params)
+    # pass 3: the delays' profile and alternatives stay pass 2's: a correction made at one delay vector would
+    # favour it over the others
+    final, params, cost = _without_leakage(data, searched, params, cost)
     inflation = data.bin_correlation * max(1.0, cost / dof)
-    sd_lin, sd_s = _uncertainty(final, params, inflation)
+    sd_lin, sd_s = uncertainty(final, params, inflation)
     return RowFit(
         lin=params.lin,
         s=params.s,
@@ -425,7 +309,7 @@ def fit_row(
         sd_s=sd_s,
         chi_square=cost,
         dof=dof,
-        delay_profile=joint_profiles(trials, params, profiled=absence.profiled),
+        delay_profile=joint_profiles(trials, params, profiled=search.profiled),
         lack_of_fit=_lack_of_fit(as_is, problem, params),
         columns=tuple(columns),
         separation=separation(final, params),
