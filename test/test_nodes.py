@@ -565,6 +565,38 @@ def test_a_restarted_plant_resumes_the_run_and_the_window_spans_the_break(ros):
     assert any(f"samples {answered + 1}..{answered + 1} missing" in w for w in diag.warnings)
 
 
+def test_a_plant_that_finds_a_run_under_way_waits_for_the_controllers_late_input_and_resumes_after_it(ros):
+    """The controller's newest input reaches a restarted plant late: it resumes after it, not from sample 0.
+
+    A consumer reports sample 1000 taken; u(1000) reaches the new plant only 3 s after it is ready (its
+    history delivered late, as on a loaded machine).
+    """
+    config = load_config(overrides={"run": {"samples": 3000}})
+    overrides = {"simulation.discovery_settle_s": 0.0, "simulation.wait_for_subscribers": 1}
+    flat = {**flatten_parameters(config.parameters), **overrides}
+    stub = ros.create_node("stub_loop")  # the run's consumer and its controller, as one node
+    t_progress, t_u, t_y = topic("progress"), topic("manipulated_input"), topic("measured_output")
+    progress = stub.create_publisher(message_class(t_progress), t_progress.name, qos_profile(t_progress.qos))
+    u_pub = stub.create_publisher(message_class(t_u), t_u.name, qos_profile(t_u.qos))
+    published = []
+    stub.create_subscription(
+        message_class(t_y), t_y.name, lambda m: published.append(m.header.stamp.sec), qos_profile(t_y.qos)
+    )
+    report = message_class(t_progress)(frame_id=stub.get_fully_qualified_name())
+    report.stamp.sec = 1000
+    progress.publish(report)
+    plant = ros.add(PlantNode(context=ros.context, parameter_overrides=parameter_overrides(flat)))
+    assert ros.spin_until(lambda: plant._ready_at is not None, 30.0), "the plant never found its peers"
+    ready = time.monotonic()
+    ros.spin_until(lambda: bool(published), 3.0)  # before the fix: sample 0 went out 0.5 s after ready
+    assert not published, f"the plant started over: published samples {published[:3]}"
+    u = np.zeros(config.model.n_inputs)
+    u_pub.publish(signal_message(u, config.model.input_names, 1000.0 * config.model.sample_time, "stub"))
+    assert ros.spin_until(lambda: bool(published), 30.0), "the plant never resumed"
+    assert published[0] == 1002 * config.model.sample_time and plant.resumed_at == [1002], published
+    assert time.monotonic() - ready >= 3.0
+
+
 def test_a_stray_publisher_of_old_stamps_is_reported_and_does_not_stall_the_loop(ros):
     config = load_config(overrides={"run": {"samples": 3000}})
     (diag, mpc, prbs, plant), _ = _node_set(ros, config, SHORT_RUN)

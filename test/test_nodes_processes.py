@@ -166,10 +166,9 @@ def test_a_plant_killed_and_restarted_resumes_the_run(ros, tmp_path):
     pmr = {"method": "classic", "segment_length": 128}
     # the restarted plant learns where the run is from the controller's newest input; under load that input
     # reached it only after the default 3 s settle and the 0.5 s resume settle (seen once in 6 runs: it started
-    # over from sample 0).  15 s, as the test had by accident while its watcher was a silent subscriber of y.
-    simulation = {"discovery_settle_s": 15.0}
+    # over from sample 0).  It now waits for it while the diagnostician reports samples taken (RESUME_WAIT_S).
     diagnostician = {"update_period_samples": 1000, "min_samples": 1000}
-    run_file = _params_file(tmp_path, samples, pmr=pmr, diagnostician=diagnostician, simulation=simulation)
+    run_file = _params_file(tmp_path, samples, pmr=pmr, diagnostician=diagnostician)
     watcher = _Watcher(ros, samples - 1)
     procs = _start_nodes(ros, tmp_path, run_file)
     assert ros.spin_until(lambda: watcher.newest_sample >= 1000, 300.0), _logs(tmp_path)
