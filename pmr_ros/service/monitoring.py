@@ -4,7 +4,8 @@ The record (a historian export or a bag, read and cleaned once) is cut into
 the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
 unbroken stretches are slices of the one record (a window's own deviations
 are the only copy).  Windows run on local processes (the sweep's
-``forkserver`` pool, :func:`pmr_ros.core.sim.batch.worker_context`), in this
+``forkserver`` pool, :func:`pmr_ros.core.sim.batch.worker_context`, the record
+memory-mapped by each worker: :mod:`.shipping`), in this
 process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
 results are the same, in window order.  Each window's entry carries its
 elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
@@ -16,11 +17,13 @@ import math
 import os
 import re
 import signal
+import tempfile
 import threading
 import time
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,6 +38,7 @@ from ..core.results.codec import diagnosis_to_json
 from ..data import PlantData
 from .historian import limits_given
 from .refusal import ServiceError
+from .shipping import ship, unship
 
 __all__ = [
     "Monitoring",
@@ -204,10 +208,11 @@ _WORKER_JOB: WindowJob | None = None
 _WORKER_PIECES: PieceCache | None = None
 
 
-def _init_worker(job: WindowJob) -> None:
+def _init_worker(shipped: bytes) -> None:
     # Ctrl-C goes to the whole process group; only the main process handles it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     global _WORKER_JOB, _WORKER_PIECES
+    job = unship(shipped)  # the record's arrays memory-mapped: not a copy per worker through the pool's pipe
     _WORKER_JOB, _WORKER_PIECES = job, PieceCache(job.config.model)
 
 
@@ -279,17 +284,18 @@ def _run(
     else:
         from ..core.sim.batch import worker_context
 
-        pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(job,))
-        try:
-            for done in pool.imap_unordered(_work, window_chunks(tasks, jobs)):
-                for index, diagnosis in done:
-                    record(index, diagnosis)
-            pool.close()
-        except BaseException:
-            pool.terminate()
-            raise
-        finally:
-            pool.join()
+        with tempfile.TemporaryDirectory(prefix="pmr_ros_record_") as folder:
+            pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(ship(job, Path(folder)),))
+            try:
+                for done in pool.imap_unordered(_work, window_chunks(tasks, jobs)):
+                    for index, diagnosis in done:
+                        record(index, diagnosis)
+                pool.close()
+            except BaseException:
+                pool.terminate()
+                raise
+            finally:
+                pool.join()
 
 
 def _window_seconds(window: int | float | str, ts: float) -> float:

@@ -116,6 +116,8 @@ def decode_value(text: str) -> Any:
 
 def _plain(value: Any) -> Any:
     """Tuples, mappings and numpy scalars as plain JSON-ready Python values."""
+    if value is None or type(value) in (float, int, str, bool):  # most fields: checked first, a window's JSON 2x
+        return value
     if isinstance(value, (tuple, list)):
         return [_plain(v) for v in value]
     if isinstance(value, Mapping):
