@@ -24,8 +24,12 @@ SHIPPED_MIN_BYTES = 1 << 20
 
 
 def _mapped(path: str) -> np.ndarray:
-    """The array of ``path``, memory-mapped read-only (its users make new arrays from it, never write it)."""
-    return np.load(path, mmap_mode="r")
+    """The array of ``path``, memory-mapped read-only (its users make new arrays from it, never write it).
+
+    A plain ndarray over the map (which it keeps open): every slice of a :class:`numpy.memmap` would be one
+    too, and its operations pay the subclass's wrapping.
+    """
+    return np.load(path, mmap_mode="r").view(np.ndarray)
 
 
 class _Shipper(pickle.Pickler):
@@ -61,7 +65,7 @@ def ship(obj: Any, folder: Path, *, min_bytes: int = SHIPPED_MIN_BYTES) -> bytes
     >>> import tempfile
     >>> with tempfile.TemporaryDirectory() as folder:
     ...     back = unship(ship({"y": np.arange(300_000.0)}, Path(folder)))
-    ...     (back["y"][-1], isinstance(back["y"], np.memmap), back["y"].flags.writeable)
+    ...     (back["y"][-1], isinstance(back["y"].base, np.memmap), back["y"].flags.writeable)
     (np.float64(299999.0), True, False)
     """
     buffer = io.BytesIO()
