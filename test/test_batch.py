@@ -61,6 +61,19 @@ def test_worker_pools_start_from_a_fork_server():
     assert worker_context().get_start_method() == "forkserver"
 
 
+def test_a_worker_pool_sets_up_its_workers_and_is_torn_down_on_an_error():
+    import math
+
+    from pmr_ros.core.sim.batch import worker_pool
+
+    with worker_pool(2, math.isfinite, (1.0,)) as pool:  # any picklable initializer
+        assert sorted(pool.imap_unordered(math.sqrt, [4.0, 9.0])) == [2.0, 3.0]
+    with pytest.raises(ValueError, match="math domain error"), worker_pool(2, math.isfinite, (1.0,)) as pool:
+        pool.map(math.sqrt, [-1.0])  # the worker's error reaches the caller; the pool is terminated and joined
+    with pytest.raises(ValueError, match="Pool not running"):
+        pool.map(math.sqrt, [4.0])
+
+
 def test_mv_dither_is_added_to_u_and_the_lockstep_batch_equals_simulate(wood_berry):
     from pmr_ros.core.sim.excitation import ExcitationSettings
 

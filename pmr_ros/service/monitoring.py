@@ -282,20 +282,15 @@ def _run(
         for task in tasks:
             record(task[0], diagnose_window(job, (task[1], task[2]), pieces=pieces))
     else:
-        from ..core.sim.batch import worker_context
+        from ..core.sim.batch import worker_pool
 
-        with tempfile.TemporaryDirectory(prefix="pmr_ros_record_") as folder:
-            pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(ship(job, Path(folder)),))
-            try:
-                for done in pool.imap_unordered(_work, window_chunks(tasks, jobs)):
-                    for index, diagnosis in done:
-                        record(index, diagnosis)
-                pool.close()
-            except BaseException:
-                pool.terminate()
-                raise
-            finally:
-                pool.join()
+        with (
+            tempfile.TemporaryDirectory(prefix="pmr_ros_record_") as folder,
+            worker_pool(jobs, _init_worker, (ship(job, Path(folder)),)) as pool,
+        ):
+            for done in pool.imap_unordered(_work, window_chunks(tasks, jobs)):
+                for index, diagnosis in done:
+                    record(index, diagnosis)
 
 
 def _window_seconds(window: int | float | str, ts: float) -> float:

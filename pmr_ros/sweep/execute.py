@@ -24,7 +24,7 @@ from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose
 from ..core.records import Record
 from ..core.results.codec import csv_fields
-from ..core.sim.batch import run_lockstep, worker_context
+from ..core.sim.batch import run_lockstep, worker_pool
 from ..core.sim.model import TransferMatrix
 from ..progress import ProgressBar
 from . import store
@@ -235,16 +235,9 @@ def _run_here(config: PmrConfig, tasks: list[PointTask], record: Recorder) -> No
 
 
 def _run_pool(config: PmrConfig, tasks: list[PointTask], jobs: int, record: Recorder) -> None:
-    pool = worker_context().Pool(jobs, initializer=_init_worker, initargs=(config,))
-    try:
+    with worker_pool(jobs, _init_worker, (config,)) as pool:
         for task, rows, cpu_s in pool.imap_unordered(_work, tasks):
             record(task, rows, cpu_s)
-        pool.close()
-    except BaseException:
-        pool.terminate()
-        raise
-    finally:
-        pool.join()
 
 
 def timed_point(config: PmrConfig, task: PointTask) -> tuple[PointTask, list[dict], float]:

@@ -29,8 +29,11 @@ floating-point summation order (tested to 1e-9).
 from __future__ import annotations
 
 import multiprocessing
-from collections.abc import Sequence
+import multiprocessing.pool
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +44,7 @@ from .excitation import PrbsGenerator, dither_generator
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .true_plant import DisturbanceStream, noise_generator
 
-__all__ = ["LockstepResult", "run_lockstep", "simulate_many", "worker_context"]
+__all__ = ["LockstepResult", "run_lockstep", "simulate_many", "worker_context", "worker_pool"]
 
 
 @dataclass(frozen=True)
@@ -280,3 +283,23 @@ def worker_context() -> multiprocessing.context.BaseContext:
     process instead.
     """
     return multiprocessing.get_context("forkserver")
+
+
+@contextmanager
+def worker_pool(
+    jobs: int, initializer: Callable[..., None], initargs: tuple[Any, ...]
+) -> Iterator[multiprocessing.pool.Pool]:
+    """A pool of ``jobs`` :func:`worker_context` workers, each set up by ``initializer(*initargs)``.
+
+    Closed and joined when the block ends; terminated first when it raises (a Ctrl-C, a worker's error):
+    the workers' results still on their way are dropped rather than waited for.
+    """
+    pool = worker_context().Pool(jobs, initializer=initializer, initargs=initargs)
+    try:
+        yield pool
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
