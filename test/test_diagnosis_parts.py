@@ -28,7 +28,8 @@ from pmr_ros.core.pmr.parametric.search import (
     sweep_columns,
 )
 from pmr_ros.core.pmr.parametric.verdicts import element_result, trust_reasons
-from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra, row_regressors
+from pmr_ros.core.pmr.regressors import row_regressors
+from pmr_ros.core.pmr.spectra import RowSpectra, WelchSettings, record_spectra
 from pmr_ros.core.records import Record
 from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, ElementModel, ParametricResult
 from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json

@@ -68,7 +68,7 @@ _WHERE = {
     "residual_spectra": "data_quality",
     "row_layout": "implicit",
     "row_refusal": "classic",
-    "row_regressors": "spectra",
+    "row_regressors": "regressors",
     "saturation": "data_quality",
     "search_limit_reason": "delay",
     "segment_spectra": "spectra",
@@ -190,6 +190,7 @@ if TYPE_CHECKING:
     )
     from .parametric import ParametricSettings, diagnose_parametric, parametric_results
     from .products import hermitian_product, product
+    from .regressors import row_regressors
     from .spectra import (
         RecordSpectra,
         RowSpectra,
@@ -197,7 +198,6 @@ if TYPE_CHECKING:
         WelchSettings,
         cross_spectra,
         record_spectra,
-        row_regressors,
         segment_spectra,
         stretch_segments,
     )

@@ -8,13 +8,12 @@ are then averaged.  A stretch that several windows hold whole -- the same
 samples, the same means removed -- gives every one of them the same segments.
 :class:`PieceCache` keeps, per stretch (its first and last sample in the whole
 record), what every window would compute again: the instruments' segment
-transforms, each row's regressors and their segment transforms.  A window's
-spectra (:class:`PiecewiseSpectra`) join its stretches' pieces in order, so
-they are the very arrays :class:`RecordSpectra` computes, and every product
-and fit after them runs on the same numbers: the same diagnosis to the last
-bit (test_piecewise.py).  Summing each stretch's cross-spectra instead would
-save the window's products too, but the fits carry the rounding of a
-different summation order to 4e-6 relative -- not worth a verdict at an edge.
+transforms, each row's regressors and their segment transforms, and the
+products of those transforms (each stretch's sums over its segments).  A
+window's spectra (:class:`PiecewiseSpectra`) join its stretches' pieces in
+order and sum their products in order, as :class:`RecordSpectra` does with a
+window alone (:func:`~.spectra.stretch_mean`), so every fit after them runs on
+the same numbers: the same diagnosis to the last bit (test_piecewise.py).
 
 Only what the current window holds is kept: a worker that runs consecutive
 windows computes one new day per window, and its memory stays one window's.
@@ -32,7 +31,17 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
-from .spectra import RecordSpectra, RowSpectra, SegmentSpectra, WelchSettings, row_regressors, segment_spectra
+from .regressors import row_regressors
+from .spectra import (
+    RecordSpectra,
+    RowSpectra,
+    SegmentSpectra,
+    WelchSettings,
+    instrument_product,
+    row_products,
+    segment_spectra,
+    stretch_mean,
+)
 from .spectra_source import SPECTRA_SOURCE
 
 __all__ = ["PieceCache", "PiecewiseSpectra", "stacked_segment_ffts"]
@@ -140,12 +149,16 @@ class PieceCache:
         return self._held((span, "z", welch, _signature(moving)), compute)
 
     def regressors(self, span: Span, u: np.ndarray, i: int) -> np.ndarray:
-        """Row ``i``'s regressors of one stretch, undifferenced (:func:`~.spectra.row_regressors`)."""
+        """Row ``i``'s regressors of one stretch, undifferenced (:func:`~.regressors.row_regressors`)."""
         return self._held((span, "x", i), lambda: row_regressors(self.model, u, i))
 
     def row_segments(self, span: Span, i: int, welch: WelchSettings, compute: Callable[[], Any]) -> Any:
         """The segment transforms of row ``i``'s ``[y_i, x_i]`` of one stretch (``compute()`` gives them)."""
         return self._held((span, "row", i, welch), compute)
+
+    def product(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+        """A product of one stretch's transforms (``key`` starts with its span), ``compute()`` once."""
+        return self._held(key, compute)
 
 
 class PiecewiseSpectra(RecordSpectra):
@@ -169,11 +182,19 @@ class PiecewiseSpectra(RecordSpectra):
         self._warmup = warmup
         self._data = [(u, y, warmup) for u, y, _ in self._pieces]
         parts = [cache.instruments(span, self.moving.columns(s)[warmup:], welch, self.moving) for s, span in kept]
+        self._parts = parts
         self._z = SegmentSpectra(parts[0].omega, np.concatenate([p.ffts for p in parts], axis=0), welch)
         self.equivalent_segments = sum(welch.equivalent_segments(p.segments) for p in parts)
         self.omega = self._z.omega
         self.segments = self._z.segments
-        self.rr = self._z.cross(slice(None), slice(None))
+        signature = _signature(self.moving)
+        self.rr = stretch_mean(
+            (
+                cache.product((span, "zz", welch, signature), partial(instrument_product, p.ffts))
+                for (_, span), p in zip(kept, parts, strict=True)
+            ),
+            self.segments,
+        )
 
     def held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
         """``compute()`` once per window and ``key`` (:func:`~.implicit.row_estimate`: the same numbers)."""
@@ -182,10 +203,27 @@ class PiecewiseSpectra(RecordSpectra):
         return self._kept[key]
 
     def row(self, i: int) -> RowSpectra:
-        """:meth:`RecordSpectra.row`, computed once per row (the window's fit and data quality both read it)."""
+        """:meth:`RecordSpectra.row` from each stretch's products, computed once per stretch and row.
+
+        Kept per window too (the window's fit and data quality both read it).
+        """
         if i not in self._rows:
-            self._rows[i] = super().row(i)
+            signature = _signature(self.moving)
+            products = [
+                self._cache.product(
+                    (span, "row products", i, self.settings, signature), partial(self._products, z, u, y, span, i)
+                )
+                for z, (u, y, span) in zip(self._parts, self._pieces, strict=True)
+            ]
+            self._rows[i] = RowSpectra.of(products, self.segments, differenced=bool(self.differenced[i]))
         return self._rows[i]
+
+    def _products(
+        self, z: SegmentSpectra, u: np.ndarray, y: np.ndarray, span: Span, i: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One stretch's :func:`~.spectra.row_products` of row ``i``."""
+        x = self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i))
+        return row_products(np.transpose(z.ffts, (1, 0, 2)), np.transpose(x.ffts, (1, 0, 2)))
 
     def _block(self, x: np.ndarray, i: int) -> np.ndarray:
         """A stretch's block as :meth:`RecordSpectra._row_segments` prepares it: differenced, warm-up dropped."""

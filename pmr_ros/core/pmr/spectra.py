@@ -45,7 +45,7 @@ interaction on an integrating output is taken to integrate as well.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -56,6 +56,7 @@ from scipy.signal import get_window
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .products import hermitian_product
+from .regressors import row_regressors
 from .spectra_source import SPECTRA_SOURCE
 
 __all__ = [
@@ -64,9 +65,11 @@ __all__ = [
     "SegmentSpectra",
     "WelchSettings",
     "cross_spectra",
+    "instrument_product",
     "record_spectra",
-    "row_regressors",
+    "row_products",
     "segment_spectra",
+    "stretch_mean",
     "stretch_segments",
 ]
 
@@ -253,31 +256,12 @@ class RowSpectra:
     xx: np.ndarray
     differenced: bool
 
-
-def row_regressors(model: TransferMatrix, u: np.ndarray, i: int) -> np.ndarray:
-    """The regressors ``x_ik`` of row ``i`` (undifferenced), shape (N, n_in).
-
-    ``Ghat_ik u_k`` for a modeled element, started as
-    :meth:`TransferMatrix.element_outputs` starts it; for an empty cell the
-    reference ``u_k(t-1)`` (times ``Ts`` integrated, in an integrating row).
-    """
-    u = np.asarray(u, dtype=float)
-    x = np.empty_like(u)
-    x[0] = u[0]
-    x[1:] = u[:-1]
-    if model.integrating_outputs[i]:
-        x = np.cumsum(x, axis=0) * model.sample_time
-    present = np.flatnonzero(model.present[i])
-    if present.size:
-        row = _model_row(model, i)
-        x[:, present] = row.element_outputs(u[:, present])[:, 0, :]
-    return x
-
-
-def _model_row(model: TransferMatrix, i: int) -> TransferMatrix:
-    """Row ``i`` of the model, with only its modeled elements (a 1 x n_present matrix), any element type."""
-    row = [model.element(i, int(k)) for k in np.flatnonzero(model.present[i])]
-    return TransferMatrix.of_elements([row], sample_time=model.sample_time)
+    @classmethod
+    def of(cls, products: Sequence[tuple[np.ndarray, np.ndarray]], segments: int, *, differenced: bool) -> RowSpectra:
+        """From each stretch's :func:`row_products`, averaged over the ``segments`` of all (:func:`stretch_mean`)."""
+        zc = stretch_mean((p[0] for p in products), segments)
+        cc = stretch_mean((p[1] for p in products), segments)
+        return cls(zc[:, :, 0], zc[:, :, 1:], cc[:, 0, 0].real.copy(), cc[:, 1:, 0], cc[:, 1:, 1:], differenced)
 
 
 class RecordSpectra:
@@ -325,7 +309,9 @@ class RecordSpectra:
         self._z, self.equivalent_segments = stretch_segments(blocks, welch)
         self.omega = self._z.omega
         self.segments = self._z.segments
-        self.rr = self._z.cross(slice(None), slice(None))
+        ends = np.cumsum([n for n in (welch.segments(b.shape[0]) for b in blocks) if n > 0])
+        self._stretches = [slice(a, b) for a, b in zip((0, *ends[:-1]), ends, strict=True)]
+        self.rr = stretch_mean((instrument_product(self._z.ffts[k]) for k in self._stretches), self.segments)
 
     @property
     def layout_inputs(self) -> dict:
@@ -373,21 +359,35 @@ class RecordSpectra:
         return hermitian_product(Z, X) / X.shape[1]
 
     def row(self, i: int) -> RowSpectra:
-        """The cross-spectra of row ``i``'s regression."""
-        differenced = bool(self.differenced[i])
+        """The cross-spectra of row ``i``'s regression (each stretch's products summed: :func:`stretch_mean`)."""
         Z = np.transpose(self._z.ffts, (1, 0, 2))  # (F, K, n_z)
         X = self._row_segments(i, None)  # (F, K, 1 + n_in)
-        K = X.shape[1]
-        zc = hermitian_product(Z, X) / K
-        cc = hermitian_product(X, X) / K
-        return RowSpectra(
-            zy=zc[:, :, 0],
-            zx=zc[:, :, 1:],
-            yy=cc[:, 0, 0].real.copy(),
-            xy=cc[:, 1:, 0],
-            xx=cc[:, 1:, 1:],
-            differenced=differenced,
-        )
+        products = [row_products(Z[:, k], X[:, k]) for k in self._stretches]
+        return RowSpectra.of(products, self.segments, differenced=bool(self.differenced[i]))
+
+
+def instrument_product(ffts: np.ndarray) -> np.ndarray:
+    """``sum_k conj(Z_k)^T Z_k`` over the segments of one stretch's instrument transforms (K, F, n_z)."""
+    return np.einsum("kfa,kfb->fab", ffts.conj(), ffts)
+
+
+def row_products(Z: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(sum_k conj(Z_k)^T X_k, sum_k conj(X_k)^T X_k)`` over one stretch's segments (Z (F, K, n_z), X (F, K, q))."""
+    return hermitian_product(Z, X), hermitian_product(X, X)
+
+
+def stretch_mean(parts: Iterable[np.ndarray], segments: int) -> np.ndarray:
+    """Each stretch's product summed in order, over the ``segments`` of all: the cross-spectrum they average.
+
+    A sum over stretches, so that a rolling window's spectra are the sums of its stretches' products, each
+    computed once (:mod:`.piecewise`), to the same bits as the window alone.
+    """
+    total: np.ndarray | None = None
+    for part in parts:
+        total = part if total is None else total + part
+    if total is None:
+        raise ValueError("no stretch holds a segment")
+    return total / segments
 
 
 def record_spectra(stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> RecordSpectra:
