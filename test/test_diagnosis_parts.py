@@ -17,8 +17,9 @@ from pmr_ros.core.pmr.implicit import implicit_row, instrument_factor, row_layou
 from pmr_ros.core.pmr.parametric import ParametricSettings
 from pmr_ros.core.pmr.parametric.fit import RowData, RowFit, column_models, interaction_delay_range, leakage_offset
 from pmr_ros.core.pmr.parametric.guard import fitted_bins
-from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict, search_candidates
+from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict
 from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
+from pmr_ros.core.pmr.parametric.parameterization import search_candidates
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
 from pmr_ros.core.pmr.parametric.search import (
     column_grids,

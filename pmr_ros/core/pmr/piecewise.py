@@ -37,7 +37,6 @@ from .spectra import (
     RowSpectra,
     SegmentSpectra,
     WelchSettings,
-    instrument_product,
     row_products,
     segment_spectra,
     stretch_mean,
@@ -187,14 +186,12 @@ class PiecewiseSpectra(RecordSpectra):
         self.equivalent_segments = sum(welch.equivalent_segments(p.segments) for p in parts)
         self.omega = self._z.omega
         self.segments = self._z.segments
-        signature = _signature(self.moving)
-        self.rr = stretch_mean(
-            (
-                cache.product((span, "zz", welch, signature), partial(instrument_product, p.ffts))
-                for (_, span), p in zip(kept, parts, strict=True)
-            ),
-            self.segments,
-        )
+        self._signature = _signature(self.moving)
+        sums = [
+            cache.product((span, "zz", welch, self._signature), partial(p.cross, slice(None), slice(None), mean=False))
+            for (_, span), p in zip(kept, parts, strict=True)
+        ]
+        self.rr = stretch_mean(sums, self.segments)
 
     def held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
         """``compute()`` once per window and ``key`` (:func:`~.implicit.row_estimate`: the same numbers)."""
@@ -208,10 +205,10 @@ class PiecewiseSpectra(RecordSpectra):
         Kept per window too (the window's fit and data quality both read it).
         """
         if i not in self._rows:
-            signature = _signature(self.moving)
             products = [
                 self._cache.product(
-                    (span, "row products", i, self.settings, signature), partial(self._products, z, u, y, span, i)
+                    (span, "row products", i, self.settings, self._signature),
+                    partial(self._products, z, u, y, span, i),
                 )
                 for z, (u, y, span) in zip(self._parts, self._pieces, strict=True)
             ]

@@ -65,7 +65,6 @@ __all__ = [
     "SegmentSpectra",
     "WelchSettings",
     "cross_spectra",
-    "instrument_product",
     "record_spectra",
     "row_products",
     "segment_spectra",
@@ -159,11 +158,15 @@ class SegmentSpectra:
         """Segments averaged."""
         return self.ffts.shape[0]
 
-    def cross(self, a: slice | list[int] | np.ndarray, b: slice | list[int] | np.ndarray) -> np.ndarray:
-        """Cross-spectra between channel groups, shape (F, len(a), len(b)): ``E{conj(X_a) X_b}``."""
-        Xa = self.ffts[:, :, a]
-        Xb = self.ffts[:, :, b]
-        return np.einsum("kfa,kfb->fab", Xa.conj(), Xb) / self.segments
+    def cross(
+        self, a: slice | list[int] | np.ndarray, b: slice | list[int] | np.ndarray, *, mean: bool = True
+    ) -> np.ndarray:
+        """Cross-spectra between channel groups, shape (F, len(a), len(b)): ``E{conj(X_a) X_b}``.
+
+        ``mean=False``: the sums over the segments instead (a stretch's part of :func:`stretch_mean`).
+        """
+        total = np.einsum("kfa,kfb->fab", self.ffts[:, :, a].conj(), self.ffts[:, :, b])
+        return total / self.segments if mean else total
 
 
 def segment_spectra(x: np.ndarray, settings: WelchSettings) -> SegmentSpectra:
@@ -311,7 +314,8 @@ class RecordSpectra:
         self.segments = self._z.segments
         ends = np.cumsum([n for n in (welch.segments(b.shape[0]) for b in blocks) if n > 0])
         self._stretches = [slice(a, b) for a, b in zip((0, *ends[:-1]), ends, strict=True)]
-        self.rr = stretch_mean((instrument_product(self._z.ffts[k]) for k in self._stretches), self.segments)
+        each = (SegmentSpectra(self.omega, self._z.ffts[k], welch) for k in self._stretches)
+        self.rr = stretch_mean((s.cross(slice(None), slice(None), mean=False) for s in each), self.segments)
 
     @property
     def layout_inputs(self) -> dict:
@@ -364,11 +368,6 @@ class RecordSpectra:
         X = self._row_segments(i, None)  # (F, K, 1 + n_in)
         products = [row_products(Z[:, k], X[:, k]) for k in self._stretches]
         return RowSpectra.of(products, self.segments, differenced=bool(self.differenced[i]))
-
-
-def instrument_product(ffts: np.ndarray) -> np.ndarray:
-    """``sum_k conj(Z_k)^T Z_k`` over the segments of one stretch's instrument transforms (K, F, n_z)."""
-    return np.einsum("kfa,kfb->fab", ffts.conj(), ffts)
 
 
 def row_products(Z: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

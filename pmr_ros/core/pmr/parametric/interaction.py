@@ -4,7 +4,7 @@ An empty cell's interaction is judged by the share of the row's
 instrument-driven output it carries, against the gain tolerance, with its
 interval widened for the search over its delay and time constant (the best of
 many candidates is larger than one chosen in advance: a Bonferroni bound over
-:func:`search_candidates`).
+:func:`~.parameterization.search_candidates`).
 """
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ from collections.abc import Mapping
 
 from ...results import ParametricResult
 from .fit import RowFit
-from .parameterization import TEMPLATE_SHAPES, bonferroni_z, search_candidates
+from .parameterization import bonferroni_z, search_candidates
 from .settings import ParametricSettings
 from .verdicts import chosen_delay, parameter_verdict, trust_reasons, z_score
 
-__all__ = ["TEMPLATE_SHAPES", "interaction_result", "interaction_verdict", "search_candidates"]
+__all__ = ["interaction_result", "interaction_verdict"]
 
 
 def interaction_verdict(share_pct: float, sd_pct: float, *, candidates: int, settings: ParametricSettings) -> str:
@@ -59,7 +59,7 @@ def interaction_result(
     gamma, sd = float(fit.lin[c]), float(fit.sd_lin[c])
     share, sd_share = 100.0 * gamma * share_per_gain, 100.0 * sd * share_per_gain
     verdict = interaction_verdict(share, sd_share, candidates=search_candidates(fit.columns[c]), settings=settings)
-    delay, confidence = int(fit.delays[c]), None  # no profile: an absent interaction's (fit.py: _absent)
+    delay, confidence = int(fit.delays[c]), None  # no profile: an absent interaction's (profile.absent)
     if fit.delay_profile[c]:
         delay, confidence, _ = chosen_delay(fit, c, settings)
     reasons = list(trust_reasons(fit, c, settings)) if verdict == "mismatch" else []
@@ -71,11 +71,11 @@ def interaction_result(
             f"interaction of {share:+.1f} % ± {z * sd_share:.1f} of the row's driven output: cannot rule out one "
             f"beyond ±{band:g} % ({settings.ok_band_factor:g}x the gain tolerance)"
         )
-    if verdict == "mismatch" and confidence is None:
-        # its gain was within the search's chance level when the delays were profiled
-        warnings = (*warnings, "interaction delay not profiled")
-    elif verdict == "mismatch" and confidence is not None and confidence < settings.delay_confidence_min:
-        warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
+    if verdict == "mismatch":
+        if confidence is None:  # its gain was within the search's chance level when the delays were profiled
+            warnings = (*warnings, "interaction delay not profiled")
+        elif confidence < settings.delay_confidence_min:
+            warnings = (*warnings, f"interaction delay uncertain (confidence {100 * confidence:.0f} %)")
     return ParametricResult(
         delay_confidence=confidence,
         gain_verdict=None,

@@ -192,14 +192,11 @@ class RowProblem:
             M = self.system.M[:, owner][:, :, owner]
         return np.einsum("fp,fpq,fq->pq", derivatives.conj(), M, derivatives).real
 
-    def _gradient(self, coefficients: Coefficients, product: np.ndarray | None = None) -> np.ndarray:
-        """The cost's gradient in the packed parameters; ``product`` is ``M theta`` when already computed."""
-        if product is None:
-            product = np.einsum("fkm,fm->fk", self.system.M, coefficients.theta)
-        return self._step_terms(coefficients, product)[1]
-
     def _step_terms(self, coefficients: Coefficients, product: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`information` and :meth:`_gradient` from one Jacobian (``product`` is ``M theta``)."""
+        """:meth:`information` and the cost's gradient in the packed parameters, from one Jacobian.
+
+        ``product`` is ``M theta`` (:meth:`.RowSystem.cost_and_product` computes it with the cost).
+        """
         derivatives, owner = self.jacobian(coefficients)
         conjugate = derivatives.conj()
         H = np.einsum("fp,fpq,fq->pq", conjugate, self._m_owner, derivatives).real

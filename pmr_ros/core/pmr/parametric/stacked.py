@@ -61,7 +61,7 @@ def _cost_and_product(problem: RowProblem, theta: np.ndarray) -> tuple[np.ndarra
     system = problem.system
     Mt = np.einsum("fkm,bfm->bfk", system.M, theta)
     quad = np.einsum("bfk,bfk->b", theta.conj(), Mt).real
-    return system.beta.sum() - 2.0 * np.einsum("bfk,fk->b", theta.conj(), system.v).real + quad, Mt
+    return system._beta_total - 2.0 * np.einsum("bfk,fk->b", theta.conj(), system.v).real + quad, Mt
 
 
 def _subset(coefficients: Coefficients, members: np.ndarray) -> Coefficients:
