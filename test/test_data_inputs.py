@@ -186,19 +186,22 @@ def test_an_inconclusive_element_names_the_outliers_dropped_from_its_input(tmp_p
 
 
 def test_outliers_that_split_a_short_record_are_named_in_the_refusal(tmp_path, short_run, params_file, capsys):
-    """Three sentinels in 2000 samples: four stretches too short for a segment each; the one line says why."""
+    """Nine sentinels in 2000 samples: ten stretches too short for a segment each; the one line says why."""
     spiked = short_run.copy()
-    spiked.loc[[500, 1000, 1500], "XI101.PV"] = -99999.0
+    spiked.loc[list(range(200, 2000, 200)), "XI101.PV"] = -99999.0
     path = tmp_path / "spikes.csv"
     spiked.to_csv(path, index=False)
     assert cli.main(["diagnose", str(path), "--config", str(params_file)]) == 3
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "Traceback" not in err, err
-    assert "1997 usable samples in 4 stretch(es) after cleaning; window too short" in err, err
-    # unbroken, 2000 samples give (2000 - 176 - 512) // 256 + 1 = 6 segments of 512; the four stretches none
+    # the segment shortens to the least a row of two columns allows, 2 pi (2 x 2 + 2) / 0.7 -> 54 samples, and
+    # still a stretch of 199 is shorter than the settling (176) plus one segment: 4 of them need 176 + 54 + 3 x 27
+    assert "1991 usable samples in 10 stretch(es) after cleaning; window too short" in err, err
+    assert "give 0 Welch segments of 54, need 4 (311 unbroken samples)" in err, err
+    # unbroken, 2000 samples give (2000 - 176 - 54) // 27 + 1 = 66 segments of 54; the ten stretches none
     assert err.endswith(
-        "; 3 gross outliers dropped from y1 (x_D, column XI101.PV) split the data into 4 stretches: 6 Welch "
-        "segments of 512 fewer than unbroken"
+        "; 9 gross outliers dropped from y1 (x_D, column XI101.PV) split the data into 10 stretches: 66 Welch "
+        "segments of 54 fewer than unbroken"
     ), err
 
 

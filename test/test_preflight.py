@@ -81,15 +81,18 @@ def test_a_plant_delay_of_a_million_samples_is_refused_naming_the_plants_states(
 def test_a_64_by_64_model_with_too_few_samples_is_insufficient_before_simulating(tmp_path, capsys):
     path = _square(tmp_path, 64)
     config = load_config(path)
-    needed = samples_needed(config.model, config.parametric.welch(config.model, 16384, config.pmr))
-    # 64 columns a row need 2 * 64 + 2 bins below 0.7 rad/sample: segments of 2048 (parametric/settings.py)
-    assert needed == 82 + 2048 + 127 * 1024
+    welch = config.parametric.welch(config.model, 16384, config.pmr, instruments=64)
+    needed = samples_needed(config.model, welch)
+    # 128 segments do not fit in 16,384 samples at any length; the shortest segment a row of 64 columns
+    # allows has 2 * 64 + 2 bins below 0.7 rad/sample: 1,168 samples (parametric/settings.py)
+    assert welch.segment_length == 1168
+    assert needed == 82 + 1168 + 127 * 584
     start = time.monotonic()
     assert cli.main(["run", "--batch", "--config", path]) == 3
     assert time.monotonic() - start < 20.0  # the 74 s simulation is not run
     out = capsys.readouterr().out.splitlines()
     assert out[1].startswith("INSUFFICIENT DATA: window too short, known before simulating: 16384 samples for a 64x64")
-    assert f"needs at least {needed} (82 of settling, then 128 Welch segments of 2048" in out[1]
+    assert f"needs at least {needed} (82 of settling, then 128 Welch segments of 1168" in out[1]
     assert f"--samples {needed}" in out[1]
 
 

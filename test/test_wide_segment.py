@@ -8,12 +8,15 @@ A row of n columns needs 2 n + 2 fitted bins; under the default excitation the i
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from pmr_ros.config import load_config
+from pmr_ros.core.pmr.checks import segments_needed, unbroken_samples_needed, welch_segments
 from pmr_ros.core.pmr.parametric.settings import FIT_BAND
+from pmr_ros.core.records import Record
 from pmr_ros.core.sim.model import TransferMatrix
 
 
@@ -34,3 +37,66 @@ def test_the_segment_grows_with_the_columns_a_row_fits(inputs, segment):
 def test_a_short_record_still_caps_the_segment():
     config = load_config(None)
     assert config.parametric.welch(_unit(32), 3000, config.pmr).segment_length == 512  # a quarter of the record
+
+
+def _segments(welch, samples: int, settling: int) -> int:
+    return welch.segments(samples - settling)
+
+
+@pytest.mark.parametrize(("inputs", "samples"), [(8, 2400), (8, 3000), (8, 4096), (16, 6000), (16, 8192)])
+def test_a_record_too_short_for_the_instruments_segments_is_read_with_the_longest_that_gives_them(inputs, samples):
+    """2 n_z segments of the automatic length do not fit: the segment is the longest even one that gives them."""
+    config = load_config(None)
+    unit = _unit(inputs)
+    need = segments_needed(inputs)
+    automatic = config.parametric.welch(unit, samples, config.pmr)
+    assert _segments(automatic, samples, unit.settling_samples()) < need
+    welch = config.parametric.welch(unit, samples, config.pmr, instruments=inputs)
+    assert welch.segment_length % 2 == 0 and welch.segment_length < automatic.segment_length
+    assert _segments(welch, samples, unit.settling_samples()) >= need
+    longer = replace(welch, segment_length=welch.segment_length + 2)
+    assert _segments(longer, samples, unit.settling_samples()) < need
+    assert math.floor(FIT_BAND / (2.0 * math.pi / welch.segment_length)) >= 2 * inputs + 2  # the guard's bins
+    assert (welch.window, welch.overlap) == (automatic.window, automatic.overlap)
+
+
+def test_the_segment_is_not_shortened_below_a_rows_bins_and_the_check_names_the_samples_needed():
+    config = load_config(None)
+    unit = _unit(16)
+    welch = config.parametric.welch(unit, 4096, config.pmr, instruments=16)
+    assert welch.segment_length == 306  # 2 pi (2 x 16 + 2) / 0.7 = 305.2, even
+    needed = unbroken_samples_needed(unit, welch, instruments=16)
+    assert needed == unit.settling_samples() + 306 + 31 * 153
+    assert config.parametric.welch(unit, needed, config.pmr, instruments=16) == welch
+    assert config.parametric.welch(unit, needed - 1, config.pmr, instruments=16) == welch
+
+
+def test_enough_segments_a_set_segment_or_no_instruments_leave_the_segment_alone():
+    config = load_config(None)
+    unit = _unit(8)
+    automatic = config.parametric.welch(unit, 65536, config.pmr)
+    assert config.parametric.welch(unit, 65536, config.pmr, instruments=8) == automatic
+    assert config.parametric.welch(unit, 4096, config.pmr, instruments=0) == config.parametric.welch(
+        unit, 4096, config.pmr
+    )
+    fixed = replace(config.parametric, segment_length=1024)
+    assert fixed.welch(unit, 4096, config.pmr, instruments=8).segment_length == 1024
+
+
+def test_the_segment_counts_only_the_instruments_that_move_and_every_stretch():
+    """Two stretches of 2,000 samples; 8 setpoints that move need 16 segments over both, a still one fewer."""
+    config = load_config(None)
+    unit = _unit(8)
+    rng = np.random.default_rng(3)
+    stretches = [
+        Record(rng.standard_normal((2000, 8)), rng.standard_normal((2000, 8)), rng.standard_normal((2000, 8)))
+        for _ in range(2)
+    ]
+    welch = config.parametric.welch_for(unit, stretches, config.pmr)
+    assert welch == config.parametric.welch(unit, 2000, config.pmr, lengths=[2000, 2000], instruments=8)
+    assert welch_segments([2000, 2000], model=unit, welch=welch) >= 16
+    for s in stretches:
+        s.r[:, 7] = 1.0  # one setpoint still: seven instruments, 14 segments, a longer segment
+    still = config.parametric.welch_for(unit, stretches, config.pmr)
+    assert still == config.parametric.welch(unit, 2000, config.pmr, lengths=[2000, 2000], instruments=7)
+    assert still.segment_length > welch.segment_length

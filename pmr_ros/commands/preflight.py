@@ -62,8 +62,8 @@ def run_samples_shortfall(config, *, samples: int) -> str | None:
     from ..core.sim.footprint import planned_instruments, samples_needed
 
     model = config.model
-    welch = method_welch(samples, model=model, pmr=config.pmr, parametric=config.parametric)
     instruments = planned_instruments(config)
+    welch = method_welch(samples, model=model, pmr=config.pmr, parametric=config.parametric, instruments=instruments)
     needed = samples_needed(model, welch, instruments=instruments)
     if samples >= needed:
         return None

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..config import PmrConfig
 from ..core.pmr.checks import welch_segments
-from ..core.pmr.diagnosis import method_welch
+from ..core.pmr.diagnosis import stretches_welch
 from ..core.results import Diagnosis, ElementDiagnosis
 from ..data import PlantData
 
@@ -111,8 +111,8 @@ def outlier_cost(data: PlantData, config: PmrConfig, *, method: str | None = Non
         return None
     broken = [b - a for a, b in data.stretch_bounds()]
     whole = [b - a for a, b in data.bounds_had_outliers_been_valid()]
-    welch = method_welch(
-        max(broken, default=0), model=config.model, pmr=config.pmr, parametric=config.parametric, method=method
+    welch = stretches_welch(
+        data.stretches(), model=config.model, pmr=config.pmr, parametric=config.parametric, method=method
     )
     lost = welch_segments(whole, model=config.model, welch=welch) - welch_segments(
         broken, model=config.model, welch=welch

@@ -204,8 +204,7 @@ def fitted_ratio(
 def welch_of(diagnosis: Diagnosis, stretches: Sequence[Record], config: CurveSettings) -> WelchSettings:
     """The Welch segments the diagnosis's method used on these stretches."""
     if diagnosis.method == "parametric":
-        longest = max(s.samples for s in stretches)
-        return config.parametric.welch(config.model, longest, config.pmr)
+        return config.parametric.welch_for(config.model, stretches, config.pmr)
     return config.pmr.welch
 
 

@@ -21,6 +21,7 @@ __all__ = [
     "diagnose",
     "diagnose_stretches",
     "method_welch",
+    "stretches_welch",
     "shortest_useful_stretch",
     "useful_stretches",
     "with_data_quality",
@@ -74,11 +75,14 @@ def method_welch(
     pmr: PmrSettings,
     parametric: ParametricSettings,
     method: str | None = None,
+    lengths: Sequence[int] = (),
+    instruments: int = 0,
 ) -> WelchSettings:
     """The Welch segments ``method`` averages when the longest stretch has ``longest`` samples.
 
     The parametric method sizes its segment from the slowest element and the
-    longest stretch; the classic one uses ``pmr.welch``.
+    longest stretch, shorter when the stretches are too few segments for the
+    instruments (:meth:`ParametricSettings.welch`); the classic one uses ``pmr.welch``.
 
     Parameters
     ----------
@@ -89,13 +93,17 @@ def method_welch(
     parametric : ParametricSettings
     method : str, optional
         A key of :data:`METHODS` (default ``pmr.method``).
+    lengths : sequence of int, optional
+        Samples of every stretch (default ``[longest]``).
+    instruments : int
+        The external signals that move (0: the segment is not shortened for them).
     """
     if (method or pmr.method) == "parametric":
-        return parametric.welch(model, int(longest), pmr)
+        return parametric.welch(model, int(longest), pmr, lengths=lengths, instruments=instruments)
     return pmr.welch
 
 
-def _welch(
+def stretches_welch(
     stretches: Sequence[Record],
     *,
     model: TransferMatrix,
@@ -103,9 +111,10 @@ def _welch(
     parametric: ParametricSettings,
     method: str | None = None,
 ) -> WelchSettings:
-    """:func:`method_welch` of the longest of ``stretches``."""
-    longest = max((s.samples for s in stretches), default=0)
-    return method_welch(longest, model=model, pmr=pmr, parametric=parametric, method=method)
+    """:func:`method_welch` of ``stretches``: their lengths and the instruments that move in them."""
+    if (method or pmr.method) == "parametric":
+        return parametric.welch_for(model, stretches, pmr)
+    return pmr.welch
 
 
 def shortest_useful_stretch(
@@ -129,7 +138,7 @@ def shortest_useful_stretch(
     method : str, optional
         A key of :data:`METHODS` (default ``pmr.method``).
     """
-    welch = _welch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
+    welch = stretches_welch(stretches, model=model, pmr=pmr, parametric=parametric, method=method)
     return model.settling_samples() + welch.segment_length
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from ...records import Record, total_samples
 from ...results import ClassicResult, Diagnosis, ElementDiagnosis, ParametricResult
 from ...sim.model import TransferMatrix
-from ..checks import MIN_SEGMENTS, InsufficientData, check_stretches
+from ..checks import InsufficientData, check_stretches
 from ..classic import PmrSettings, classic_estimate, classic_results, readable
 from ..implicit import (
     EstimateBuilder,
@@ -174,23 +174,33 @@ def _judged(
     return element_result(row.fit, f, settings=settings, quality=figures, warnings=quality.warnings, labels=labels)
 
 
-def _check_segments(welch: WelchSettings, stretches: Sequence[Record], model: TransferMatrix) -> None:
-    usable = [s.samples - model.settling_samples() for s in stretches]
-    segments = sum(welch.segments(n) for n in usable)
-    if segments < MIN_SEGMENTS:
-        raise InsufficientData(
-            f"parametric.segment_length {welch.segment_length} leaves {segments} Welch segments in "
-            f"{sum(max(n, 0) for n in usable)} usable samples, need {MIN_SEGMENTS}: "
-            "shorten it (0 picks one from the model)"
-        )
+def _checked_welch(
+    stretches: Sequence[Record], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
+) -> WelchSettings:
+    """The parametric Welch segments of ``stretches``, once the stretches pass the checks with them.
+
+    Raises
+    ------
+    InsufficientData
+        As :func:`~pmr_ros.core.pmr.checks.check_stretches` with these segments; with a
+        ``parametric.segment_length`` set by hand, the reason says to shorten it.
+    """
+    welch = settings.welch_for(model, stretches, classic)
+    try:
+        check_stretches(stretches, model=model, welch=welch)
+    except InsufficientData as exc:
+        if settings.segment_length > 0 and "window too short" in str(exc):
+            hint = "shorten parametric.segment_length (0 sizes it from the model and the record)"
+            raise InsufficientData(f"{exc}: {hint}") from None
+        raise
+    return welch
 
 
 def _results(
     stretches: Sequence[Record], *, model: TransferMatrix, classic: PmrSettings, settings: ParametricSettings
 ) -> tuple[dict[str, ParametricResult], PmrEstimate | None]:
     """The parametric results, and the classic estimate when both methods' segments agree (one transform per row)."""
-    welch = settings.welch(model, max(s.samples for s in stretches), classic)
-    _check_segments(welch, stretches, model)
+    welch = _checked_welch(stretches, model=model, classic=classic, settings=settings)
     spectra = record_spectra(stretches, model, welch)
     factor = spectra_factor(spectra)
     shared = EstimateBuilder(spectra) if welch == classic.welch else None
@@ -216,7 +226,7 @@ def parametric_results(
     Raises
     ------
     InsufficientData
-        The parametric Welch segment leaves fewer than :data:`MIN_SEGMENTS` segments.
+        The stretches fail the checks with the parametric segments (:func:`_checked_welch`).
     """
     return _results(stretches, model=model, classic=classic, settings=settings)[0]
 
@@ -264,7 +274,6 @@ def diagnose_parametric(
     samples = total_samples(stretches)
     models = model.element_models()
     try:
-        check_stretches(stretches, model=model, welch=classic.welch)
         results, estimate = _results(stretches, model=model, classic=classic, settings=settings)
     except InsufficientData as exc:
         return Diagnosis.insufficient(method="parametric", models=models, reason=str(exc), samples=samples)

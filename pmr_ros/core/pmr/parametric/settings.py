@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
+from ...records import Record, moving_instruments
 from ...sim.model import TransferMatrix
+from ..checks import segments_needed, welch_segments
 from ..classic import PmrSettings
 from ..spectra import WelchSettings
 from ..timescale import slowest_time_constant
@@ -27,7 +30,8 @@ class ParametricSettings:
         the bins resolve its corner: ``resolution x 2 pi tau_max / Ts``
         (tau_max the largest time constant or equivalent, :mod:`~pmr_ros.core.pmr.timescale`),
         rounded up to a power of two, between the classic segment and a
-        quarter of the record.
+        quarter of the record; shorter when the record is too short for the
+        instruments' segments (:meth:`welch`).
     resolution : float
         See ``segment_length``.
     confidence_level : float
@@ -88,21 +92,74 @@ class ParametricSettings:
     max_collinearity: float
     joint_delay_correlation: float
 
-    def welch(self, model: TransferMatrix, samples: int, classic: PmrSettings) -> WelchSettings:
-        """The Welch settings for a record of ``samples`` on ``model``."""
+    def welch(
+        self,
+        model: TransferMatrix,
+        samples: int,
+        classic: PmrSettings,
+        *,
+        lengths: Sequence[int] = (),
+        instruments: int = 0,
+    ) -> WelchSettings:
+        """The Welch settings for a record whose longest stretch has ``samples`` on ``model``.
+
+        With ``segment_length`` 0 the segment resolves the slowest element
+        (see the attribute).  When the stretches of ``lengths`` (default one of
+        ``samples``) then give fewer segments than ``instruments`` need
+        (:func:`~pmr_ros.core.pmr.checks.segments_needed`), the segment is the
+        longest that gives them: a wide unit's short record is read at a
+        coarser resolution rather than refused.  It never shortens below the
+        bins a row of the model's columns needs (:func:`_bins_for_columns`);
+        a record too short even for that is left to the checks to refuse.
+
+        Parameters
+        ----------
+        model : TransferMatrix
+        samples : int
+            Samples of the longest stretch.
+        classic : PmrSettings
+            The window, overlap and least segment.
+        lengths : sequence of int, optional
+            Samples of every stretch (default ``[samples]``).
+        instruments : int
+            The external signals that move (0: no shortening).
+        """
         length = self.segment_length
-        if length <= 0:
-            wanted = (
-                self.resolution
-                * 2.0
-                * math.pi
-                * max(slowest_time_constant(model), model.sample_time)
-                / model.sample_time
-            )
-            ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))
-            wanted = max(wanted, _bins_for_columns(model.n_inputs))
-            length = max(classic.segment_length, min(1 << max(4, math.ceil(math.log2(wanted))), ceiling))
-        return WelchSettings(classic.window, length, classic.overlap)
+        if length > 0:
+            return WelchSettings(classic.window, length, classic.overlap)
+        wanted = self.resolution * 2.0 * math.pi * max(slowest_time_constant(model), model.sample_time)
+        wanted /= model.sample_time
+        ceiling = 1 << max(4, int(math.log2(max(16, (samples - model.settling_samples()) // 4))))
+        wanted = max(wanted, _bins_for_columns(model.n_inputs))
+        length = max(classic.segment_length, min(1 << max(4, math.ceil(math.log2(wanted))), ceiling))
+        welch = WelchSettings(classic.window, length, classic.overlap)
+        if instruments <= 0:
+            return welch
+        return _shortened(welch, model, lengths or (samples,), need=segments_needed(instruments))
+
+    def welch_for(self, model: TransferMatrix, stretches: Sequence[Record], classic: PmrSettings) -> WelchSettings:
+        """:meth:`welch` of ``stretches``: their lengths and the instruments that move in them."""
+        lengths = [s.samples for s in stretches]
+        instruments = moving_instruments(stretches).count if stretches else 0
+        return self.welch(model, max(lengths, default=0), classic, lengths=lengths, instruments=instruments)
+
+
+def _shortened(welch: WelchSettings, model: TransferMatrix, lengths: Sequence[int], *, need: int) -> WelchSettings:
+    """``welch`` with the longest segment (even, at least the columns' bins) that gives ``need`` segments."""
+
+    def enough(length: int) -> bool:
+        return welch_segments(lengths, model=model, welch=replace(welch, segment_length=length)) >= need
+
+    if enough(welch.segment_length):
+        return welch
+    low = max(16, 2 * math.ceil(_bins_for_columns(model.n_inputs) / 2.0))
+    if low >= welch.segment_length or not enough(low):
+        return replace(welch, segment_length=min(low, welch.segment_length))
+    high = welch.segment_length  # low gives enough segments, high does not: bisect on even lengths
+    while high - low > 2:
+        middle = low + 2 * ((high - low) // 4)
+        low, high = (middle, high) if enough(middle) else (low, middle)
+    return replace(welch, segment_length=low)
 
 
 FIT_BAND = 0.7
