@@ -245,6 +245,7 @@ def test_the_integrating_row_recovers_the_injected_ratio_exactly_without_noise(t
 
     Exact up to the leakage of the Welch window, which shrinks with the segment: 1024 samples keep
     every element within 0.05 pp (the automatic 512 leaves up to 0.19 pp on the FOPTD elements).
+    Eight instruments need 16 segments of 1024: 10,240 samples.
     """
     tree = {
         "system": THREE_BY_FIVE,
@@ -254,7 +255,7 @@ def test_the_integrating_row_recovers_the_injected_ratio_exactly_without_noise(t
         "parametric": {"segment_length": 1024},
     }
     config = load_config(params_file(tmp_path, tree))
-    record = simulate(config, samples=8192)
+    record = simulate(config, samples=10240)
     diagnosis = diagnose_record(record, config, method="parametric", with_dither=True)
     gain, tau, delay = _truth(config, "full")
     for e in diagnosis:
