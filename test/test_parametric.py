@@ -6,6 +6,7 @@ from functools import cache
 import numpy as np
 import pytest
 from binomial import max_failures, min_successes
+from numpy.testing import assert_allclose
 
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.diagnosis import diagnose
@@ -161,9 +162,26 @@ def test_constant_setpoints_are_inconclusive_with_the_reason():
 
 
 def test_a_short_window_is_inconclusive(wood_berry):
-    status, reason, elements = _parametric(wood_berry, simulate(wood_berry, samples=1200))
-    assert status == "insufficient_data" and "too short" in reason
+    # four segments of the shortest a row of two columns allows (54 samples) after 176 of settling need 311
+    status, reason, elements = _parametric(wood_berry, simulate(wood_berry, samples=300))
+    assert status == "insufficient_data" and "too short" in reason and "(311 unbroken samples)" in reason
     assert {e.verdict for e in elements.values()} == {"inconclusive"}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_papers_case_is_found_in_1200_samples_with_shorter_segments(wood_berry, seed):
+    """Too short for four segments of 512, 1,200 samples give four of 408: every mismatch found, none invented."""
+    record = simulate(wood_berry, samples=1200, seed=seed)
+    status, _, elements = _parametric(wood_berry, record)
+    assert status == "ok"
+    assert wood_berry.parametric.welch_for(
+        wood_berry.model, [Record(record.r, record.u, record.y)], wood_berry.pmr
+    ) == (replace(wood_berry.pmr.welch, segment_length=408))
+    gain, delay = wood_berry.mismatch.gain_pct.ravel(), wood_berry.mismatch.delay_samples.ravel()
+    for k, (name, p) in enumerate(elements.items()):
+        assert p.verdict == "mismatch", name
+        assert_allclose(p.gain_mismatch_pct, gain[k], atol=3.0, err_msg=name)  # [pp]
+        assert p.delay_mismatch_samples == delay[k], name
 
 
 def test_drowned_outputs_are_inconclusive_not_wrong():
