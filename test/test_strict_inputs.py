@@ -119,7 +119,7 @@ def test_the_memory_check_uses_the_machines_available_memory(capsys, monkeypatch
     # 16384 samples x (16 B x 8 values + 56 B x 5 channels: 2 instruments and one row of 3) = 6.68 MB
     assert f"run.samples = 16384 ({cfg}): needs about 6.68 MB of memory" in err and "5 MB available" in err
     monkeypatch.setattr(memory, "available_bytes", lambda: None)  # unknown: no refusal
-    assert main(["run", "--batch", "--samples", "600"]) == 3
+    assert main(["run", "--batch", "--samples", "300"]) == 3  # too short for any segment: refused, not run
 
 
 def test_a_sweep_too_large_for_memory_is_refused_before_its_plan_is_built(capsys, tmp_path):
@@ -154,7 +154,7 @@ def test_sweep_refuses_an_unwritable_report_before_sweeping(capsys, tmp_path):
 
 @pytest.mark.parametrize("method", ["parametric", "classic"])
 def test_the_header_names_the_configured_method_also_without_a_verdict(capsys, method):
-    assert main(["run", "--batch", "--samples", "1000", "--method", method]) == 3
+    assert main(["run", "--batch", "--samples", "300", "--method", method]) == 3
     out = capsys.readouterr().out.splitlines()
     assert f"({method} PMR)" in out[0] and out[1].startswith("INSUFFICIENT DATA: window too short")
 
