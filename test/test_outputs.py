@@ -14,7 +14,7 @@ from pmr_ros import outputs
 from pmr_ros.cli import main
 from pmr_ros.config import config_dir
 
-RUN = ["run", "--batch", "--samples", "600"]
+RUN = ["run", "--batch", "--samples", "300"]
 """A run short enough to be quick; too few samples for verdicts (exit 3), but its outputs are written."""
 
 
