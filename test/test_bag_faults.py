@@ -382,7 +382,7 @@ def test_diagnose_checks_json_before_reading_the_bag(tmp_path, capsys):
 
 
 def test_insufficient_data_names_the_configured_method(tmp_path, capsys):
-    writer = _write_bag(tmp_path / "short", _messages(1000), params=_run_params(1000))
+    writer = _write_bag(tmp_path / "short", _messages(300), params=_run_params(300))
     assert writer.path.exists()
     for method in ("parametric", "classic"):
         assert main(["diagnose", str(tmp_path / "short"), "--method", method]) == 3

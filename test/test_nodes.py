@@ -66,8 +66,7 @@ def test_node_set_verdicts_from_diagnostics_match_the_injected_mismatch(full_run
         assert full_run.estimates[name]["parametric.gain_mismatch_pct"] == p.gain_mismatch_pct
         assert full_run.estimates[name]["parametric.delay_mismatch_samples"] == p.delay_mismatch_samples
         assert full_run.estimates[name]["classic.gain_ratio"] == element.classic.gain_ratio
-    assert full_run.warnings == []
-    assert full_run.samples_per_second > 100
+    assert full_run.warnings == []  # its speed is benchmarks/bench_nodes.py's to print, not a timed assertion
 
 
 def _batch_diagnosis(config, r, u, y, dither=None):
@@ -189,6 +188,9 @@ def test_a_misspelt_parameter_is_refused_with_the_nearest_name(ros_context):
 
 SMALL = {
     "pmr.segment_length": 128,
+    # held at 128: an automatic segment shortens to read the two stretches either side of a bad sample
+    # together, and these tests are about a stretch too short to add a segment on its own
+    "parametric.segment_length": 128,
     "diagnostician.window_samples": 600,
     "diagnostician.update_period_samples": 100,
     "diagnostician.min_samples": 500,

@@ -116,9 +116,9 @@ def test_one_stretch_too_short_for_a_segment_is_explained_by_the_core():
     config, record = _config("full"), _record("full")
     lenient = replace(config, diagnostician=replace(config.diagnostician, min_samples=100))
     aligner = _aligner(config)
-    _feed(aligner, record, 600, {})
+    _feed(aligner, record, 300, {})  # four segments of the least 54 after 176 of settling need 311
     outcome = evaluate_window(aligner, lenient)
-    assert outcome.kind == INSUFFICIENT and outcome.reason.startswith("window too short: 600 samples")
+    assert outcome.kind == INSUFFICIENT and outcome.reason.startswith("window too short: 300 samples")
 
 
 def test_useful_stretches_follow_the_method_segment(wood_berry):
