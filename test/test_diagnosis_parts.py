@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -257,6 +258,12 @@ def test_an_interaction_within_its_chance_level_is_absent_and_one_beyond_it_is_n
         False,
         True,
     ]
+    # noise-free, the modelled column's deviation is 0 beside its infinite z: no 0 x inf (a NaN and a warning)
+    system, _, _ = _system(columns, truth, noise=0.0)
+    problem = RowProblem(system, columns)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert absent(problem, truth, z=z, inflation=0.0).tolist() == [False, False]
 
 
 def test_column_search_and_move_delay():

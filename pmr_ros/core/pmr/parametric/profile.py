@@ -69,7 +69,10 @@ def absent(problem: RowProblem, params: RowParameters, *, z: Sequence[float], in
     if not interaction.any():
         return interaction
     sd_lin, _ = uncertainty(problem, params, inflation)
-    return interaction & (np.abs(params.lin) < np.asarray(z) * sd_lin)
+    out = interaction.copy()
+    # only the interactions: a modelled column's z may be 0 beside an infinite deviation (a singular information)
+    out[interaction] = np.abs(params.lin[interaction]) < np.asarray(z, dtype=float)[interaction] * sd_lin[interaction]
+    return out
 
 
 @dataclass
