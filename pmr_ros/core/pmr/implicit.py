@@ -46,6 +46,7 @@ __all__ = [
     "row_estimate",
     "row_layout",
     "spectra_factor",
+    "whitened_row",
 ]
 
 RIDGE = 1e-12
@@ -121,7 +122,18 @@ def _least_squares(design: np.ndarray, target: np.ndarray) -> np.ndarray:
     return solution[:, :, 0] / norms
 
 
-def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray) -> RowEstimate:
+def whitened_row(row: RowSpectra, factor: np.ndarray) -> np.ndarray:
+    """``L^-1 [S_{z y_i}, S_{z x_i}]``, the row's equations with the instruments whitened, shape (F, n_z, 1 + n_in).
+
+    One solve for the output and every regressor: LAPACK solves each right-hand side on its own, so a
+    column of it is the same number as a solve of that column alone (and the factorization is done once).
+    """
+    return np.linalg.solve(factor, np.concatenate([row.zy[:, :, None], row.zx], axis=2))
+
+
+def implicit_row(
+    row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray, *, whitened: np.ndarray | None = None
+) -> RowEstimate:
     """Solve eq. (13) for one row at every frequency.
 
     Parameters
@@ -133,14 +145,18 @@ def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: n
         :func:`instrument_factor` of them.
     columns : ndarray of int
         The regressors that enter (a :class:`RowLayout`'s columns).
+    whitened : ndarray, optional
+        :func:`whitened_row` of ``row`` and ``factor`` when already at hand.
     """
     F = row.zy.shape[0]
-    target = np.linalg.solve(factor, row.zy[:, :, None])  # (F, n_z, 1), whitened instruments
+    if whitened is None:
+        whitened = whitened_row(row, factor)
+    target = np.ascontiguousarray(whitened[:, :, :1])  # (F, n_z, 1), whitened instruments
     explained = np.sum(np.abs(target[:, :, 0]) ** 2, axis=1)
     coherence = np.clip(explained / np.maximum(row.yy, 1e-300), 0.0, 1.0)
     if columns.size == 0:
         return RowEstimate(np.empty((F, 0), dtype=complex), coherence, np.full(F, np.inf), np.empty((F, 0)), explained)
-    design = np.linalg.solve(factor, row.zx[:, :, columns])  # (F, n_z, n_c)
+    design = np.ascontiguousarray(whitened[:, :, 1 + np.asarray(columns)])  # (F, n_z, n_c)
     power = np.sum(np.abs(design) ** 2, axis=1)
     ratio = _least_squares(design, target)
     return RowEstimate(ratio, coherence, _condition(row.zx[:, :, columns], rr), power, explained)
@@ -166,7 +182,10 @@ def row_estimate(spectra: RecordSpectra, i: int, columns: np.ndarray, *, row: Ro
     """
 
     def compute() -> RowEstimate:
-        return implicit_row(spectra.row(i) if row is None else row, spectra.rr, spectra_factor(spectra), columns)
+        spectra_row = spectra.row(i) if row is None else row
+        # the row's whitening, kept too: its layouts (the classic one and the parametric one) share it
+        whitened = _held(spectra, ("whitened", i), lambda: whitened_row(spectra_row, spectra_factor(spectra)))
+        return implicit_row(spectra_row, spectra.rr, spectra_factor(spectra), columns, whitened=whitened)
 
     return _held(spectra, ("implicit", i, np.asarray(columns).tobytes()), compute)
 
