@@ -30,7 +30,6 @@ __all__ = [
     "Shapes",
     "candidate_shapes",
     "correlation_band",
-    "fine_shapes_for",
     "fit_shapes",
     "overlap_correlation",
     "ramp_shapes",
@@ -338,11 +337,3 @@ def fit_shapes(
 def shapes_for(ends: tuple[float, ...], window: float, resolution: float, follow: str = "mean") -> Shapes:
     """:func:`candidate_shapes`, cached per window times (every element and parameter shares them)."""
     return candidate_shapes(ends=np.asarray(ends), window=window, resolution=resolution, follow=follow)
-
-
-@lru_cache(maxsize=2)
-def fine_shapes_for(ends: tuple[float, ...], window: float, resolution: float, follow: str = "mean") -> Shapes:
-    """:func:`ramp_shapes` from every onset of :func:`shapes_for`, cached (the refinement picks its onsets)."""
-    coarse = shapes_for(ends, window, resolution, follow)
-    onsets = coarse.onset[coarse.duration == 0]
-    return ramp_shapes(ends=np.asarray(ends), window=window, onsets=onsets, resolution=resolution, follow=follow)
