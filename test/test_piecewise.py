@@ -65,6 +65,20 @@ def test_rolling_windows_from_pieces_are_the_windows_alone(job):
     assert pieces.computed == 3 + 1 + 1  # each day's instruments transformed once: three, then one a window
 
 
+def test_a_window_takes_the_stretches_it_shares_from_the_window_before(job):
+    pieces = PieceCache(job.config.model)
+    first = window_stretches(job, 0, 3 * DAY - 1, pieces=pieces)
+    with pieces.window(first, stretch_spans(job, 0, 3 * DAY - 1)):
+        pass
+    second = window_stretches(job, DAY, 4 * DAY - 1, pieces=pieces)
+    alone = window_stretches(job, DAY, 4 * DAY - 1)
+    assert len(second) == len(alone) == 3 and second[0] is first[1] and second[1] is first[2]
+    for kept, fresh in zip(second, alone, strict=True):
+        for name in ("r", "u", "y"):
+            np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name), err_msg=name)
+            np.testing.assert_allclose(getattr(kept, name).mean(axis=0), 0.0, atol=1e-9)  # the deviations
+
+
 def test_piecewise_spectra_equal_the_record_spectra(job):
     stretches = window_stretches(job, 0, 3 * DAY - 1)
     model = job.config.model

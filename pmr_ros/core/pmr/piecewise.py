@@ -161,6 +161,14 @@ class PieceCache:
 
         return self._held((span, "z", welch, _signature(moving)), compute)
 
+    def stretch(self, span: Span, compute: Callable[[], Record]) -> Record:
+        """The stretch ``span`` as the windows cut it (``compute()`` gives it), kept while the windows hold it.
+
+        Asked before :meth:`window` (which drops the spans the new window does not hold), so that a window
+        takes the stretches it shares with the window before from it.
+        """
+        return self._held((span, "stretch"), compute)
+
     def regressors(self, span: Span, u: np.ndarray, i: int) -> np.ndarray:
         """Row ``i``'s regressors of one stretch, undifferenced (:func:`~.regressors.row_regressors`)."""
         return self._held((span, "x", i), lambda: row_regressors(self.model, u, i))
