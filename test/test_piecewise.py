@@ -79,6 +79,18 @@ def test_a_window_takes_the_stretches_it_shares_from_the_window_before(job):
             np.testing.assert_allclose(getattr(kept, name).mean(axis=0), 0.0, atol=1e-9)  # the deviations
 
 
+def test_a_stretch_keeps_every_sample_of_its_modes(job):
+    from dataclasses import replace
+
+    manual = np.zeros((job.data.samples, job.config.model.n_inputs), dtype=bool)
+    manual[DAY + 100 : DAY + 400, 1] = True  # the second MV in manual for 300 samples of day 1
+    moded = replace(job, data=replace(job.data, manual=manual))
+    stretches = window_stretches(moded, 0, 3 * DAY - 1)
+    assert [s.manual is None for s in stretches] == [True, False, True]
+    for stretch in stretches[1:2]:
+        assert stretch.manual.shape == stretch.u.shape and int(stretch.manual.sum()) == 300
+
+
 def test_piecewise_spectra_equal_the_record_spectra(job):
     stretches = window_stretches(job, 0, 3 * DAY - 1)
     model = job.config.model

@@ -100,7 +100,7 @@ def _stretch(job: WindowJob, a: int, b: int, *, deviations: bool) -> Record:
     part = {key: values[a : b + 1] for key, values in job.data.signals.items()}
     if deviations:
         part = {key: values - values.mean(axis=0) for key, values in part.items()}
-    manual = None if job.data.manual is None else job.data.manual[a:b]
+    manual = None if job.data.manual is None else job.data.manual[a : b + 1]  # b inclusive, as above
     manual = manual if manual is not None and manual.any() else None
     return Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual)
 
