@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2, norm
 
-from .changepoint import FOLLOWS, Fit, Shapes, fit_shapes, ramp_shapes, shapes_for
+from .changepoint import FOLLOWS, Fit, Shapes, fine_shapes_for, fit_shapes, shapes_for
 from .nochange import null_quantile
 
 __all__ = ["KINDS", "Onset", "OnsetSettings", "detect_onset", "first_lasting_mismatch", "standard_errors"]
@@ -215,15 +215,7 @@ def _refined(fit: Fit, shapes: Shapes, record: _Record) -> tuple[Fit, Shapes]:
     grid, profile = _profile(shapes.onset[ramps], fit.drop[ramps])
     best = grid[np.argmax(profile)]
     near = grid[(profile >= profile.max() - _REFINE_MARGIN) | (np.abs(grid - best) <= record.window)]
-    # only those onsets' ramps (all of the grid's took a year's monitor 0.3 s, for the few it refines)
-    steps = shapes.onset[shapes.duration == 0]
-    fine = ramp_shapes(
-        ends=np.asarray(record.grid),
-        window=record.window,
-        onsets=steps[np.isin(steps, near)],
-        resolution=record.resolution,
-        follow=record.follow,
-    ).subset(rows=record.keep)
+    fine = fine_shapes_for(record.grid, record.window, record.resolution, record.follow, near).subset(rows=record.keep)
     more = fit_shapes(
         estimates=record.estimates,
         errors=record.errors,
