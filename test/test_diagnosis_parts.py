@@ -14,7 +14,7 @@ from scipy.signal import csd, freqz
 from pmr_ros.config import load_config
 from pmr_ros.core.pmr.classic import gain_bin
 from pmr_ros.core.pmr.delay import hamon_hannan_delay, search_limit_reason
-from pmr_ros.core.pmr.implicit import implicit_row, instrument_factor, row_layout
+from pmr_ros.core.pmr.implicit import Conditioning, implicit_row, instrument_factor, row_layout, whitened_row
 from pmr_ros.core.pmr.parametric import ParametricSettings
 from pmr_ros.core.pmr.parametric.fit import RowData, RowFit, column_models, interaction_delay_range, leakage_offset
 from pmr_ros.core.pmr.parametric.guard import fitted_bins
@@ -124,6 +124,49 @@ def test_implicit_row_solves_the_overdetermined_equations_exactly():
     np.testing.assert_allclose(estimate.ratio, theta, rtol=1e-9, atol=1e-9)
     assert np.all(estimate.condition >= 1.0) and np.all(np.isfinite(estimate.condition))
     assert estimate.power.shape == (F, n) and np.all(estimate.power > 0)
+
+
+def _random_row(F: int, n_z: int, n: int, seed: int) -> tuple[RowSpectra, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    zx = rng.standard_normal((F, n_z, n)) + 1j * rng.standard_normal((F, n_z, n))
+    zy = rng.standard_normal((F, n_z)) + 1j * rng.standard_normal((F, n_z))
+    a = rng.standard_normal((F, n_z, n_z)) + 1j * rng.standard_normal((F, n_z, n_z))
+    rr = a @ np.conj(np.transpose(a, (0, 2, 1))) + np.eye(n_z)
+    return RowSpectra(zy, zx, np.full(F, 1e3), np.zeros((F, n)), np.zeros((F, n, n)), False), rr
+
+
+def test_whitened_row_solves_output_and_regressors_with_the_factor():
+    row, rr = _random_row(7, 5, 3, seed=4)
+    factor = instrument_factor(rr)
+    whitened = whitened_row(row, factor)
+    assert whitened.shape == (7, 5, 4)
+    np.testing.assert_allclose(factor @ whitened[:, :, :1], row.zy[:, :, None], rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(factor @ whitened[:, :, 1:], row.zx, rtol=1e-10, atol=1e-12)
+    # given or not, the same estimate (a layout's columns read their part of it)
+    columns = np.array([0, 2])
+    given = implicit_row(row, rr, factor, columns, whitened=whitened)
+    np.testing.assert_allclose(given.ratio, implicit_row(row, rr, factor, columns).ratio, rtol=1e-12)
+
+
+def test_conditioning_at_some_bins_is_the_condition_number_of_those_bins():
+    row, rr = _random_row(11, 4, 3, seed=5)
+    columns = np.array([0, 2])
+    lazy = Conditioning(row.zx[:, :, columns], rr)
+    bins = np.array([3, 7, 3])
+    some = lazy.at(bins)
+    assert np.count_nonzero(lazy._known) == 2  # only the bins asked were computed
+    # independently: the singular values of the design scaled to unit instrument and regressor power
+    scale = np.sqrt(np.einsum("fll->fl", rr).real)
+    for value, f in zip(some, bins, strict=True):
+        design = row.zx[f][:, columns] / scale[f][:, None]
+        design = design / np.linalg.norm(design, axis=0)
+        sv = np.linalg.svd(design, compute_uv=False)
+        np.testing.assert_allclose(value, sv[0] / sv[-1], rtol=1e-8)
+    np.testing.assert_array_equal(lazy.at()[bins], some)
+    estimate = implicit_row(row, rr, instrument_factor(rr), columns)
+    np.testing.assert_array_equal(estimate.condition_at(bins), estimate.condition[bins])
+    empty = implicit_row(row, rr, instrument_factor(rr), np.array([], dtype=int))
+    assert np.all(np.isinf(empty.condition)) and np.all(np.isinf(empty.condition_at(bins)))
 
 
 def test_gain_bin_and_search_limit():

@@ -10,6 +10,7 @@ from pmr_ros.core.monitor import window_plan, window_views
 from pmr_ros.core.monitor.changepoint import (
     _band,
     candidate_shapes,
+    fine_shapes_for,
     fit_shapes,
     overlap_correlation,
     ramp_shapes,
@@ -90,6 +91,19 @@ def test_candidate_and_refined_shapes_cover_steps_and_ramps():
         fine.matrix[:, 0],
         window_means(ends=ends, window=14.0, onset=np.array([40.0]), duration=fine.duration[:1])[:, 0],
     )
+
+
+def test_fine_shapes_of_some_onsets_are_those_of_every_onset():
+    ends = np.arange(15.0, 100.0)
+    coarse = candidate_shapes(ends=ends, window=14.0, resolution=1.0)
+    every_onset = coarse.onset[coarse.duration == 0]
+    every = ramp_shapes(ends=ends, window=14.0, onsets=every_onset, resolution=1.0)
+    near = np.array([40.0, 41.0, 63.0, 1000.0])  # an onset off the grid is none
+    fine = fine_shapes_for(tuple(ends.tolist()), 14.0, 1.0, "mean", near)
+    chosen = np.isin(every.onset, near)
+    assert set(fine.onset) == {40.0, 41.0, 63.0} and fine.onset.size == np.count_nonzero(chosen)
+    np.testing.assert_array_equal(fine.matrix, every.matrix[:, chosen])  # elementwise in the onset: the same bits
+    np.testing.assert_array_equal(fine.duration, every.duration[chosen])
 
 
 def test_null_quantile_is_the_false_alarm_rate_of_the_largest_drop():

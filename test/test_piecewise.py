@@ -65,6 +65,32 @@ def test_rolling_windows_from_pieces_are_the_windows_alone(job):
     assert pieces.computed == 3 + 1 + 1  # each day's instruments transformed once: three, then one a window
 
 
+def test_a_window_takes_the_stretches_it_shares_from_the_window_before(job):
+    pieces = PieceCache(job.config.model)
+    first = window_stretches(job, 0, 3 * DAY - 1, pieces=pieces)
+    with pieces.window(first, stretch_spans(job, 0, 3 * DAY - 1)):
+        pass
+    second = window_stretches(job, DAY, 4 * DAY - 1, pieces=pieces)
+    alone = window_stretches(job, DAY, 4 * DAY - 1)
+    assert len(second) == len(alone) == 3 and second[0] is first[1] and second[1] is first[2]
+    for kept, fresh in zip(second, alone, strict=True):
+        for name in ("r", "u", "y"):
+            np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name), err_msg=name)
+            np.testing.assert_allclose(getattr(kept, name).mean(axis=0), 0.0, atol=1e-9)  # the deviations
+
+
+def test_a_stretch_keeps_every_sample_of_its_modes(job):
+    from dataclasses import replace
+
+    manual = np.zeros((job.data.samples, job.config.model.n_inputs), dtype=bool)
+    manual[DAY + 100 : DAY + 400, 1] = True  # the second MV in manual for 300 samples of day 1
+    moded = replace(job, data=replace(job.data, manual=manual))
+    stretches = window_stretches(moded, 0, 3 * DAY - 1)
+    assert [s.manual is None for s in stretches] == [True, False, True]
+    for stretch in stretches[1:2]:
+        assert stretch.manual.shape == stretch.u.shape and int(stretch.manual.sum()) == 300
+
+
 def test_piecewise_spectra_equal_the_record_spectra(job):
     stretches = window_stretches(job, 0, 3 * DAY - 1)
     model = job.config.model
@@ -108,6 +134,28 @@ def test_a_window_solves_each_row_once_for_its_fit_and_its_data_quality(job):
                 np.testing.assert_array_equal(getattr(row_estimate(alone, i, columns), name), getattr(reference, name))
             fewer = row_estimate(pieced, i, columns[:1])  # other regressors: solved on their own
             np.testing.assert_array_equal(fewer.ratio, implicit_row(alone.row(i), alone.rr, factor, columns[:1]).ratio)
+
+
+def test_a_window_judges_its_instruments_once(job, monkeypatch):
+    from pmr_ros.core import records
+
+    stretches = window_stretches(job, 0, 3 * DAY - 1)
+    as_read = window_stretches(job, 0, 3 * DAY - 1, deviations=False)
+    fresh = records.moving_instruments(stretches)
+    computed = []
+    real = records._moving_instruments
+    monkeypatch.setattr(records, "_moving_instruments", lambda s: computed.append(len(s)) or real(s))
+    with PieceCache(job.config.model).window(stretches, stretch_spans(job, 0, 3 * DAY - 1)):
+        kept = records.moving_instruments(stretches)
+        assert records.moving_instruments(list(stretches)) is kept  # the same stretches: the same set
+        assert computed == [len(stretches)]
+        records.moving_instruments(as_read)  # other records (the means kept): judged on their own
+        records.moving_instruments(stretches[:1])
+        assert computed == [len(stretches)] * 2 + [1]
+    for name in ("setpoints", "dither", "manual", "still"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name), err_msg=name)
+    records.moving_instruments(stretches)  # outside the window: computed again
+    assert len(computed) == 4
 
 
 def test_a_filtering_transform_of_stretches_of_several_lengths_is_the_same(job):

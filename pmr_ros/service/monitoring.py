@@ -23,6 +23,7 @@ import time
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -77,20 +78,31 @@ def stretch_spans(job: WindowJob, first: int, last: int) -> list[tuple[int, int]
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
-def window_stretches(job: WindowJob, first: int, last: int, *, deviations: bool = True) -> list[Record]:
+def window_stretches(
+    job: WindowJob, first: int, last: int, *, deviations: bool = True, pieces: PieceCache | None = None
+) -> list[Record]:
     """The unbroken usable stretches of samples ``first..last`` (inclusive), each one's means removed if ``deviations``.
 
-    Each stretch is a slice of the record; only the deviations are new arrays.
+    Each stretch is a slice of the record; only the deviations are new arrays, and with ``pieces`` a stretch
+    the window before held too is that window's (:meth:`PieceCache.stretch`: the same deviations).
     """
     out = []
     for a, b in stretch_spans(job, first, last):
-        part = {key: values[a : b + 1] for key, values in job.data.signals.items()}
-        if deviations:
-            part = {key: values - values.mean(axis=0) for key, values in part.items()}
-        manual = None if job.data.manual is None else job.data.manual[a:b]
-        manual = manual if manual is not None and manual.any() else None
-        out.append(Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual))
+        if pieces is not None and deviations:
+            out.append(pieces.stretch((a, b), partial(_stretch, job, a, b, deviations=True)))
+        else:
+            out.append(_stretch(job, a, b, deviations=deviations))
     return out
+
+
+def _stretch(job: WindowJob, a: int, b: int, *, deviations: bool) -> Record:
+    """Samples ``a..b`` (inclusive) of the record, their means removed if ``deviations``."""
+    part = {key: values[a : b + 1] for key, values in job.data.signals.items()}
+    if deviations:
+        part = {key: values - values.mean(axis=0) for key, values in part.items()}
+    manual = None if job.data.manual is None else job.data.manual[a : b + 1]  # b inclusive, as above
+    manual = manual if manual is not None and manual.any() else None
+    return Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual)
 
 
 def diagnose_window(job: WindowJob, span: tuple[int, int], *, pieces: PieceCache | None = None) -> Diagnosis:
@@ -102,7 +114,7 @@ def diagnose_window(job: WindowJob, span: tuple[int, int], *, pieces: PieceCache
     first, last = span
     config = job.config
     quality = config.quality if limits_given(config) else config.quality.without_limits()
-    stretches = window_stretches(job, first, last)
+    stretches = window_stretches(job, first, last, pieces=pieces)
 
     def diagnosed() -> Diagnosis:
         return diagnose_stretches(

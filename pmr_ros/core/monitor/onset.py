@@ -215,8 +215,7 @@ def _refined(fit: Fit, shapes: Shapes, record: _Record) -> tuple[Fit, Shapes]:
     grid, profile = _profile(shapes.onset[ramps], fit.drop[ramps])
     best = grid[np.argmax(profile)]
     near = grid[(profile >= profile.max() - _REFINE_MARGIN) | (np.abs(grid - best) <= record.window)]
-    every = fine_shapes_for(record.grid, record.window, record.resolution, record.follow)
-    fine = every.subset(rows=record.keep, columns=np.isin(every.onset, near))
+    fine = fine_shapes_for(record.grid, record.window, record.resolution, record.follow, near).subset(rows=record.keep)
     more = fit_shapes(
         estimates=record.estimates,
         errors=record.errors,

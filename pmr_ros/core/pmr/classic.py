@@ -170,7 +170,7 @@ def row_refusal(estimate: PmrEstimate, i: int, settings: PmrSettings) -> str | N
     omega = estimate.omega
     used = (omega > 0) & (omega <= settings.tau_band + 1e-12)
     used[gain_bin(bool(estimate.differenced[i]))] = True
-    worst = float(estimate.condition[used, i].max())
+    worst = float(estimate.condition_at(np.flatnonzero(used), i).max())
     if not np.isfinite(worst) or worst > MAX_CONDITION:
         return (
             f"ill-conditioned regression of row {i + 1} (condition number {worst:.3g} > {MAX_CONDITION:g}): "

@@ -34,6 +34,7 @@ from .products import hermitian_product
 from .spectra import RecordSpectra, RowSpectra, WelchSettings, record_spectra
 
 __all__ = [
+    "Conditioning",
     "EstimateBuilder",
     "PmrEstimate",
     "RowEstimate",
@@ -46,10 +47,40 @@ __all__ = [
     "row_estimate",
     "row_layout",
     "spectra_factor",
+    "whitened_row",
 ]
 
 RIDGE = 1e-12
 """Relative ridge added to the instrument spectra before their Cholesky factor."""
+
+
+class Conditioning:
+    """The condition numbers of one row's regression (:func:`_condition`), each bin's computed when first asked.
+
+    The verdicts read them on the fitted bins and the classic band only (a quarter of a window's bins); a
+    bin's number is the same whichever bins are asked with it (one eigenvalue problem per bin).
+
+    Parameters
+    ----------
+    zx : ndarray of complex, shape (F, n_z, n_c)
+        The instruments' cross-spectra with the row's regressors that enter.
+    rr : ndarray of complex, shape (F, n_z, n_z)
+        The instrument spectra.
+    """
+
+    def __init__(self, zx: np.ndarray, rr: np.ndarray) -> None:
+        self._zx, self._rr = zx, rr
+        self._values = np.full(zx.shape[0], np.inf)
+        self._known = np.full(zx.shape[0], zx.shape[2] == 0)  # no regressor: no regression, infinite
+
+    def at(self, bins: np.ndarray | None = None) -> np.ndarray:
+        """The condition numbers at ``bins`` (default every bin), shape (len(bins),)."""
+        bins = np.arange(self._values.size) if bins is None else np.asarray(bins, dtype=int)
+        missing = np.unique(bins[~self._known[bins]])
+        if missing.size:
+            self._values[missing] = _condition(self._zx[missing], self._rr[missing])
+            self._known[missing] = True
+        return self._values[bins]
 
 
 @dataclass(frozen=True)
@@ -62,8 +93,9 @@ class RowEstimate:
         ``G_PMR_ik(w)`` of the layout's columns.
     coherence : ndarray, shape (F,)
         Multiple squared coherence of the row's output with the instruments.
-    condition : ndarray, shape (F,)
-        Condition number of the regression, instruments and regressors scaled to unit power.
+    conditioning : Conditioning
+        Condition number of the regression, instruments and regressors scaled to unit power
+        (:attr:`condition`, or :meth:`condition_at` some bins).
     power : ndarray, shape (F, n_columns)
         Instrument-driven power of each regressor, ``S_{x z} S_zz^-1 S_{z x}``.
     explained : ndarray, shape (F,)
@@ -72,9 +104,18 @@ class RowEstimate:
 
     ratio: np.ndarray
     coherence: np.ndarray
-    condition: np.ndarray
+    conditioning: Conditioning
     power: np.ndarray
     explained: np.ndarray
+
+    @property
+    def condition(self) -> np.ndarray:
+        """Condition number per bin, shape (F,)."""
+        return self.conditioning.at()
+
+    def condition_at(self, bins: np.ndarray) -> np.ndarray:
+        """Condition number at ``bins`` only, shape (len(bins),)."""
+        return self.conditioning.at(bins)
 
 
 def instrument_factor(rr: np.ndarray) -> np.ndarray:
@@ -121,7 +162,18 @@ def _least_squares(design: np.ndarray, target: np.ndarray) -> np.ndarray:
     return solution[:, :, 0] / norms
 
 
-def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray) -> RowEstimate:
+def whitened_row(row: RowSpectra, factor: np.ndarray) -> np.ndarray:
+    """``L^-1 [S_{z y_i}, S_{z x_i}]``, the row's equations with the instruments whitened, shape (F, n_z, 1 + n_in).
+
+    One solve for the output and every regressor: LAPACK solves each right-hand side on its own, so a
+    column of it is the same number as a solve of that column alone (and the factorization is done once).
+    """
+    return np.linalg.solve(factor, np.concatenate([row.zy[:, :, None], row.zx], axis=2))
+
+
+def implicit_row(
+    row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: np.ndarray, *, whitened: np.ndarray | None = None
+) -> RowEstimate:
     """Solve eq. (13) for one row at every frequency.
 
     Parameters
@@ -133,17 +185,22 @@ def implicit_row(row: RowSpectra, rr: np.ndarray, factor: np.ndarray, columns: n
         :func:`instrument_factor` of them.
     columns : ndarray of int
         The regressors that enter (a :class:`RowLayout`'s columns).
+    whitened : ndarray, optional
+        :func:`whitened_row` of ``row`` and ``factor`` when already at hand.
     """
     F = row.zy.shape[0]
-    target = np.linalg.solve(factor, row.zy[:, :, None])  # (F, n_z, 1), whitened instruments
+    if whitened is None:
+        whitened = whitened_row(row, factor)
+    target = np.ascontiguousarray(whitened[:, :, :1])  # (F, n_z, 1), whitened instruments
     explained = np.sum(np.abs(target[:, :, 0]) ** 2, axis=1)
     coherence = np.clip(explained / np.maximum(row.yy, 1e-300), 0.0, 1.0)
+    conditioning = Conditioning(row.zx[:, :, columns], rr)
     if columns.size == 0:
-        return RowEstimate(np.empty((F, 0), dtype=complex), coherence, np.full(F, np.inf), np.empty((F, 0)), explained)
-    design = np.linalg.solve(factor, row.zx[:, :, columns])  # (F, n_z, n_c)
+        return RowEstimate(np.empty((F, 0), dtype=complex), coherence, conditioning, np.empty((F, 0)), explained)
+    design = np.ascontiguousarray(whitened[:, :, 1 + np.asarray(columns)])  # (F, n_z, n_c)
     power = np.sum(np.abs(design) ** 2, axis=1)
     ratio = _least_squares(design, target)
-    return RowEstimate(ratio, coherence, _condition(row.zx[:, :, columns], rr), power, explained)
+    return RowEstimate(ratio, coherence, conditioning, power, explained)
 
 
 def _held(spectra: RecordSpectra, key: tuple, compute: Callable[[], Any]) -> Any:
@@ -166,7 +223,10 @@ def row_estimate(spectra: RecordSpectra, i: int, columns: np.ndarray, *, row: Ro
     """
 
     def compute() -> RowEstimate:
-        return implicit_row(spectra.row(i) if row is None else row, spectra.rr, spectra_factor(spectra), columns)
+        spectra_row = spectra.row(i) if row is None else row
+        # the row's whitening, kept too: its layouts (the classic one and the parametric one) share it
+        whitened = _held(spectra, ("whitened", i), lambda: whitened_row(spectra_row, spectra_factor(spectra)))
+        return implicit_row(spectra_row, spectra.rr, spectra_factor(spectra), columns, whitened=whitened)
 
     return _held(spectra, ("implicit", i, np.asarray(columns).tobytes()), compute)
 
@@ -185,8 +245,9 @@ class PmrEstimate:
     coherence : ndarray, shape (F, n_outputs)
         Multiple squared coherence of output i with the instruments: the share
         of its spectrum they explain.
-    condition : ndarray, shape (F, n_outputs)
-        Condition number of each row's regression, instruments and regressors scaled to unit power.
+    conditioning : tuple of Conditioning or None
+        Per row, the condition number of its regression, instruments and regressors scaled to unit power
+        (:attr:`condition`, or :meth:`condition_at` some bins of a row); None: a row not estimated (infinite).
     segments : int
         Welch segments averaged.
     power : ndarray, shape (F, n_outputs, n_inputs)
@@ -202,12 +263,24 @@ class PmrEstimate:
     omega: np.ndarray
     ratio: np.ndarray
     coherence: np.ndarray
-    condition: np.ndarray
+    conditioning: tuple[Conditioning | None, ...]
     segments: int
     power: np.ndarray
     explained: np.ndarray
     layouts: tuple[RowLayout, ...]
     differenced: np.ndarray
+
+    @property
+    def condition(self) -> np.ndarray:
+        """Condition number of each row's regression per bin, shape (F, n_outputs)."""
+        return np.column_stack(
+            [self.condition_at(np.arange(self.omega.size), i) for i in range(self.coherence.shape[1])]
+        )
+
+    def condition_at(self, bins: np.ndarray, i: int) -> np.ndarray:
+        """Row ``i``'s condition numbers at ``bins`` only, shape (len(bins),)."""
+        conditioning = self.conditioning[i]
+        return np.full(np.size(bins), np.inf) if conditioning is None else conditioning.at(bins)
 
 
 class EstimateBuilder:
@@ -224,7 +297,7 @@ class EstimateBuilder:
         F, n_out, n_in = spectra.omega.size, model.n_outputs, model.n_inputs
         self.spectra = spectra
         self.ratio = np.full((F, n_out, n_in), np.nan, dtype=complex)
-        self.condition = np.full((F, n_out), np.inf)
+        self.conditioning: list[Conditioning | None] = [None] * n_out
         self.coherence = np.zeros((F, n_out))
         self.power = np.zeros((F, n_out, n_in))
         self.explained = np.zeros((F, n_out))
@@ -234,7 +307,7 @@ class EstimateBuilder:
         """Row ``layout.row``'s estimate (rows are added in order)."""
         i = layout.row
         self.ratio[:, i, layout.columns] = row.ratio
-        self.condition[:, i] = row.condition
+        self.conditioning[i] = row.conditioning
         self.coherence[:, i] = row.coherence
         self.power[:, i, layout.columns] = row.power
         self.explained[:, i] = row.explained
@@ -246,7 +319,7 @@ class EstimateBuilder:
             omega=self.spectra.omega,
             ratio=self.ratio,
             coherence=self.coherence,
-            condition=self.condition,
+            conditioning=tuple(self.conditioning),
             segments=self.spectra.segments,
             power=self.power,
             explained=self.explained,

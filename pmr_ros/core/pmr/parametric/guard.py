@@ -221,7 +221,7 @@ def row_quality(
     taus = row_time_constants(model, i)
     ratio = float(taus.max() / taus.min()) if taus.size else 1.0
     coherence = float(estimate.coherence[bins].mean()) if bins.size else 0.0
-    condition = float(np.median(estimate.condition[bins])) if bins.size and layout.columns.size else np.inf
+    condition = float(np.median(estimate.condition_at(bins))) if bins.size and layout.columns.size else np.inf
     reasons = _reasons(
         layout,
         bins,
