@@ -136,28 +136,6 @@ def test_a_window_solves_each_row_once_for_its_fit_and_its_data_quality(job):
             np.testing.assert_array_equal(fewer.ratio, implicit_row(alone.row(i), alone.rr, factor, columns[:1]).ratio)
 
 
-def test_a_window_judges_its_instruments_once(job, monkeypatch):
-    from pmr_ros.core import records
-
-    stretches = window_stretches(job, 0, 3 * DAY - 1)
-    as_read = window_stretches(job, 0, 3 * DAY - 1, deviations=False)
-    fresh = records.moving_instruments(stretches)
-    computed = []
-    real = records._moving_instruments
-    monkeypatch.setattr(records, "_moving_instruments", lambda s: computed.append(len(s)) or real(s))
-    with PieceCache(job.config.model).window(stretches, stretch_spans(job, 0, 3 * DAY - 1)):
-        kept = records.moving_instruments(stretches)
-        assert records.moving_instruments(list(stretches)) is kept  # the same stretches: the same set
-        assert computed == [len(stretches)]
-        records.moving_instruments(as_read)  # other records (the means kept): judged on their own
-        records.moving_instruments(stretches[:1])
-        assert computed == [len(stretches)] * 2 + [1]
-    for name in ("setpoints", "dither", "manual", "still"):
-        np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name), err_msg=name)
-    records.moving_instruments(stretches)  # outside the window: computed again
-    assert len(computed) == 4
-
-
 def test_a_filtering_transform_of_stretches_of_several_lengths_is_the_same(job):
     # stretches of one length are filtered in one call (stacked on axis 1); a short stretch in its own group
     from dataclasses import replace

@@ -19,14 +19,12 @@ A constant setpoint is simply not an instrument.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from contextvars import ContextVar
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = [
-    "MOVING_SOURCE",
     "InstrumentSet",
     "Record",
     "active_dither",
@@ -206,25 +204,8 @@ def _manual_columns(stretch: Record, which: np.ndarray) -> np.ndarray:
     return out
 
 
-MOVING_SOURCE: ContextVar[
-    Callable[[Sequence[Record], Callable[[Sequence[Record]], InstrumentSet]], InstrumentSet] | None
-]
-MOVING_SOURCE = ContextVar("MOVING_SOURCE", default=None)
-"""Where :func:`moving_instruments` may take the instruments of stretches already judged (None: computed).
-
-Called with ``(stretches, compute)``, it returns ``compute(stretches)`` or that of the same stretches kept
-from before.  The rolling monitor (:mod:`pmr_ros.core.pmr.piecewise`) sets one around each window: the
-checks, the segment length and the spectra ask for the same stretches' instruments, a spread of every
-column of the window each time.  A context variable, so that a source set in one thread is seen by no other."""
-
-
 def moving_instruments(stretches: Sequence[Record]) -> InstrumentSet:
     """The instruments of the data: the setpoints, dither columns and manual MVs that move somewhere."""
-    source = MOVING_SOURCE.get()
-    return _moving_instruments(stretches) if source is None else source(stretches, _moving_instruments)
-
-
-def _moving_instruments(stretches: Sequence[Record]) -> InstrumentSet:
     r = np.vstack([np.asarray(s.r, dtype=float) for s in stretches]) if stretches else np.zeros((0, 0))
     u = np.vstack([np.asarray(s.u, dtype=float) for s in stretches]) if stretches else np.zeros((0, 0))
     return InstrumentSet(moving_columns(r), active_dither(stretches), _manual_moves(stretches), ~moving_columns(u))

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from ..records import MOVING_SOURCE, InstrumentSet, Record, moving_instruments, total_samples
+from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
 from .regressors import row_regressors
 from .spectra import (
@@ -99,7 +99,6 @@ class PieceCache:
         self.model = model
         self._spans: dict[int, Span] = {}
         self._window: dict[tuple[Any, ...], PiecewiseSpectra] = {}
-        self._moving: dict[tuple[Span, ...], InstrumentSet] = {}
         self._store: dict[tuple[Any, ...], Any] = {}
         self.computed = 0
         """Pieces computed so far (instrument transforms of one stretch), for the tests and the benchmark."""
@@ -115,13 +114,12 @@ class PieceCache:
         self._spans = {id(s): (int(a), int(b)) for s, (a, b) in zip(stretches, spans, strict=True)}
         held = set(self._spans.values())
         self._store = {key: value for key, value in self._store.items() if key[0] in held}
-        token, moving = SPECTRA_SOURCE.set(self.spectra), MOVING_SOURCE.set(self.moving)
+        token = SPECTRA_SOURCE.set(self.spectra)
         try:
             yield self
         finally:
-            MOVING_SOURCE.reset(moving)
             SPECTRA_SOURCE.reset(token)
-            self._spans, self._window, self._moving = {}, {}, {}
+            self._spans, self._window = {}, {}
 
     def spectra(
         self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings
@@ -134,18 +132,6 @@ class PieceCache:
         if key not in self._window:
             self._window[key] = PiecewiseSpectra(self, stretches, [span for span in spans if span is not None], welch)
         return self._window[key]
-
-    def moving(
-        self, stretches: Sequence[Record], compute: Callable[[Sequence[Record]], InstrumentSet]
-    ) -> InstrumentSet:
-        """:func:`~pmr_ros.core.records.moving_instruments` of this window's stretches, computed once per window."""
-        spans = [self._spans.get(id(s)) for s in stretches]
-        if any(span is None for span in spans):
-            return compute(stretches)
-        key = tuple(span for span in spans if span is not None)
-        if key not in self._moving:
-            self._moving[key] = compute(stretches)
-        return self._moving[key]
 
     def _held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
         if key not in self._store:
