@@ -75,7 +75,6 @@ def method_welch(
     pmr: PmrSettings,
     parametric: ParametricSettings,
     method: str | None = None,
-    lengths: Sequence[int] = (),
     instruments: int = 0,
 ) -> WelchSettings:
     """The Welch segments ``method`` averages when the longest stretch has ``longest`` samples.
@@ -93,13 +92,11 @@ def method_welch(
     parametric : ParametricSettings
     method : str, optional
         A key of :data:`METHODS` (default ``pmr.method``).
-    lengths : sequence of int, optional
-        Samples of every stretch (default ``[longest]``).
     instruments : int
         The external signals that move (0: the segment is not shortened for them).
     """
     if (method or pmr.method) == "parametric":
-        return parametric.welch(model, int(longest), pmr, lengths=lengths, instruments=instruments)
+        return parametric.welch(model, int(longest), pmr, instruments=instruments)
     return pmr.welch
 
 
