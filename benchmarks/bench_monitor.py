@@ -76,6 +76,7 @@ def _signals(config, days: int, cache: Path | None) -> dict[str, np.ndarray]:
             signals.setdefault(name, []).append(values)
     joined = {name: np.concatenate(parts) for name, parts in signals.items()}
     if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, **joined)
     return joined
 
