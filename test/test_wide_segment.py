@@ -14,9 +14,16 @@ import numpy as np
 import pytest
 
 from pmr_ros.config import load_config
-from pmr_ros.core.pmr.checks import segments_needed, unbroken_samples_needed, welch_segments
+from pmr_ros.core.pmr.checks import (
+    InsufficientData,
+    check_stretches,
+    segments_needed,
+    unbroken_samples_needed,
+    welch_segments,
+)
 from pmr_ros.core.pmr.parametric.settings import FIT_BAND
-from pmr_ros.core.records import Record
+from pmr_ros.core.pmr.spectra import record_spectra
+from pmr_ros.core.records import Record, moving_instruments
 from pmr_ros.core.sim.model import TransferMatrix
 
 
@@ -100,3 +107,21 @@ def test_the_segment_counts_only_the_instruments_that_move_and_every_stretch():
     still = config.parametric.welch_for(unit, stretches, config.pmr)
     assert still == config.parametric.welch(unit, 2000, config.pmr, lengths=[2000, 2000], instruments=7)
     assert still.segment_length > welch.segment_length
+
+
+def test_the_instruments_at_hand_are_taken_not_computed_again():
+    """welch_for, check_stretches and record_spectra take the caller's moving_instruments as they are."""
+    config = load_config(None)
+    unit = _unit(4)
+    rng = np.random.default_rng(5)
+    stretches = [Record(rng.standard_normal((3000, 4)), rng.standard_normal((3000, 4)), rng.standard_normal((3000, 4)))]
+    moving = moving_instruments(stretches)
+    welch = config.parametric.welch_for(unit, stretches, config.pmr, moving=moving)
+    assert welch == config.parametric.welch_for(unit, stretches, config.pmr)
+    check_stretches(stretches, model=unit, welch=welch, moving=moving)
+    assert record_spectra(stretches, unit, welch, moving=moving).moving is moving
+    # a set that says nothing moves is believed: the checks refuse what moves in fact
+    still = replace(moving, setpoints=np.zeros(4, dtype=bool))
+    assert still.count == 0
+    with pytest.raises(InsufficientData, match="no excitation"):
+        check_stretches(stretches, model=unit, welch=welch, moving=still)

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..records import Record, moving_instruments
+from ..records import InstrumentSet, Record, moving_instruments
 from ..sim.model import TransferMatrix
 from .spectra import WelchSettings
 
@@ -83,7 +83,9 @@ def unbroken_samples_needed(model: TransferMatrix, welch: WelchSettings, *, inst
     return model.settling_samples() + welch.segment_length + (need - 1) * welch.step
 
 
-def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings) -> None:
+def check_stretches(
+    stretches: Sequence[Record], *, model: TransferMatrix, welch: WelchSettings, moving: InstrumentSet | None = None
+) -> None:
     """Raise :class:`InsufficientData` if the stretches cannot support an estimate.
 
     Parameters
@@ -94,6 +96,9 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
         The controller's model (its settling time is dropped from each stretch).
     welch : WelchSettings
         The segments the spectra will average (those that fit inside a stretch).
+    moving : InstrumentSet, optional
+        The stretches' :func:`~pmr_ros.core.records.moving_instruments` when the caller has them already
+        (they are computed otherwise).
 
     Raises
     ------
@@ -104,7 +109,8 @@ def check_stretches(stretches: Sequence[Record], *, model: TransferMatrix, welch
         raise InsufficientData("no data")
     for j, stretch in enumerate(stretches):
         _check_shapes(stretch, model, "" if len(stretches) == 1 else f" of stretch {j + 1}")
-    moving = moving_instruments(stretches)
+    if moving is None:
+        moving = moving_instruments(stretches)
     if moving.count == 0:
         raise InsufficientData(
             "no excitation: nothing external moves in this record (every setpoint constant, no MV dither, no MV "

@@ -122,7 +122,12 @@ class PieceCache:
             self._spans, self._window = {}, {}
 
     def spectra(
-        self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings
+        self,
+        stretches: Sequence[Record],
+        model: TransferMatrix,
+        welch: WelchSettings,
+        *,
+        moving: InstrumentSet | None = None,
     ) -> PiecewiseSpectra | None:
         """The spectra of ``stretches`` from pieces, or None when a stretch or the model is not this window's."""
         spans = [self._spans.get(id(s)) for s in stretches]
@@ -130,7 +135,8 @@ class PieceCache:
             return None
         key = (tuple(spans), welch)  # the parametric fit and the data-quality figures ask for the same
         if key not in self._window:
-            self._window[key] = PiecewiseSpectra(self, stretches, [span for span in spans if span is not None], welch)
+            held = [span for span in spans if span is not None]
+            self._window[key] = PiecewiseSpectra(self, stretches, held, welch, moving=moving)
         return self._window[key]
 
     def _held(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
@@ -175,12 +181,20 @@ class PiecewiseSpectra(RecordSpectra):
     the same order, averaged the same way.
     """
 
-    def __init__(self, cache: PieceCache, stretches: Sequence[Record], spans: Sequence[Span], welch: WelchSettings):
+    def __init__(
+        self,
+        cache: PieceCache,
+        stretches: Sequence[Record],
+        spans: Sequence[Span],
+        welch: WelchSettings,
+        *,
+        moving: InstrumentSet | None = None,
+    ):
         model = cache.model
         self.model, self.settings, self._cache = model, welch, cache
         self._rows: dict[int, RowSpectra] = {}
         self._kept: dict[tuple[Any, ...], Any] = {}
-        self.moving = moving_instruments(stretches)
+        self.moving = moving_instruments(stretches) if moving is None else moving
         self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
         warmup = model.settling_samples()

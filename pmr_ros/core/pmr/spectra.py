@@ -297,9 +297,16 @@ class RecordSpectra:
         Samples of every stretch together.
     """
 
-    def __init__(self, stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> None:
+    def __init__(
+        self,
+        stretches: Sequence[Record],
+        model: TransferMatrix,
+        welch: WelchSettings,
+        *,
+        moving: InstrumentSet | None = None,
+    ) -> None:
         self.model, self.settings = model, welch
-        self.moving: InstrumentSet = moving_instruments(stretches)
+        self.moving: InstrumentSet = moving_instruments(stretches) if moving is None else moving
         self.dithered, self.samples = self.moving.dither, total_samples(stretches)
         self.differenced = model.integrating_outputs
         warmup = model.settling_samples()
@@ -389,11 +396,16 @@ def stretch_mean(parts: Iterable[np.ndarray], segments: int) -> np.ndarray:
     return total / segments
 
 
-def record_spectra(stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings) -> RecordSpectra:
+def record_spectra(
+    stretches: Sequence[Record], model: TransferMatrix, welch: WelchSettings, *, moving: InstrumentSet | None = None
+) -> RecordSpectra:
     """The instrument spectra of a record, and each output row's regression on demand.
 
     Each stretch filtered through the model on its own, its first :meth:`TransferMatrix.settling_samples` dropped
     (the filters start from a guessed state), the segments of all averaged; a :data:`SPECTRA_SOURCE` may hold them.
+    ``moving``: the stretches' :func:`~pmr_ros.core.records.moving_instruments`, when the caller has them.
     """
     source = SPECTRA_SOURCE.get()
-    return (source and source(stretches, model, welch)) or RecordSpectra(stretches, model, welch)
+    return (source and source(stretches, model, welch, moving=moving)) or RecordSpectra(
+        stretches, model, welch, moving=moving
+    )

@@ -1,6 +1,7 @@
 """Where :func:`~pmr_ros.core.pmr.spectra.record_spectra` may take a record's spectra already at hand.
 
-A source is called with ``(stretches, model, welch)`` and returns spectra equal
+A source is called with ``(stretches, model, welch, moving=...)`` (``moving``: the stretches'
+instruments when the caller has them, else None) and returns spectra equal
 to :class:`~pmr_ros.core.pmr.spectra.RecordSpectra`'s of those data, or None
 for data it does not hold (they are then computed as usual).  The rolling
 monitor (:mod:`pmr_ros.core.pmr.piecewise`) sets one around each window, so

@@ -6,7 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from ...records import Record, moving_instruments
+from ...records import InstrumentSet, Record, moving_instruments
 from ...sim.model import TransferMatrix
 from ..checks import segments_needed, welch_segments
 from ..classic import PmrSettings
@@ -137,10 +137,22 @@ class ParametricSettings:
             return welch
         return _shortened(welch, model, lengths or (samples,), need=segments_needed(instruments))
 
-    def welch_for(self, model: TransferMatrix, stretches: Sequence[Record], classic: PmrSettings) -> WelchSettings:
-        """:meth:`welch` of ``stretches``: their lengths and the instruments that move in them."""
+    def welch_for(
+        self,
+        model: TransferMatrix,
+        stretches: Sequence[Record],
+        classic: PmrSettings,
+        *,
+        moving: InstrumentSet | None = None,
+    ) -> WelchSettings:
+        """:meth:`welch` of ``stretches``: their lengths and the instruments that move in them.
+
+        ``moving``: the stretches' :func:`~pmr_ros.core.records.moving_instruments`, when at hand.
+        """
         lengths = [s.samples for s in stretches]
-        instruments = moving_instruments(stretches).count if stretches else 0
+        if moving is None and stretches:
+            moving = moving_instruments(stretches)
+        instruments = moving.count if moving is not None else 0
         return self.welch(model, max(lengths, default=0), classic, lengths=lengths, instruments=instruments)
 
 
