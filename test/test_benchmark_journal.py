@@ -147,3 +147,41 @@ def test_report_only_scores_every_run_the_journal_holds(classic, tmp_path, capsy
     assert sorted(results["samples"].unique()) == [2048, 4096] and results["run"].nunique() == 4
     _same_results(results[results["samples"] == 2048], pd.read_parquet(classic / "results.parquet"))
     assert "wood_berry" in (out / "benchmark.md").read_text()
+
+
+def test_the_journal_seeds_one_piece_per_run_and_method(tmp_path):
+    rows = pd.DataFrame(_rows(3, "classic", False) + _rows(3, "parametric", True) + _rows(5, "classic", True))
+    journal = Journal(tmp_path / "runs")
+    assert journal.seed(rows) == 3 and journal.count() == 3
+    assert journal.done() == {(3, "classic"), (3, "parametric"), (5, "classic")}
+    kept = journal.read().sort_values(["run", "method", "element"]).reset_index(drop=True)
+    pd.testing.assert_frame_equal(kept, rows.sort_values(["run", "method", "element"]).reset_index(drop=True))
+
+
+def test_resume_continues_a_results_file_without_its_journal(whole, classic, tmp_path, capsys):
+    """A committed or downloaded results.parquet (no runs/ beside it) is continued: only the rest runs."""
+    out = tmp_path / "shipped"
+    out.mkdir()
+    shutil.copy(classic / "results.parquet", out / "results.parquet")
+    capsys.readouterr()
+    assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out), "--resume"]) == 0
+    assert "2 runs in" in capsys.readouterr().out
+    journal = Journal(out / "runs")
+    assert {p.name.split(".")[1] for p in journal.folder.glob("run_*.parquet")} == {"classic", "parametric"}
+    results = pd.read_parquet(out / "results.parquet")
+    _same_results(results, whole)
+    shipped = pd.read_parquet(classic / "results.parquet")  # the classic rows kept, not run again
+    assert_allclose(results[results["method"] == "classic"]["cpu_s"], shipped["cpu_s"], rtol=0)
+
+
+def test_resume_refuses_a_results_file_of_other_runs(classic, tmp_path, capsys):
+    out = tmp_path / "foreign"
+    out.mkdir()
+    results = pd.read_parquet(classic / "results.parquet")
+    results.loc[results["run"] == results["run"].min(), "samples"] = 4096  # not that run's length in the file
+    results.to_parquet(out / "results.parquet", index=False)
+    capsys.readouterr()
+    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out), "--resume"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--resume:" in err[0] and "results.parquet" in err[0] and "4096 samples" in err[0]
+    assert Journal(out / "runs").count() == 0

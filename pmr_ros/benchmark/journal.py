@@ -83,6 +83,17 @@ class Journal:
         newest = rows.groupby(["run", "method"])["_piece"].transform("max")
         return rows[rows["_piece"] == newest].drop(columns="_piece").reset_index(drop=True)
 
+    def seed(self, rows: pd.DataFrame) -> int:
+        """Write ``rows`` (result rows of many runs and methods) as pieces, one per (run, method); how many.
+
+        How a results.parquet (a committed or downloaded one, with no journal beside it) becomes a journal
+        that ``--resume`` continues.
+        """
+        pairs = rows.groupby(["run", "method"], sort=True)
+        for (run, method), piece in pairs:
+            self.write(int(run), (str(method),), piece.to_dict("records"))
+        return pairs.ngroups
+
     def done(self) -> set[tuple[int, str]]:
         """The (run, method) pairs with rows in the journal."""
         rows = self.read()

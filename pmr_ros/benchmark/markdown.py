@@ -135,7 +135,9 @@ SETUP = """## How the runs were made
   and the labels, with a schema (SCHEMA.md in DIR); pandas alone reads it.
 - **Stopping and resuming**: each run's result rows are kept in `DIR/runs` the moment the run ends;
   `pmr-ros benchmark --resume` runs only the (run, method) pairs not there yet (the whole scenario
-  file is many hours of CPU), and refuses a journal of another scenario file.
+  file is many hours of CPU), and refuses a journal of another scenario file. A folder with a
+  results.parquet and no journal (this page's `docs/benchmark_results`, copied) is continued from that file
+  once its runs are checked against the scenario file.
 """
 
 

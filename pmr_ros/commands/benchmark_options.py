@@ -36,8 +36,9 @@ OPTIONS = (
     option("--report-only", action="store_true", help="do not run: score every run DIR holds again (its journal "
            "DIR/runs, else DIR/results.parquet) and rewrite results.parquet, scores.csv and the report"),
     option("--resume", action="store_true", help="continue the benchmark in DIR: every run's results are kept in "
-           "DIR/runs the moment it ends, and this runs only the (run, method) pairs not there yet (without it, a "
-           "benchmark refuses a DIR/runs that holds runs)"),
+           "DIR/runs the moment it ends, and this runs only the (run, method) pairs not there yet; a DIR with a "
+           "results.parquet and no runs/ is continued from that file (without it, a benchmark refuses a DIR/runs "
+           "that holds runs)"),
     option("--force", action="store_true", help="start DIR/runs anew, dropping the runs it holds"),
     option("--jobs", type=positive_int, default=1, metavar="N", help="worker processes (default: 1)"),
     option("--scheduler", metavar="ADDRESS", help="run the runs on the Dask distributed cluster of this scheduler "

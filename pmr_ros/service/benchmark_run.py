@@ -40,6 +40,9 @@ __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "
 JOURNAL = "runs"
 """The journal folder in ``out``."""
 
+CELLS = ["unit", "samples", "disturbance", "seed"]
+"""The columns of results.parquet that name a run's cell (:func:`_write_results`), not a method's result."""
+
 MANIFEST = "benchmark.json"
 """Beside results.parquet: the run's wall time [s] and number of runs, for ``--report-only``."""
 
@@ -209,7 +212,7 @@ def _write_results(path: Path, rows: pd.DataFrame, lines: pd.DataFrame) -> pd.Da
 
 
 def _cell_columns(results: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
-    cells = run_table(lines)[["run", "unit", "samples", "disturbance", "seed"]]
+    cells = run_table(lines)[["run", *CELLS]]
     return cells.merge(results, on="run", how="right")
 
 
@@ -249,7 +252,7 @@ def _subset_text(labelled: pd.DataFrame) -> str:
 def _score_and_write(
     request: BenchmarkRequest, results: pd.DataFrame, lines: pd.DataFrame, wall_s: float
 ) -> pd.DataFrame:
-    labelled = scoring.label_results(results.drop(columns=["unit", "samples", "disturbance", "seed"]), lines)
+    labelled = scoring.label_results(results.drop(columns=CELLS), lines)
     scores = scoring.score(labelled)
     write_text(request.out / "scores.csv", scores.to_csv(index=False))
     write_text(request.out / "roc.csv", scoring.roc_table(labelled).to_csv(index=False))
@@ -310,8 +313,35 @@ def _planned_rows(journal: Journal, tasks: list[RunTask]) -> pd.DataFrame:
     return rows[wanted].reset_index(drop=True)
 
 
-def _open_journal(request: BenchmarkRequest, key: str) -> Journal:
+def _seed_journal(journal: Journal, path: Path, scenarios: pd.DataFrame, key: str) -> None:
+    """Begin ``journal`` with the runs of the results.parquet at ``path``, once its runs are the scenario file's.
+
+    Raises
+    ------
+    ServiceError
+        A run of the file whose unit, length, disturbance or seed is not that of the same run in ``scenarios``.
+    """
+    import pandas as pd
+
+    results = pd.read_parquet(path)
+    runs = results[["run", *CELLS]].drop_duplicates("run")
+    table = run_table(scenarios)[["run", *CELLS]]
+    merged = runs.merge(table, on="run", how="left", suffixes=("", "_file"))
+    for _, line in merged.iterrows():
+        if any(str(line[c]) != str(line[f"{c}_file"]) for c in CELLS):
+            raise ServiceError(
+                f"--resume: {path}: run {int(line['run'])} is {line['unit']} of {line['samples']} samples there, "
+                "not the scenario file's: results of another scenario file; use --force to start afresh"
+            )
+    journal.start(key)
+    journal.seed(results.drop(columns=CELLS))
+
+
+def _open_journal(request: BenchmarkRequest, key: str, scenarios: pd.DataFrame) -> Journal:
     """``out``'s journal, continued (``resume``) or begun anew; one that holds runs is kept unless told.
+
+    With ``resume``, an ``out`` that holds a results.parquet and no journal (a committed or downloaded run) is
+    continued from that file (:func:`_seed_journal`).
 
     Raises
     ------
@@ -319,6 +349,8 @@ def _open_journal(request: BenchmarkRequest, key: str) -> Journal:
         ``resume`` with runs of another scenario file, or neither ``resume`` nor ``force`` with runs kept.
     """
     journal = Journal(request.out / JOURNAL)
+    if request.resume and not journal.count() and (request.out / "results.parquet").is_file():
+        _seed_journal(journal, request.out / "results.parquet", scenarios, key)
     if request.resume:
         try:
             journal.check(key)
@@ -340,7 +372,7 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     lines = select_runs(scenarios, request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
-    journal = _open_journal(request, fingerprint(scenarios))
+    journal = _open_journal(request, fingerprint(scenarios), scenarios)
     todo = _left_to_do(tasks, journal.done() if request.resume else set())
     if request.export is not None:
         for unit in sorted(set(lines["unit"])):
