@@ -12,7 +12,7 @@ transforms, each row's regressors and their segment transforms, and the
 products of those transforms (each stretch's sums over its segments).  A
 window's spectra (:class:`PiecewiseSpectra`) join its stretches' pieces in
 order and sum their products in order, as :class:`RecordSpectra` does with a
-window alone (:func:`~.spectra.stretch_mean`), so every fit after them runs on
+window alone (:func:`~.products.stretch_mean`), so every fit after them runs on
 the same numbers: the same diagnosis to the last bit (test_piecewise.py).
 
 Only what the current window holds is kept: a worker that runs consecutive
@@ -31,15 +31,14 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
+from .products import row_products, stretch_mean
 from .regressors import row_regressors
 from .spectra import (
     RecordSpectra,
     RowSpectra,
     SegmentSpectra,
     WelchSettings,
-    row_products,
     segment_spectra,
-    stretch_mean,
 )
 from .spectra_source import SPECTRA_SOURCE
 
@@ -240,7 +239,7 @@ class PiecewiseSpectra(RecordSpectra):
     def _products(
         self, z: SegmentSpectra, u: np.ndarray, y: np.ndarray, span: Span, i: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        """One stretch's :func:`~.spectra.row_products` of row ``i``."""
+        """One stretch's :func:`~.products.row_products` of row ``i``."""
         x = self._cache.row_segments(span, i, self.settings, partial(self._row_part, u, y, span, i))
         return row_products(np.transpose(z.ffts, (1, 0, 2)), np.transpose(x.ffts, (1, 0, 2)))
 

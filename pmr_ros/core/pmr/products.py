@@ -12,9 +12,11 @@ complex product costs in arithmetic, so nothing is lost when the machine is idle
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
-__all__ = ["hermitian_product", "product", "real_product"]
+__all__ = ["hermitian_product", "product", "real_product", "row_products", "stretch_mean"]
 
 
 def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -60,3 +62,22 @@ def hermitian_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.empty(real.shape, dtype=np.result_type(a, b, 1j))
     out.real, out.imag = real, ar @ bi - ai @ br
     return out
+
+
+def row_products(Z: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(sum_k conj(Z_k)^T X_k, sum_k conj(X_k)^T X_k)`` over one stretch's segments (Z (F, K, n_z), X (F, K, q))."""
+    return hermitian_product(Z, X), hermitian_product(X, X)
+
+
+def stretch_mean(parts: Iterable[np.ndarray], segments: int) -> np.ndarray:
+    """Each stretch's product summed in order, over the ``segments`` of all: the cross-spectrum they average.
+
+    A sum over stretches, so that a rolling window's spectra are the sums of its stretches' products, each
+    computed once (:mod:`.piecewise`), to the same bits as the window alone.
+    """
+    total: np.ndarray | None = None
+    for part in parts:
+        total = part if total is None else total + part
+    if total is None:
+        raise ValueError("no stretch holds a segment")
+    return total / segments

@@ -45,7 +45,7 @@ interaction on an integrating output is taken to integrate as well.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -55,7 +55,7 @@ from scipy.signal import get_window
 
 from ..records import InstrumentSet, Record, moving_instruments, total_samples
 from ..sim.model import TransferMatrix
-from .products import hermitian_product
+from .products import hermitian_product, row_products, stretch_mean
 from .regressors import row_regressors
 from .spectra_source import SPECTRA_SOURCE
 
@@ -66,9 +66,7 @@ __all__ = [
     "WelchSettings",
     "cross_spectra",
     "record_spectra",
-    "row_products",
     "segment_spectra",
-    "stretch_mean",
     "stretch_segments",
 ]
 
@@ -261,7 +259,7 @@ class RowSpectra:
 
     @classmethod
     def of(cls, products: Sequence[tuple[np.ndarray, np.ndarray]], segments: int, *, differenced: bool) -> RowSpectra:
-        """From each stretch's :func:`row_products`, averaged over the ``segments`` of all (:func:`stretch_mean`)."""
+        """From each stretch's :func:`~.products.row_products`, averaged over the ``segments`` of all (its mean)."""
         zc = stretch_mean((p[0] for p in products), segments)
         cc = stretch_mean((p[1] for p in products), segments)
         return cls(zc[:, :, 0], zc[:, :, 1:], cc[:, 0, 0].real.copy(), cc[:, 1:, 0], cc[:, 1:, 1:], differenced)
@@ -375,25 +373,6 @@ class RecordSpectra:
         X = self._row_segments(i, None)  # (F, K, 1 + n_in)
         products = [row_products(Z[:, k], X[:, k]) for k in self._stretches]
         return RowSpectra.of(products, self.segments, differenced=bool(self.differenced[i]))
-
-
-def row_products(Z: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(sum_k conj(Z_k)^T X_k, sum_k conj(X_k)^T X_k)`` over one stretch's segments (Z (F, K, n_z), X (F, K, q))."""
-    return hermitian_product(Z, X), hermitian_product(X, X)
-
-
-def stretch_mean(parts: Iterable[np.ndarray], segments: int) -> np.ndarray:
-    """Each stretch's product summed in order, over the ``segments`` of all: the cross-spectrum they average.
-
-    A sum over stretches, so that a rolling window's spectra are the sums of its stretches' products, each
-    computed once (:mod:`.piecewise`), to the same bits as the window alone.
-    """
-    total: np.ndarray | None = None
-    for part in parts:
-        total = part if total is None else total + part
-    if total is None:
-        raise ValueError("no stretch holds a segment")
-    return total / segments
 
 
 def record_spectra(
