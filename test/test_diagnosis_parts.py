@@ -208,6 +208,22 @@ def test_shapes_are_the_ratio_of_sampled_elements_and_their_derivative_is_right(
     assert np.all(flat == 1.0) and np.all(zero == 0.0)
 
 
+def test_shape_and_a_given_numerator_give_the_shapes_own_numbers():
+    # the column search refines s with shape(numerator=...): it must find what shapes() would, to the bit
+    z_inv = np.exp(-1j * np.linspace(0, np.pi, 64))
+    s = np.array([-0.4, 0.3])
+    delay = ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-1, 1), True)
+    for column in (_ratio_column(), _lag_column(), delay):
+        shape, derivative = column.shapes(z_inv, s)
+        given = column.shapes(z_inv, s, numerator=column.numerator(z_inv))
+        assert np.array_equal(column.shape(z_inv, s), shape)
+        assert np.array_equal(column.shape(z_inv, s, numerator=column.numerator(z_inv)), shape)
+        assert np.array_equal(given[0], shape) and np.array_equal(given[1], derivative)
+    ratio = _ratio_column()
+    ah = ratio.pole_model
+    np.testing.assert_allclose(ratio.numerator(z_inv), (1 - ah * z_inv) / (1 - ah), rtol=1e-15)
+
+
 def _system(columns, params, *, seed=3, F=80, n_z=4, noise=0.0):
     """A row's equations in information form from a random design and known parameters."""
     rng = np.random.default_rng(seed)

@@ -193,27 +193,53 @@ class ColumnModel:
             out = np.concatenate([out[-delay:], np.repeat(out[-1:], -delay, axis=0)])
         return out
 
-    def shapes(self, z_inv: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def numerator(self, z_inv: np.ndarray) -> np.ndarray:
+        """``(1 - ahat z^-1) / (1 - ahat)``: the part of :meth:`shapes` no ``s`` changes, for ``numerator=``.
+
+        Parameters
+        ----------
+        z_inv : ndarray of complex, shape (F,)
+        """
+        ah = self.pole_model
+        return (1 - ah * z_inv) / (1 - ah)
+
+    def shapes(
+        self, z_inv: np.ndarray, s: np.ndarray, *, numerator: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Shapes without delay and their derivative in ``s``, shape (len(s), F).
 
         Parameters
         ----------
         z_inv : ndarray of complex, shape (F,)
         s : ndarray, shape (G,)
+        numerator : ndarray of complex, shape (F,), optional
+            :meth:`numerator` of ``z_inv``, when already computed (the same numbers).
         """
         s = np.atleast_1d(np.asarray(s, dtype=float))
         if self.scaled is not None:
             return self.scaled.shapes(z_inv, s)
         if not self.has_tau:
             return np.ones((s.size, z_inv.size), dtype=complex), np.zeros((s.size, z_inv.size), dtype=complex)
-        tau = self.tau_reference * np.exp(s)[:, None]
-        a = np.exp(-1.0 / tau)
-        ah = self.pole_model
-        numerator = (1 - ah * z_inv) / (1 - ah)
-        denominator = 1 - a * z_inv
-        shape = (1 - a) * numerator / denominator
+        tau, a, numerator, denominator, shape = self._first_order(z_inv, s, numerator)
         derivative = numerator * (z_inv - 1) / denominator**2 * (a / tau)  # d shape / d a * d a / d s
         return shape, derivative
+
+    def shape(self, z_inv: np.ndarray, s: np.ndarray, *, numerator: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`shapes`' shapes alone (same arguments), shape (len(s), F): the same numbers without the derivative."""
+        if self.scaled is not None or not self.has_tau:
+            return self.shapes(z_inv, s)[0]
+        return self._first_order(z_inv, np.atleast_1d(np.asarray(s, dtype=float)), numerator)[4]
+
+    def _first_order(
+        self, z_inv: np.ndarray, s: np.ndarray, numerator: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(tau, a, numerator, denominator, shape)`` of a first-order column at each of ``s`` (1-D)."""
+        tau = self.tau_reference * np.exp(s)[:, None]
+        a = np.exp(-1.0 / tau)
+        if numerator is None:
+            numerator = self.numerator(z_inv)
+        denominator = 1 - a * z_inv
+        return tau, a, numerator, denominator, (1 - a) * numerator / denominator
 
 
 @dataclass(frozen=True)

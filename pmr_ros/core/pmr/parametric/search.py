@@ -82,6 +82,11 @@ class ColumnGrid:
         """``|shapes|^2``, shape (G, F'), computed once per grid."""
         return np.abs(self.shapes) ** 2
 
+    @cached_property
+    def numerator(self) -> np.ndarray:
+        """:meth:`~.ratio.ColumnModel.numerator` at ``z_inv``, once per grid (each refined ``s`` reads it)."""
+        return self.column.numerator(self.z_inv)
+
 
 def column_grids(columns: Sequence[ColumnModel], z_inv: np.ndarray) -> list[ColumnGrid]:
     """The search grid of every column of a row."""
@@ -89,7 +94,7 @@ def column_grids(columns: Sequence[ColumnModel], z_inv: np.ndarray) -> list[Colu
     out = []
     for column in columns:
         s = np.linspace(*column.s_bounds, GRID_POINTS) if column.has_tau else np.zeros(1)
-        shapes, _ = column.shapes(z_inv, s)
+        shapes = column.shape(z_inv, s)  # the derivative no search reads left out
         delays = np.arange(column.delay_bounds[0], column.delay_bounds[1] + 1)
         out.append(ColumnGrid(column, s, shapes, delays, np.exp(1j * np.outer(omega, delays)), z_inv))
     return out
@@ -113,14 +118,16 @@ def _refine(grid: ColumnGrid, gains: np.ndarray, g: int) -> float:
     left, middle, right = gains[g - 1], gains[g], gains[g + 1]
     curvature = left - 2.0 * middle + right
     offset = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
-    return float(grid.s[g] + np.clip(offset, -0.5, 0.5) * (grid.s[1] - grid.s[0]))
+    # np.clip's arithmetic without its wrapper's cost on a scalar (a NaN stays NaN either way)
+    return float(grid.s[g] + min(max(offset, -0.5), 0.5) * (grid.s[1] - grid.s[0]))
 
 
 def _linear_at(grid: ColumnGrid, target: np.ndarray, weight: np.ndarray, s: float, d: int) -> tuple[float, np.ndarray]:
     """The closed-form linear parameter of the column at ``s`` and delay index ``d``, and the shape at ``s``."""
-    shape, _ = grid.column.shapes(grid.z_inv, np.array([s]))
-    numerator = np.real(np.sum(weight * np.conj(shape[0]) * target * grid.turns[:, d]))
-    lin, _ = _best_linear(np.array(numerator), np.array(np.sum(weight * np.abs(shape[0]) ** 2)), grid.column)
+    shape = grid.column.shape(grid.z_inv, np.array([s]), numerator=grid.numerator)
+    # the sums' methods: np.sum's arithmetic without its wrappers' cost (a sweep refines thousands of columns)
+    numerator = (weight * np.conj(shape[0]) * target * grid.turns[:, d]).sum().real
+    lin, _ = _best_linear(numerator, (weight * np.abs(shape[0]) ** 2).sum(), grid.column)
     return float(lin), shape[0]
 
 
@@ -150,8 +157,8 @@ def _searched(
     numerator = real_product(grid.conjugate_shapes * (weight * target), turns)  # (G, n_d)
     denominator = grid.power @ weight  # (G,)
     _, gain = _best_linear(numerator, denominator[:, None], grid.column)
-    g, d = np.unravel_index(int(np.argmax(gain)), gain.shape)
-    s = _refine(grid, gain[:, d], int(g))
+    g, d = divmod(int(gain.argmax()), gain.shape[1])  # np.unravel_index's answer without its wrappers' cost
+    s = _refine(grid, gain[:, d], g)
     lin, shape = _linear_at(grid, target, weight, s, int(candidates[d]))
     return lin, s, int(grid.delays[candidates[d]]), shape
 
