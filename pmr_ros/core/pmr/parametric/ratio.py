@@ -194,12 +194,7 @@ class ColumnModel:
         return out
 
     def numerator(self, z_inv: np.ndarray) -> np.ndarray:
-        """``(1 - ahat z^-1) / (1 - ahat)``: the part of :meth:`shapes` no ``s`` changes, for ``numerator=``.
-
-        Parameters
-        ----------
-        z_inv : ndarray of complex, shape (F,)
-        """
+        """``(1 - ahat z^-1) / (1 - ahat)`` at ``z_inv`` (F,): the part of :meth:`shapes` no ``s`` changes."""
         ah = self.pole_model
         return (1 - ah * z_inv) / (1 - ah)
 
@@ -230,9 +225,7 @@ class ColumnModel:
             return self.shapes(z_inv, s)[0]
         return self._first_order(z_inv, np.atleast_1d(np.asarray(s, dtype=float)), numerator)[4]
 
-    def _first_order(
-        self, z_inv: np.ndarray, s: np.ndarray, numerator: np.ndarray | None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _first_order(self, z_inv: np.ndarray, s: np.ndarray, numerator: np.ndarray | None) -> tuple[np.ndarray, ...]:
         """``(tau, a, numerator, denominator, shape)`` of a first-order column at each of ``s`` (1-D)."""
         tau = self.tau_reference * np.exp(s)[:, None]
         a = np.exp(-1.0 / tau)
@@ -358,7 +351,14 @@ def whitened_regressors(
     return np.linalg.solve(factor[bins], spectra.zx[bins][:, :, columns])
 
 
-def noise_spectrum(spectra: RowSpectra, columns: np.ndarray, theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+def noise_spectrum(
+    spectra: RowSpectra,
+    columns: np.ndarray,
+    theta: np.ndarray,
+    omega: np.ndarray,
+    *,
+    moments: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Spectrum of ``v_i = y_i - sum_k theta_k x_ik`` for a row's coefficients ``theta`` (F, n).
 
     Smoothed over :data:`NOISE_SMOOTHING_BINS` bins: a per-bin estimate has only
@@ -367,10 +367,9 @@ def noise_spectrum(spectra: RowSpectra, columns: np.ndarray, theta: np.ndarray, 
     (measured: intervals 5 % too narrow without smoothing).  A differenced row's
     noise is smoothed with the differencing filter's known ``|1 - e^-jw|^2``
     divided out (it falls to 0 at w = 0, which a moving average would smear
-    over the lowest bins).
+    over the lowest bins).  ``moments``: ``(S_xy, S_xx)`` of ``columns`` when already gathered (the same numbers).
     """
-    xy = spectra.xy[:, columns]
-    xx = spectra.xx[:, columns][:, :, columns]
+    xy, xx = (spectra.xy[:, columns], spectra.xx[:, columns][:, :, columns]) if moments is None else moments
     cross = np.einsum("fk,fk->f", theta.conj(), xy).real
     quad = np.einsum("fk,fkm,fm->f", theta.conj(), xx, theta).real
     phi = np.maximum(spectra.yy - 2.0 * cross + quad, 1e-6 * spectra.yy + 1e-300)
@@ -379,7 +378,7 @@ def noise_spectrum(spectra: RowSpectra, columns: np.ndarray, theta: np.ndarray, 
         phi = phi / np.maximum(shaping, 1e-300)
         phi[0] = phi[1]
     half = NOISE_SMOOTHING_BINS // 2
-    padded = np.pad(phi, half, mode="reflect")
+    padded = np.concatenate([phi[half:0:-1], phi, phi[-2 : -half - 2 : -1]])  # np.pad's reflect, without its cost
     smooth = np.convolve(padded, np.ones(NOISE_SMOOTHING_BINS) / NOISE_SMOOTHING_BINS, mode="valid")
     return np.maximum(smooth * shaping, 1e-300)
 

@@ -65,6 +65,11 @@ class RowData:
         return whitened_regressors(self.spectra, self.factor, columns=self.columns, bins=self.bins)
 
     @cached_property
+    def _moments(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(S_xy, S_xx)`` of the regressors that enter: every noise spectrum of the fit reads them."""
+        return self.spectra.xy[:, self.columns], self.spectra.xx[:, self.columns][:, :, self.columns]
+
+    @cached_property
     def _residual(self) -> np.ndarray:
         """The moments outside the instruments before the weights (:func:`~.bias.unscaled_residual_moments`)."""
         return unscaled_residual_moments(self.spectra, self.factor, columns=self.columns, bins=self.bins)
@@ -86,7 +91,7 @@ class RowData:
 
         The one noise spectrum and whitening serve both.
         """
-        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega)
+        noise = noise_spectrum(self.spectra, self.columns, theta, self.omega, moments=self._moments)
         spectra = self.spectra if offset is None else replace(self.spectra, zy=self.spectra.zy - offset)
         bins, omega, segments = self.bins, self.omega, self.equivalent_segments
         shared: dict[str, Any] = {
