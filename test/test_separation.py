@@ -15,7 +15,7 @@ from pmr_ros.core.pmr.parametric.fit import RowFit
 from pmr_ros.core.pmr.parametric.guard import negligible_gains
 from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
 from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem
-from pmr_ros.core.pmr.parametric.separation import separation
+from pmr_ros.core.pmr.parametric.separation import delay_coupling, separation
 from pmr_ros.core.pmr.parametric.trials import Trials, alternatives, coupled_pairs, joint_profiles
 from pmr_ros.core.pmr.parametric.verdicts import mixture_interval, separation_reason
 from pmr_ros.core.sim.model import TransferMatrix
@@ -44,6 +44,24 @@ def test_collinearity_and_delay_coupling_are_the_regressors_correlation(rho):
     assert result.partner.tolist() == [1, 0]
     np.testing.assert_allclose(result.delay_coupling, [[0.0, rho], [rho, 0.0]], atol=1e-9)
     np.testing.assert_allclose(result.delay_correlation, [rho, rho], atol=1e-9)
+
+
+def test_delay_coupling_alone_is_the_separations_to_the_bit():
+    # the delay search reads it without the collinearity: the pairs it searches must not change
+    ratio = ColumnModel("ratio", math.exp(-1 / 10.0), 10.0, (-3.0, 3.0), (-2, 6), True)
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((30, 4, 3)) + 1j * rng.standard_normal((30, 4, 3))
+    M = np.einsum("fzk,fzm->fkm", A.conj(), A)
+    omega = np.linspace(0.05, 1.0, 30)
+    system = RowSystem(M=M, v=np.zeros((30, 3), complex), beta=np.zeros(30), z_inv=np.exp(-1j * omega), components=8)
+    for problem, params in (
+        (_problem(0.7), RowParameters(np.ones(2), np.zeros(2), np.zeros(2, dtype=int))),
+        (
+            RowProblem(system, [ratio, LEVEL, ratio]),
+            RowParameters(np.array([0.9, 1.1, 1.3]), np.full(3, 0.2), np.ones(3, int)),
+        ),
+    ):
+        assert np.array_equal(delay_coupling(problem, params), separation(problem, params).delay_coupling)
 
 
 def test_coupled_pairs_are_those_at_or_above_the_threshold_strongest_first():

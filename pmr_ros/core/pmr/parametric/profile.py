@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .lsq import RowParameters, RowProblem
-from .separation import separation
+from .separation import delay_coupling
 from .trials import PROFILE_HALF_WIDTH, Trials, coupled_pairs, joint_search
 
 __all__ = [
@@ -148,7 +148,7 @@ def search_delays(
     for _ in range(JOINT_ROUNDS):
         scale = max(1.0, fit[1] / dof)
         fit = profile(trials, fit, scale=scale, search=search)
-        pairs = coupled_pairs(separation(trials.problem, fit[0]).delay_coupling, search.joint_correlation)
+        pairs = coupled_pairs(delay_coupling(trials.problem, fit[0]), search.joint_correlation)
         if not joint_search(trials, fit, pairs[: trials.problem.n]):
             break
         fit = trials.full(trials.best()[0])

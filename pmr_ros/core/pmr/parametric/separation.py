@@ -30,7 +30,7 @@ import numpy as np
 
 from .lsq import RowParameters, RowProblem
 
-__all__ = ["Separation", "separation"]
+__all__ = ["Separation", "delay_coupling", "separation"]
 
 
 @dataclass(frozen=True)
@@ -114,16 +114,8 @@ def _delay_correlation(
     return out, rival, is_tau
 
 
-def separation(problem: RowProblem, params: RowParameters) -> Separation:
-    """The :class:`Separation` of a row's columns at its fitted ``params``.
-
-    Parameters
-    ----------
-    problem : RowProblem
-        The row's final weighted problem.
-    params : RowParameters
-        Its fit.
-    """
+def _information(problem: RowProblem, params: RowParameters) -> tuple[np.ndarray, ...]:
+    """``(info, owner, kinds, delayed)``: the information extended by the delays, each parameter's column and kind."""
     n = problem.n
     coefficients = problem.coefficients(params)
     derivatives, owner = problem.jacobian(coefficients)
@@ -137,12 +129,47 @@ def separation(problem: RowProblem, params: RowParameters) -> Separation:
     )
     M = problem.system.M[:, owner][:, :, owner]
     info = np.einsum("fp,fpq,fq->pq", derivatives.conj(), M, derivatives).real
-    base = kinds < 2
-    collinearity, partner, pair = _collinearity(info[np.ix_(base, base)], owner[base], n)
+    return info, owner, kinds, delayed
+
+
+def _correlation(info: np.ndarray) -> np.ndarray:
+    """``|corr|`` of the parameters' estimates: the (pseudo-)inverse of the information, normalized."""
     scale = 1.0 / np.sqrt(np.maximum(np.diag(info), 1e-300))
     covariance = np.linalg.pinv(info * np.outer(scale, scale), rcond=1e-12, hermitian=True)
     sd = np.sqrt(np.maximum(np.diag(covariance), 1e-300))
-    correlation = np.abs(covariance / np.outer(sd, sd))
+    return np.abs(covariance / np.outer(sd, sd))
+
+
+def delay_coupling(problem: RowProblem, params: RowParameters) -> np.ndarray:
+    """:func:`separation`'s ``delay_coupling`` alone, the same numbers: what the delay search reads.
+
+    Without the collinearity's least-squares solve per column, which the search does not read.
+
+    Parameters
+    ----------
+    problem : RowProblem
+    params : RowParameters
+        As :func:`separation`.
+    """
+    info, owner, kinds, _ = _information(problem, params)
+    return _delay_coupling(_correlation(info), owner, kinds, problem.n)
+
+
+def separation(problem: RowProblem, params: RowParameters) -> Separation:
+    """The :class:`Separation` of a row's columns at its fitted ``params``.
+
+    Parameters
+    ----------
+    problem : RowProblem
+        The row's final weighted problem.
+    params : RowParameters
+        Its fit.
+    """
+    n = problem.n
+    info, owner, kinds, delayed = _information(problem, params)
+    base = kinds < 2
+    collinearity, partner, pair = _collinearity(info[np.ix_(base, base)], owner[base], n)
+    correlation = _correlation(info)
     delay_correlation, rival, is_tau = _delay_correlation(correlation, owner, kinds, delayed)
     coupling = _delay_coupling(correlation, owner, kinds, n)
     return Separation(collinearity, partner, pair, delay_correlation, rival, is_tau, coupling)
