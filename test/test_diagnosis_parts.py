@@ -267,6 +267,21 @@ def test_the_search_and_the_joint_fit_recover_the_parameters_exactly_without_noi
     np.testing.assert_allclose(params.s, truth.s, atol=1e-6)
 
 
+def test_a_problem_on_another_system_of_its_bins_is_a_new_problems_to_the_bit():
+    columns = [_ratio_column(), ColumnModel("delay", 0.0, 1.0, (0.0, 0.0), (-3, 3), True), _lag_column()]
+    truth = RowParameters(np.array([1.15, 0.9, 0.4]), np.array([0.25, 0.0, -0.4]), np.array([2, -1, 3]))
+    first, _, _ = _system(columns, truth, noise=0.05)
+    second, _, _ = _system(columns, truth, seed=8, noise=0.05)
+    shared, new = RowProblem(first, columns).with_system(second), RowProblem(second, columns)
+    assert shared.system is second
+    start = truth.with_delay(0, 1)
+    (got, got_cost), (want, want_cost) = shared.fit(start), new.fit(start)
+    assert got_cost == want_cost and np.array_equal(got.lin, want.lin) and np.array_equal(got.s, want.s)
+    assert np.array_equal(shared.information(shared.coefficients(truth)), new.information(new.coefficients(truth)))
+    other = RowSystem(second.M[:40], second.v[:40], second.beta[:40], second.z_inv[:40], second.components)
+    assert np.array_equal(RowProblem(first, columns).with_system(other)._turns, RowProblem(other, columns)._turns)
+
+
 def test_a_fit_settled_above_a_cost_stops_after_one_step_and_a_neighbour_settled_so_is_kept():
     from pmr_ros.core.pmr.parametric.trials import Trials
 
@@ -364,6 +379,19 @@ def test_noise_spectrum_of_a_differenced_row_is_smoothed_with_the_difference_div
     row = RowSpectra(np.zeros((65, 1)), np.zeros((65, 1, 1)), white, np.zeros((65, 1)), np.zeros((65, 1, 1)), True)
     phi = noise_spectrum(row, np.array([0]), np.zeros((65, 1)), omega)
     np.testing.assert_allclose(phi[1:], white[1:], rtol=1e-9)
+
+
+def test_noise_spectrum_of_gathered_moments_is_the_same_numbers():
+    rng = np.random.default_rng(2)
+    omega = np.linspace(0, np.pi, 65)
+    X = rng.standard_normal((65, 3, 3)) + 1j * rng.standard_normal((65, 3, 3))
+    xx = np.einsum("fkz,fmz->fkm", X, X.conj())
+    xy = rng.standard_normal((65, 3)) + 1j * rng.standard_normal((65, 3))
+    row = RowSpectra(np.zeros((65, 2)), np.zeros((65, 2, 3)), 50.0 + omega, xy, xx, False)
+    columns, theta = np.array([0, 2]), 0.1 * (rng.standard_normal((65, 2)) + 1j)
+    gathered = (xy[:, columns], xx[:, columns][:, :, columns])
+    alone = noise_spectrum(row, columns, theta, omega)
+    assert np.array_equal(noise_spectrum(row, columns, theta, omega, moments=gathered), alone)
 
 
 def test_fitted_bins_skip_leading_bins_without_coherence_and_the_zero_bin_of_a_differenced_row():

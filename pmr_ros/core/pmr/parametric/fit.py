@@ -253,7 +253,7 @@ def _without_leakage(
     z_inv = np.exp(-1j * data.omega)
     for _ in range(LEAKAGE_ROUNDS if data.record is not None else 0):
         offset = leakage_offset(data, problem, params)
-        problem = RowProblem(data.system(problem.coefficients(params, z_inv).theta, offset), problem.columns)
+        problem = problem.with_system(data.system(problem.coefficients(params, z_inv).theta, offset))
         params, cost = problem.fit(params)
     return problem, params, cost
 
@@ -290,7 +290,7 @@ def fit_row(
     # pass 2: weights from the first fit's residual; delays profiled, coupled pairs searched jointly
     z_inv = np.exp(-1j * data.omega)
     second = data.system(problem.coefficients(fit[0], z_inv).theta)
-    searched = RowProblem(second, columns)
+    searched = problem.with_system(second)
     trials = Trials(searched, grids)
     dof = max(1, second.components - len(columns) - searched.free_tau.size)
     search = DelaySearch(joint_correlation, absence_z(columns, confidence_level=confidence_level), data.bin_correlation)

@@ -16,6 +16,7 @@ the search has already placed it.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -118,6 +119,19 @@ class RowProblem:
         self._m_owner = system.M[:, self._owner][:, :, self._owner]
         self._all_tau = bool(self.has_tau.all())  # then the np.where of the shapes below keeps every value
         self._gathered: dict[bytes, np.ndarray] = {}
+
+    def with_system(self, system: RowSystem) -> RowProblem:
+        """``RowProblem(system, self.columns)``, the same numbers, with what no system changes taken from this one.
+
+        A row's fit builds four problems of its columns on its bins (``system.z_inv``); their columns' arrays
+        and delay turns were built four times.  Bins other than this problem's build a new one.
+        """
+        if not np.array_equal(system.z_inv, self.system.z_inv):
+            return RowProblem(system, self.columns)
+        other = copy.copy(self)
+        other.system, other._gathered = system, {}
+        other._m_owner = system.M[:, self._owner][:, :, self._owner]
+        return other
 
     def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
         """``theta`` and its derivatives at ``params``, on the fitted bins or at ``z_inv = exp(-j w)``."""
