@@ -200,16 +200,20 @@ def classic_results(
         identifiable or ill-conditioned).
     """
     out: dict[str, ClassicResult | tuple[str, ...]] = {}
+    refusals: dict[int, str | None] = {}  # a row's refusal and view serve each of its elements
+    views: dict[int, _RowView] = {}
     for name, (i, k, element) in model.element_models().items():
-        refusal = row_refusal(estimate, i, settings) or estimate.layouts[i].missing(k)
+        if i not in refusals:
+            refusals[i] = row_refusal(estimate, i, settings)
+        refusal = refusals[i] or estimate.layouts[i].missing(k)
         if element.kind == "none":
             out[name] = (NOT_TESTED,)
         elif refusal is not None:
             out[name] = (refusal,)
         else:
-            out[name] = _element_result(
-                estimate.ratio[:, i, k], _row_view(estimate, i, settings), element.kind, settings
-            )
+            if i not in views:
+                views[i] = _row_view(estimate, i, settings)
+            out[name] = _element_result(estimate.ratio[:, i, k], views[i], element.kind, settings)
     return out
 
 
