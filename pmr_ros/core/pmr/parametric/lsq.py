@@ -234,10 +234,11 @@ class RowProblem:
         damping = 1e-3
         for _ in range(iterations):
             H, g = self._step_terms(coefficients, product)
-            diagonal = np.diag(H)
+            diagonal = H.diagonal()
             diagonal = np.maximum(diagonal, 1e-12 * max(1.0, float(np.abs(diagonal).max())))
+            scaling, rhs = np.diag(diagonal), -0.5 * g  # the same for every damping tried
             while damping < 1e12:
-                step = np.linalg.solve(H + damping * np.diag(diagonal), -0.5 * g)
+                step = np.linalg.solve(H + damping * scaling, rhs)
                 trial = np.minimum(np.maximum(x + step, lower), upper)
                 trial_coefficients = self.coefficients(self._unpack(trial, start))
                 trial_cost, trial_product = self.system.cost_and_product(trial_coefficients.theta)

@@ -154,12 +154,9 @@ def _judged(
     if c < 0:
         why = (still,) if still else quality.reasons or (row.layout.untested,)
         return _without_numbers(kind, why, quality.warnings, figures)
+    names = spectra.model.element_names()[row.layout.row * spectra.model.n_inputs :]  # built once: both read it
     reasons = quality.element_reasons(
-        c,
-        settings,
-        modeled=kind != "none",
-        input_name=spectra.model.input_names[k],
-        element_name=spectra.model.element_names()[row.layout.row * spectra.model.n_inputs + k],
+        c, settings, modeled=kind != "none", input_name=spectra.model.input_names[k], element_name=names[k]
     )
     if row.fit is None or reasons:
         return _without_numbers(kind, reasons, quality.warnings, figures)
@@ -169,7 +166,6 @@ def _judged(
         return interaction_result(
             row.fit, f, share_per_gain=share, settings=settings, quality=figures, warnings=quality.warnings
         )
-    names = spectra.model.element_names()[row.layout.row * spectra.model.n_inputs :]
     labels = [(names[m], spectra.model.input_names[m]) for m in row.fitted]
     return element_result(row.fit, f, settings=settings, quality=figures, warnings=quality.warnings, labels=labels)
 

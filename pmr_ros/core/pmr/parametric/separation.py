@@ -78,7 +78,7 @@ def _collinearity(info: np.ndarray, owner: np.ndarray, n: int) -> tuple[np.ndarr
         others = np.flatnonzero(owner != k)
         if others.size == 0:
             continue
-        block = info[np.ix_(others, others)]
+        block = info[others][:, others]  # np.ix_'s block without its cost
         cross = info[k, others]
         explained = float(cross @ np.linalg.lstsq(block, cross, rcond=1e-12)[0])
         collinearity[k] = float(np.clip(explained / diagonal[k], 0.0, 1.0))
