@@ -92,7 +92,7 @@ class RowProblem:
     """
 
     def __init__(self, system: RowSystem, columns: Sequence[ColumnModel]) -> None:
-        self.system, self.columns = system, list(columns)
+        self.columns = list(columns)
         self.n = len(self.columns)
         self.has_tau = np.array([c.has_tau for c in self.columns], dtype=bool)
         self.tau_reference = np.array([c.tau_reference for c in self.columns])
@@ -116,8 +116,13 @@ class RowProblem:
         self._numerator = (1 - self.pole_model * z_fitted) / (1 - self.pole_model)
         self._numerator_dz = self._numerator * (z_fitted - 1)
         self._owner = np.concatenate([np.arange(self.n), self.free_tau])
-        self._m_owner = system.M[:, self._owner][:, :, self._owner]
         self._all_tau = bool(self.has_tau.all())  # then the np.where of the shapes below keeps every value
+        self._bind(system)
+
+    def _bind(self, system: RowSystem) -> None:
+        """Take ``system``: what depends on its moments (the rest depends on its bins and the columns only)."""
+        self.system = system
+        self._m_owner = system.M[:, self._owner][:, :, self._owner]
         self._gathered: dict[bytes, np.ndarray] = {}
 
     def with_system(self, system: RowSystem) -> RowProblem:
@@ -129,8 +134,7 @@ class RowProblem:
         if not np.array_equal(system.z_inv, self.system.z_inv):
             return RowProblem(system, self.columns)
         other = copy.copy(self)
-        other.system, other._gathered = system, {}
-        other._m_owner = system.M[:, self._owner][:, :, self._owner]
+        other._bind(system)
         return other
 
     def coefficients(self, params: RowParameters, z_inv: np.ndarray | None = None) -> Coefficients:
