@@ -21,7 +21,7 @@ from pmr_ros.core.pmr.parametric.guard import fitted_bins
 from pmr_ros.core.pmr.parametric.interaction import interaction_result, interaction_verdict
 from pmr_ros.core.pmr.parametric.lsq import RowParameters, RowProblem
 from pmr_ros.core.pmr.parametric.parameterization import search_candidates
-from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, noise_spectrum, ratio_shape
+from pmr_ros.core.pmr.parametric.ratio import ColumnModel, RowSystem, column_moments, noise_spectrum, ratio_shape
 from pmr_ros.core.pmr.parametric.search import (
     column_grids,
     column_search,
@@ -392,6 +392,8 @@ def test_noise_spectrum_of_gathered_moments_is_the_same_numbers():
     gathered = (xy[:, columns], xx[:, columns][:, :, columns])
     alone = noise_spectrum(row, columns, theta, omega)
     assert np.array_equal(noise_spectrum(row, columns, theta, omega, moments=gathered), alone)
+    xy_kept, xx_kept = column_moments(row, columns)  # the row's own gather: the same moments
+    assert np.array_equal(xy_kept, gathered[0]) and np.array_equal(xx_kept, gathered[1])
 
 
 def test_fitted_bins_skip_leading_bins_without_coherence_and_the_zero_bin_of_a_differenced_row():

@@ -64,6 +64,7 @@ __all__ = [
     "ColumnModel",
     "RowSystem",
     "bin_scale",
+    "column_moments",
     "noise_spectrum",
     "ratio_shape",
     "row_system",
@@ -351,6 +352,11 @@ def whitened_regressors(
     return np.linalg.solve(factor[bins], spectra.zx[bins][:, :, columns])
 
 
+def column_moments(spectra: RowSpectra, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(S_xy, S_xx)`` of the regressors ``columns`` of a row: what :func:`noise_spectrum` reads of them."""
+    return spectra.xy[:, columns], spectra.xx[:, columns][:, :, columns]
+
+
 def noise_spectrum(
     spectra: RowSpectra,
     columns: np.ndarray,
@@ -369,7 +375,7 @@ def noise_spectrum(
     divided out (it falls to 0 at w = 0, which a moving average would smear
     over the lowest bins).  ``moments``: ``(S_xy, S_xx)`` of ``columns`` when already gathered (the same numbers).
     """
-    xy, xx = (spectra.xy[:, columns], spectra.xx[:, columns][:, :, columns]) if moments is None else moments
+    xy, xx = column_moments(spectra, columns) if moments is None else moments
     cross = np.einsum("fk,fk->f", theta.conj(), xy).real
     quad = np.einsum("fk,fkm,fm->f", theta.conj(), xx, theta).real
     phi = np.maximum(spectra.yy - 2.0 * cross + quad, 1e-6 * spectra.yy + 1e-300)

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..spectra import RecordSpectra, RowSpectra
 from .bias import unscaled_residual_moments, without_instrument_bias
-from .ratio import RowSystem, bin_scale, noise_spectrum, row_system, whitened_regressors
+from .ratio import RowSystem, bin_scale, column_moments, noise_spectrum, row_system, whitened_regressors
 
 __all__ = ["RowData"]
 
@@ -67,7 +67,7 @@ class RowData:
     @cached_property
     def _moments(self) -> tuple[np.ndarray, np.ndarray]:
         """``(S_xy, S_xx)`` of the regressors that enter: every noise spectrum of the fit reads them."""
-        return self.spectra.xy[:, self.columns], self.spectra.xx[:, self.columns][:, :, self.columns]
+        return column_moments(self.spectra, self.columns)
 
     @cached_property
     def _residual(self) -> np.ndarray:
