@@ -40,6 +40,7 @@ __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "
 JOURNAL = "runs"
 """The journal folder in ``out``."""
 
+RESULTS = "results.parquet"  # in ``out``: one row per run, method and element (_write_results)
 CELLS = ["unit", "samples", "disturbance", "seed"]
 """The columns of results.parquet that name a run's cell (:func:`_write_results`), not a method's result."""
 
@@ -273,7 +274,7 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     """
     import pandas as pd
 
-    path = request.out / "results.parquet"
+    path = request.out / RESULTS
     scenarios = _scenarios(request)
     journal = Journal(request.out / JOURNAL)
     from_journal = journal.count() > 0
@@ -337,7 +338,7 @@ def _seed_journal(journal: Journal, path: Path, scenarios: pd.DataFrame, key: st
     journal.seed(results.drop(columns=CELLS))
 
 
-def _open_journal(request: BenchmarkRequest, key: str, scenarios: pd.DataFrame) -> Journal:
+def _open_journal(request: BenchmarkRequest, scenarios: pd.DataFrame) -> Journal:
     """``out``'s journal, continued (``resume``) or begun anew; one that holds runs is kept unless told.
 
     With ``resume``, an ``out`` that holds a results.parquet and no journal (a committed or downloaded run) is
@@ -348,9 +349,9 @@ def _open_journal(request: BenchmarkRequest, key: str, scenarios: pd.DataFrame) 
     ServiceError
         ``resume`` with runs of another scenario file, or neither ``resume`` nor ``force`` with runs kept.
     """
-    journal = Journal(request.out / JOURNAL)
-    if request.resume and not journal.count() and (request.out / "results.parquet").is_file():
-        _seed_journal(journal, request.out / "results.parquet", scenarios, key)
+    journal, key, shipped = Journal(request.out / JOURNAL), fingerprint(scenarios), request.out / RESULTS
+    if request.resume and not journal.count() and shipped.is_file():
+        _seed_journal(journal, shipped, scenarios, key)
     if request.resume:
         try:
             journal.check(key)
@@ -372,7 +373,7 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     lines = select_runs(scenarios, request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
-    journal = _open_journal(request, fingerprint(scenarios), scenarios)
+    journal = _open_journal(request, scenarios)
     todo = _left_to_do(tasks, journal.done() if request.resume else set())
     if request.export is not None:
         for unit in sorted(set(lines["unit"])):
@@ -393,7 +394,7 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     if bar:
         bar.close()
     wall_s = time.perf_counter() - start
-    results = _write_results(request.out / "results.parquet", _planned_rows(journal, tasks), lines)
+    results = _write_results(request.out / RESULTS, _planned_rows(journal, tasks), lines)
     write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(todo)}) + "\n")
     scores = _score_and_write(request, results, lines, wall_s)
     return BenchmarkSummary(len(todo), scores, wall_s, int(results["run"].nunique()))
