@@ -128,3 +128,21 @@ def test_a_worker_shut_down_finishes_the_running_job_and_drops_the_queued_ones()
         worker.submit(lambda: seen.append(2))
     worker.shutdown()
     assert seen[0] == 1 and len(seen) < 6 and worker.pending == 0
+
+
+def test_a_producer_started_late_hears_the_kept_report_once_matched(ros):
+    """A restarted producer learns a run is under way from the consumers' kept reports, after the match."""
+    consumer = ros.create_node("early_consumer")
+    reporter = ProgressReporter(consumer, ["y"])
+    reporter.took("y", 5_000_000_000)
+    reporter.report()
+    assert reporter.reports == 1
+    producer = ros.create_node("late_producer")
+    gate = ProgressGate(producer, max_ahead=1, on_change=lambda: None)
+    try:
+        name = "/early_consumer"
+        assert ros.spin_until(lambda: name in gate.consumers() and gate.matched(), 30.0)
+        assert ros.spin_until(lambda: gate.consumers() == {name: 5_000_000_000}, 10.0)
+    finally:
+        reporter.destroy()
+        gate.destroy()

@@ -140,10 +140,16 @@ class PlantNode(ConfiguredNode):
 
     # -- start -----------------------------------------------------------------
     def _peers_ready(self) -> bool:
-        """The controller and ``simulation.wait_for_subscribers`` subscribers of y are there."""
+        """The controller and ``simulation.wait_for_subscribers`` subscribers of y are there, and matched.
+
+        Matched, not only in the graph: the controller's kept inputs and the consumers' kept reports, which tell a
+        restarted plant where the run is, reach it only once its subscriptions matched their writers (in the graph
+        but not matched yet under load, a restarted plant started the run over from sample 0).
+        """
         return (
             self._y_pub.get_subscription_count() >= self.config.simulation.wait_for_subscribers
-            and self.count_publishers(self._u_topic) >= 1
+            and self._u_sub.get_publisher_count() >= 1
+            and self.gate.matched()
         )
 
     def _unknown_subscribers(self) -> list[str]:

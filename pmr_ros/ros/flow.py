@@ -223,6 +223,14 @@ class ProgressGate:
         self._read_graph(now=time.monotonic())
         return {name: self._acks.get(name) for name in sorted(self._graph)}
 
+    def matched(self) -> bool:
+        """Whether this producer's subscription has matched every consumer now in the graph.
+
+        The graph names a consumer before the DDS endpoints match; its kept reports (transient local) reach the
+        producer only after the match, so a restarted producer judges "is a run under way?" only then.
+        """
+        return self._sub.get_publisher_count() >= len(self.consumers())
+
     def _on_timer(self) -> None:
         self._read_graph(now=time.monotonic())
         self._on_change()
