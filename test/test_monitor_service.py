@@ -18,7 +18,7 @@ from pmr_ros.cli import main
 from pmr_ros.commands.rolling import onset_lines
 from pmr_ros.config import load_config
 from pmr_ros.report.trend_page import write_trend_page
-from pmr_ros.service.monitoring import WindowJob, diagnose_window, monitor, window_chunks, window_stretches
+from pmr_ros.service.monitoring import WindowJob, diagnose_window, monitor, window_stretches
 from pmr_ros.service.refusal import ServiceError
 
 RAMP = Change(0, 0, "gain", day=8, size=20.0, days=14)  # G11's gain: 0 -> +20 % over two weeks from day 8
@@ -61,16 +61,6 @@ def test_window_stretches_are_slices_of_the_one_record(config):
     centred = window_stretches(job, DAY, 2 * DAY - 1)
     np.testing.assert_allclose(centred[0].y.mean(axis=0), 0.0, atol=1e-12)
     np.testing.assert_allclose(centred[0].y + stretches[1].y.mean(axis=0), stretches[1].y, atol=1e-12)
-
-
-@pytest.mark.parametrize(("tasks", "jobs"), [(352, 2), (40, 2), (3, 2), (1, 4), (100, 3)])
-def test_window_chunks_cover_every_window_once_in_order_and_shrink(tasks, jobs):
-    chunks = window_chunks(list(range(tasks)), jobs)
-    assert [task for chunk in chunks for task in chunk] == list(range(tasks))
-    sizes = [len(chunk) for chunk in chunks]
-    assert sizes == sorted(sizes, reverse=True) and all(size >= 2 for size in sizes[:-1])
-    assert sizes[0] == min(tasks, max(2, -(-tasks // (2 * jobs))))  # a 1/(2 jobs) share of all
-    assert sizes[-1] <= 2  # the last chunks are small: the workers finish together
 
 
 def test_the_window_command_writes_windows_trend_and_the_last_window_on_top(export, capsys, tmp_path):

@@ -13,7 +13,6 @@ elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import signal
@@ -40,6 +39,7 @@ from ..data import PlantData
 from .historian import limits_given
 from .refusal import ServiceError
 from .shipping import ship, unship
+from .window_shares import WindowShares
 
 __all__ = [
     "Monitoring",
@@ -47,7 +47,6 @@ __all__ = [
     "diagnose_window",
     "monitor",
     "stretch_spans",
-    "window_chunks",
     "window_entry",
     "window_stretches",
 ]
@@ -218,41 +217,23 @@ ONSET_SETTINGS = OnsetSettings(scale_errors=True)
 
 _WORKER_JOB: WindowJob | None = None
 _WORKER_PIECES: PieceCache | None = None
+_WORKER_SHARES: WindowShares | None = None
 
 
-def _init_worker(shipped: bytes) -> None:
+def _init_worker(shipped: bytes, shares: WindowShares) -> None:
     # Ctrl-C goes to the whole process group; only the main process handles it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    global _WORKER_JOB, _WORKER_PIECES
+    global _WORKER_JOB, _WORKER_PIECES, _WORKER_SHARES
     job = unship(shipped)  # the record's arrays memory-mapped: not a copy per worker through the pool's pipe
-    _WORKER_JOB, _WORKER_PIECES = job, PieceCache(job.config.model)
+    _WORKER_JOB, _WORKER_PIECES, _WORKER_SHARES = job, PieceCache(job.config.model), shares
 
 
-def _work(chunk: list[tuple[int, int, int]]) -> list[tuple[int, Diagnosis]]:
-    if _WORKER_JOB is None:
-        raise RuntimeError("_work runs in a pool worker that _init_worker set up")
-    return [(task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]), pieces=_WORKER_PIECES)) for task in chunk]
-
-
-def window_chunks(tasks: Sequence[Any], jobs: int) -> list[list[Any]]:
-    """Consecutive windows in chunks for ``jobs`` pool workers, each a ``1 / (2 jobs)`` share of those left.
-
-    Large chunks first (a worker's pieces serve every next window of its chunk; a chunk's first window
-    computes all its pieces), small ones at the end, so that the workers finish together: with chunks of
-    one size (a quarter of a worker's share, as before) the last one could leave a core idle for the time
-    of 40 windows.  At least 2 windows a chunk.
-
-    Examples
-    --------
-    >>> [len(chunk) for chunk in window_chunks(list(range(40)), 2)]
-    [10, 8, 6, 4, 3, 3, 2, 2, 2]
-    """
-    chunks, start = [], 0
-    while start < len(tasks):
-        size = max(2, math.ceil((len(tasks) - start) / (2 * jobs)))
-        chunks.append(list(tasks[start : start + size]))
-        start += size
-    return chunks
+def _work_share(share: int) -> None:
+    """Windows of ``share`` (and those it takes over) in order, each result sent as it is done."""
+    if _WORKER_JOB is None or _WORKER_SHARES is None:
+        raise RuntimeError("_work_share runs in a pool worker that _init_worker set up")
+    while (task := _WORKER_SHARES.take(share)) is not None:
+        _WORKER_SHARES.put((task[0], diagnose_window(_WORKER_JOB, (task[1], task[2]), pieces=_WORKER_PIECES)))
 
 
 _CLUSTER_PIECES = threading.local()
@@ -280,8 +261,8 @@ def _run(
 ) -> None:
     """Every window's diagnosis, here, on a local pool or on the cluster; ``record(index, diagnosis)`` as each comes.
 
-    A pool worker takes consecutive windows in chunks (:func:`window_chunks`), so that its pieces serve the next
-    window.
+    A pool worker walks a contiguous share of the windows (:mod:`.window_shares`), so that its pieces serve the
+    next window.
     """
     if scheduler is not None:
         from ..sweep.cluster import run_on_cluster
@@ -294,15 +275,15 @@ def _run(
         for task in tasks:
             record(task[0], diagnose_window(job, (task[1], task[2]), pieces=pieces))
     else:
-        from ..core.sim.batch import worker_pool
+        from ..core.sim.batch import worker_context, worker_pool
 
+        shares = WindowShares(tasks, jobs, worker_context())
         with (
             tempfile.TemporaryDirectory(prefix="pmr_ros_record_") as folder,
-            worker_pool(jobs, _init_worker, (ship(job, Path(folder)),)) as pool,
+            worker_pool(jobs, _init_worker, (ship(job, Path(folder)), shares)) as pool,
         ):
-            for done in pool.imap_unordered(_work, window_chunks(tasks, jobs)):
-                for index, diagnosis in done:
-                    record(index, diagnosis)
+            for index, diagnosis in shares.results(pool.map_async(_work_share, range(jobs), chunksize=1)):
+                record(index, diagnosis)
 
 
 def _window_seconds(window: int | float | str, ts: float) -> float:
