@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 from types import MappingProxyType
 
@@ -325,6 +325,12 @@ def test_part_plain_spells_each_field_in_order_with_interval_bounds():
     assert _types(spelt) == _types(json.loads(json.dumps(spelt)))
     assert list(part_plain(FOPTD)) == ["kind", "gain", "time_constant", "delay_samples"]  # a model: no verdict
     assert part_plain(part) == spelt and part_plain(part)["quality"] is not spelt["quality"]
+    assert part_plain(_OneField(np.float64(0.5))) == {"ratio": 0.5}  # one field: its value alone, not a tuple
+
+
+@dataclass(frozen=True)
+class _OneField:
+    ratio: float
 
 
 # -- the reference bag, recorded by pmr_ros 0.1 (flat KeyValues, flat report)

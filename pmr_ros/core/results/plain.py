@@ -9,8 +9,9 @@ all -- pass without a call.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import fields
+from operator import attrgetter
 from typing import Any
 
 from .findings import ClassicResult, ParametricResult
@@ -28,7 +29,7 @@ _SCALARS = frozenset({float, int, str, bool, type(None)})
 
 _TEXT = frozenset({str})
 
-_Keys = tuple[tuple[tuple[str, str | None, str], ...], bool]
+_Keys = tuple[Callable[[Any], tuple[Any, ...]], tuple[tuple[str | None, str], ...], bool]
 _KEYS: dict[type, _Keys] = {}
 """Each result type's :func:`_keys`, made on its first part."""
 
@@ -44,7 +45,8 @@ def plain(value: Any) -> Any:
     """
     if type(value) in _SCALARS:  # most values: checked first
         return value
-    if isinstance(value, (tuple, list)):  # texts, pairs: copied whole when every item is plain
+    # texts and pairs (a tuple: decided without a call), copied whole when every item is plain
+    if type(value) is tuple or isinstance(value, (tuple, list)):
         return list(value) if _SCALARS.issuperset(map(type, value)) else [plain(v) for v in value]
     if type(value) is dict or isinstance(value, Mapping):  # the abstract check costs ten times the first
         if _TEXT.issuperset(map(type, value)) and _SCALARS.issuperset(map(type, value.values())):
@@ -54,14 +56,18 @@ def plain(value: Any) -> Any:
 
 
 def _keys(cls: type) -> _Keys:
-    """Per field of a result type: name, bounds' keys (an interval's; else None and the name); if it has a verdict."""
+    """A result type's getter of its field values, each field's keys, and whether it carries a verdict.
+
+    The getter reads every field in one call (``attrgetter``: a tuple from two fields on), not a ``getattr``
+    a field; a field's keys are an interval's two bounds', else None and its name.
+    """
+    names = [f.name for f in fields(cls)]
+    values = attrgetter(*names) if len(names) > 1 else lambda part: tuple(getattr(part, n) for n in names)
     keys = tuple(
-        (f.name, f.name[: -len(INTERVAL)] + LOW, f.name[: -len(INTERVAL)] + HIGH)
-        if f.name.endswith(INTERVAL)
-        else (f.name, None, f.name)
-        for f in fields(cls)
+        (name[: -len(INTERVAL)] + LOW, name[: -len(INTERVAL)] + HIGH) if name.endswith(INTERVAL) else (None, name)
+        for name in names
     )
-    return _KEYS.setdefault(cls, (keys, issubclass(cls, (ClassicResult, ParametricResult))))
+    return _KEYS.setdefault(cls, (values, keys, issubclass(cls, (ClassicResult, ParametricResult))))
 
 
 def part_plain(part: Any) -> dict[str, Any]:
@@ -78,10 +84,9 @@ def part_plain(part: Any) -> dict[str, Any]:
     >>> spelt["tau_mismatch_pct_low"], spelt["tau_mismatch_pct_high"], spelt["verdict"]
     (None, None, 'inconclusive')
     """
-    keys, verdict = _KEYS.get(type(part)) or _keys(type(part))
+    values, keys, verdict = _KEYS.get(type(part)) or _keys(type(part))
     out: dict[str, Any] = {}
-    for name, low, key in keys:
-        value = getattr(part, name)
+    for (low, key), value in zip(keys, values(part), strict=True):
         if low is None:  # not an interval: its value checked here rather than in a call
             out[key] = value if type(value) in _SCALARS else plain(value)
         elif value is None:
