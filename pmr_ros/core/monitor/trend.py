@@ -314,9 +314,11 @@ def trend_onsets(
     import pandas
 
     rows = []
+    parsed: dict[tuple[Any, ...], np.ndarray] = {}  # the elements share their windows' times: parsed once
     for element, rows_of in table.groupby("element", sort=False):
         ordered = rows_of.sort_values("window")
-        ends = _seconds(ordered[time])
+        times = tuple(ordered[time].to_numpy(dtype=object))
+        ends = (parsed[times] if times in parsed else parsed.setdefault(times, _seconds(ordered[time]))).copy()
         first = _first_lasting_window(ordered)
         for parameter, key in PARAMETERS.items():
             errors = _errors(ordered, key, (default_errors or {}).get(parameter))
