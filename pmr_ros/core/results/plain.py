@@ -91,9 +91,10 @@ def part_plain(part: Any) -> dict[str, Any]:
             out[key] = value if type(value) in _SCALARS else plain(value)
         elif value is None:
             out[low] = out[key] = None  # targets assigned left to right: the low bound's key first
-        else:
+        else:  # the bounds: plain floats nearly always, checked here too
             low_value, high_value = value
-            out[low], out[key] = plain(low_value), plain(high_value)
+            out[low] = low_value if type(low_value) in _SCALARS else plain(low_value)
+            out[key] = high_value if type(high_value) in _SCALARS else plain(high_value)
     if verdict:
         out["verdict"] = part.verdict
     return out
