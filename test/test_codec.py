@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 import pytest
@@ -44,6 +45,7 @@ from pmr_ros.core.results.codec import (
     result_from_csv_fields,
     status_key_values,
 )
+from pmr_ros.core.results.plain import part_plain, plain
 from pmr_ros.report.table import format_classic_table, format_parametric_table, format_table, summary_line
 from pmr_ros.sweep import store
 
@@ -266,6 +268,69 @@ def test_values_encode_losslessly():
         assert back == (value.item() if hasattr(value, "item") else value)
     assert decode_value("not json") == "not json" and encode_value("text") == "text"
     assert math.isnan(decode_value(encode_value(math.nan)))
+
+
+def _types(value):
+    """The value's shape with every leaf's type: plain values compare equal to numpy ones, their types do not."""
+    if isinstance(value, dict):
+        return {key: (type(key), _types(v)) for key, v in value.items()}
+    if isinstance(value, list):
+        return [_types(v) for v in value]
+    return type(value)
+
+
+def test_plain_values_are_python_values_in_fresh_containers():
+    shares = {"dither_u1": 0.75, "setpoint_y1": 0.25}
+    value = {
+        "shares": shares,
+        "numbers": {1: np.float64(0.5), "n": np.int64(3)},
+        "view": MappingProxyType({"flag": np.bool_(True), "texts": ("a", "b")}),
+        "pairs": (np.float32(1.5), (None, 2), [True]),
+        "empty": (),
+    }
+    spelt = plain(value)
+    assert spelt == {
+        "shares": {"dither_u1": 0.75, "setpoint_y1": 0.25},
+        "numbers": {"1": 0.5, "n": 3},
+        "view": {"flag": True, "texts": ["a", "b"]},
+        "pairs": [1.5, [None, 2], [True]],
+        "empty": [],
+    }
+    assert _types(spelt) == _types(json.loads(json.dumps(spelt)))  # what JSON gives back: no numpy type left
+    assert spelt["shares"] is not shares  # a copy: the caller may change it
+
+
+def test_part_plain_spells_each_field_in_order_with_interval_bounds():
+    part = ParametricResult(
+        gain_mismatch_pct=np.float64(12.0),
+        gain_mismatch_pct_interval=(np.float64(9.0), 15.0),
+        delay_mismatch_samples=np.int64(2),
+        gain_verdict="mismatch",
+        reasons=("few samples",),
+        quality={"coherence": np.float64(0.9), "bins": 40},
+    )
+    spelt = part_plain(part)
+    keys = []
+    for f in fields(ParametricResult):  # the order of the fields, each interval as its two bounds
+        base = f.name.removesuffix("_interval")
+        keys += [f"{base}_low", f"{base}_high"] if base != f.name else [f.name]
+    assert list(spelt) == [*keys, "verdict"]
+    assert spelt["gain_mismatch_pct_low"] == 9.0 and spelt["gain_mismatch_pct_high"] == 15.0
+    assert spelt["tau_mismatch_pct_low"] is None and spelt["tau_mismatch_pct_high"] is None
+    assert (spelt["verdict"], spelt["reasons"], spelt["quality"]) == (
+        "mismatch",
+        ["few samples"],
+        {"coherence": 0.9, "bins": 40},
+    )
+    assert _types(spelt) == _types(json.loads(json.dumps(spelt)))
+    assert list(part_plain(FOPTD)) == ["kind", "gain", "time_constant", "delay_samples"]  # a model: no verdict
+    assert part_plain(part) == spelt and part_plain(part)["quality"] is not spelt["quality"]
+    assert part_plain(_OneField(np.float64(0.5))) == {"ratio": 0.5}  # one field: its value alone, not a tuple
+
+
+@dataclass(frozen=True)
+class _OneField:
+    ratio: float
 
 
 # -- the reference bag, recorded by pmr_ros 0.1 (flat KeyValues, flat report)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.linalg import cho_factor, cho_solve, cholesky, solve_triangular
+from scipy.linalg import cho_factor, cho_solve, cholesky, cholesky_banded, solve_triangular
 
 from pmr_ros.core.monitor import window_plan, window_views
 from pmr_ros.core.monitor.changepoint import (
@@ -54,6 +54,28 @@ def test_whiten_equals_the_dense_cholesky_solve(nugget):
     columns = rng.standard_normal((ends.size, 7))
     dense = solve_triangular(cholesky(_covariance(ends, errors, 14.0, nugget), lower=True), columns, lower=True)
     np.testing.assert_allclose(whiten(_band(ends, errors, 14.0, nugget), columns), dense, rtol=1e-8, atol=1e-8)
+
+
+def _row_by_row(band, columns):
+    """The forward substitution a row at a time, each row's factor entries gathered as it comes."""
+    chol = cholesky_banded(band, lower=True)
+    width, n = chol.shape
+    out = np.empty(columns.shape)
+    for i in range(n):
+        lo = max(0, i - width + 1)
+        earlier = np.arange(lo, i)
+        out[i] = (columns[i] - chol[i - earlier, earlier] @ out[lo:i]) / chol[0, i]
+    return out
+
+
+@pytest.mark.parametrize("spacing", [1.0, 3.0, 20.0])  # 20: windows apart, a diagonal covariance (band of one)
+def test_whiten_keeps_the_bits_of_the_row_by_row_substitution(spacing):
+    rng = np.random.default_rng(4)
+    ends = spacing * np.arange(60.0)
+    band = _band(ends, rng.uniform(0.5, 2.0, ends.size), 14.0, 0.02)
+    columns = np.column_stack([rng.standard_normal(ends.size), np.ones(ends.size), rng.random((ends.size, 300))])
+    whitened = whiten(band, columns)
+    assert whitened.view(np.int64).tolist() == _row_by_row(band, columns).view(np.int64).tolist()
 
 
 def test_fit_shapes_equals_dense_generalized_least_squares():

@@ -115,6 +115,18 @@ def test_missing_fields_are_empty_cells_and_elements_may_come_as_a_list():
         trend_table([{"first": 0, "last": 9}])
 
 
+def test_an_elements_own_value_comes_first_and_its_parametric_parts_where_it_has_none():
+    element = {
+        "verdict": "ok",
+        "gain_mismatch_pct": None,
+        "tau_mismatch_pct": 2.0,
+        "parametric": {"verdict": "mismatch", "gain_mismatch_pct": 5.0, "tau_mismatch_pct": 1.0, "tau_verdict": "ok"},
+    }
+    (row,) = trend_table([{"first": 0, "last": 9, "elements": {"G11": element}}]).to_dict(orient="records")
+    assert (row["verdict"], row["gain_mismatch_pct"], row["tau_mismatch_pct"]) == ("ok", 5.0, 2.0)
+    assert row["tau_verdict"] == "ok" and row["gain_verdict"] is None
+
+
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_the_table_round_trips_through_csv_and_parquet(tmp_path, suffix):
     table = trend_table(_windows(nested=False))

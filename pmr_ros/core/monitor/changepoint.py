@@ -286,11 +286,18 @@ def whiten(band: np.ndarray, columns: np.ndarray) -> np.ndarray:
     # far fewer calls than LAPACK's column-by-column band solve for thousands of columns
     chol = cholesky_banded(band, lower=True)
     width, n = chol.shape
+    # each row's factor entries left of its diagonal, L[i, i-b+1 .. i-1], gathered at once rather than a
+    # row at a time (before the band starts: clipped indices, never read); the products and divisions
+    # below are those of the row-by-row substitution, in the same order: the same bits
+    earlier = np.arange(n)[:, None] + np.arange(1 - width, 0)[None, :]
+    left = chol[np.clip(-np.arange(1 - width, 0), 0, width - 1)[None, :], np.clip(earlier, 0, None)]
     out = np.empty(columns.shape)
+    product = np.empty(columns.shape[1])
     for i in range(n):
         lo = max(0, i - width + 1)
-        earlier = np.arange(lo, i)
-        out[i] = (columns[i] - chol[i - earlier, earlier] @ out[lo:i]) / chol[0, i]
+        np.matmul(left[i, width - 1 - (i - lo) :], out[lo:i], out=product)  # into one buffer: no array a row
+        np.subtract(columns[i], product, out=out[i])
+        out[i] /= chol[0, i]
     return out
 
 

@@ -4,7 +4,8 @@
 :mod:`.matrix` the diagnosis of each element and of the whole model,
 :mod:`.agreement` whether two diagnoses agree, and :mod:`.codec` every flat
 form of them (JSON, /diagnostics KeyValues, the estimates message, the sweep
-CSV row) with one spelling.  Import the names from here.
+CSV row) with one spelling, each made of one part's plain values
+(:mod:`.plain`).  Import the names from here.
 """
 
 from .agreement import ABSOLUTE_TOLERANCE, DERIVED_KEYS, LATER_KEYS, RELATIVE_TOLERANCE, compare_diagnoses

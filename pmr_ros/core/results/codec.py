@@ -36,6 +36,7 @@ from typing import Any
 from .findings import ClassicResult, DataQuality, ElementModel, ImpactResult, ParametricResult
 from .legacy import element_from_v01, status_from_v01
 from .matrix import Diagnosis, ElementDiagnosis, Part
+from .plain import HIGH, INTERVAL, LOW, part_plain, plain
 
 __all__ = [
     "CSV_FIELDS",
@@ -58,12 +59,6 @@ __all__ = [
     "status_key_values",
 ]
 
-LOW, HIGH = "_low", "_high"
-"""Suffixes of an interval's bounds, in every flat form."""
-
-INTERVAL = "_interval"
-"""Suffix of an interval field of the result objects (a ``(low, high)`` pair)."""
-
 WINDOW_KEYS = ("window_samples", "first_sample", "last_sample")
 """KeyValues of the diagnosed window [samples]."""
 
@@ -81,7 +76,6 @@ PARTS: dict[str, type[ClassicResult] | type[ParametricResult]] = {
     "parametric": ParametricResult,
 }
 """Each method's result type, by the name of its part."""
-_FIELDS: dict[type, tuple[Any, ...]] = {}  # each result type's dataclass fields, looked up once (a year's JSON: 1/6)
 
 CSV_FIELDS = tuple(
     "gain_ratio tau_index gain_mismatch_pct gain_mismatch_pct_low gain_mismatch_pct_high tau_mismatch_pct "
@@ -104,7 +98,7 @@ def encode_value(value: Any) -> str:
     """A KeyValue's string: text as it is, everything else as JSON (floats lossless)."""
     if isinstance(value, str):
         return value
-    return json.dumps(_plain(value))
+    return json.dumps(plain(value))
 
 
 def decode_value(text: str) -> Any:
@@ -113,17 +107,6 @@ def decode_value(text: str) -> Any:
         return json.loads(text)
     except ValueError:
         return text
-
-
-def _plain(value: Any) -> Any:
-    """Tuples, mappings and numpy scalars as plain JSON-ready Python values."""
-    if value is None or type(value) in (float, int, str, bool):  # most fields: checked first, a window's JSON 2x
-        return value
-    if isinstance(value, (tuple, list)):
-        return [_plain(v) for v in value]
-    if type(value) is dict or isinstance(value, Mapping):  # the abstract check costs ten times the first
-        return {str(k): _plain(v) for k, v in value.items()}
-    return value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value
 
 
 def _flatten(tree: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -149,40 +132,26 @@ def _nest(flat: Mapping[str, Any]) -> dict[str, Any]:
     return tree
 
 
-def _part_json(part: Any) -> dict[str, Any]:
-    """The fields of a result dataclass, an interval as its ``_low``/``_high`` bounds."""
-    out: dict[str, Any] = {}
-    for f in _FIELDS.get(type(part)) or _FIELDS.setdefault(type(part), fields(part)):
-        value = getattr(part, f.name)
-        if f.name.endswith(INTERVAL):
-            base = f.name[: -len(INTERVAL)]
-            low, high = (None, None) if value is None else value
-            out[base + LOW], out[base + HIGH] = _plain(low), _plain(high)
-        else:
-            out[f.name] = _plain(value)
-    if isinstance(part, (ClassicResult, ParametricResult)):
-        out["verdict"] = part.verdict
-    return out
-
-
 def _optional_json(part: Any) -> dict[str, Any] | None:
-    return None if part is None else _part_json(part)
+    return None if part is None else part_plain(part)
 
 
 def element_to_json(element: ElementDiagnosis) -> dict[str, Any]:
     """One element as JSON-ready values: position, verdict, method, model, each method's result, summary."""
+    # the absent parts tested here, not in _optional_json: a year's monitor spells 11,000 elements
+    classic, parametric, impact, quality = element.classic, element.parametric, element.impact, element.data_quality
     return {
         "element": element.name,
         "row": element.row,
         "column": element.column,
         "verdict": element.verdict,
         "method": element.method,
-        "model": _part_json(element.model),
-        "classic": _optional_json(element.classic),
-        "parametric": _optional_json(element.parametric),
+        "model": part_plain(element.model),
+        "classic": None if classic is None else part_plain(classic),
+        "parametric": None if parametric is None else part_plain(parametric),
         "reasons": list(element.reasons),
-        "impact": _optional_json(element.impact),
-        "data_quality": _optional_json(element.data_quality),
+        "impact": None if impact is None else part_plain(impact),
+        "data_quality": None if quality is None else part_plain(quality),
         SUMMARY_KEY: element.summary(),
     }
 
@@ -285,7 +254,7 @@ def status_key_values(
     """
     common: dict[str, Any] = {"status": state, "reason": diagnosis.reason, **window}
     if diagnosis.impact is not None:
-        common.update(_flatten({IMPACT_KEY: _part_json(diagnosis.impact)}))
+        common.update(_flatten({IMPACT_KEY: part_plain(diagnosis.impact)}))
     return [(key, encode_value(value)) for key, value in common.items()] + element_key_values(element)
 
 
@@ -383,7 +352,7 @@ def csv_fields(element: ElementDiagnosis) -> dict[str, Any]:
     out: dict[str, Any] = dict.fromkeys(CSV_FIELDS)
     result = element.result
     if result is not None:
-        out.update({key: value for key, value in _part_json(result).items() if key in out})
+        out.update({key: value for key, value in part_plain(result).items() if key in out})
     out["verdict"] = element.verdict
     return out
 
