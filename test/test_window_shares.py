@@ -1,10 +1,13 @@
 """Contiguous window shares for pool workers: every window once, few cold starts, results and errors streamed."""
 
+import os
 import random
+import signal
 
 import pytest
 
 from pmr_ros.core.sim.batch import worker_context, worker_pool
+from pmr_ros.service.refusal import ServiceError
 from pmr_ros.service.window_shares import MIN_STEAL, WindowShares, share_bounds, take_window
 
 
@@ -81,3 +84,20 @@ def test_a_failing_window_raises_in_the_parent():
     shares = WindowShares([1, 2, "bad", 3], 2, worker_context())
     with pytest.raises(ValueError, match="window 'bad' failed"), worker_pool(2, _init, (shares,)) as pool:
         list(shares.results(pool.map_async(_square_all, range(2), chunksize=1), poll_s=0.05))
+
+
+def _die_on_bad(share: int) -> None:
+    assert _SHARES is not None
+    while (task := _SHARES.take(share)) is not None:
+        if task == "die":
+            os.kill(os.getpid(), signal.SIGKILL)  # the OOM killer's way: no exception, no result
+        _SHARES.put((task, task))
+
+
+def test_a_worker_killed_mid_run_is_one_line_not_a_wait_forever():
+    tasks = [1, 2, "die", *range(3, 40)]
+    shares = WindowShares(tasks, 2, worker_context())
+    with pytest.raises(ServiceError, match=r"window worker process \(pid \d+\) ended .* of 40 windows") as caught:
+        with worker_pool(2, _init, (shares,)) as pool:
+            list(shares.results(pool.map_async(_die_on_bad, range(2), chunksize=1), poll_s=0.05))
+    assert caught.value.code == 1

@@ -352,6 +352,7 @@ def monitor(
     ------
     ServiceError
         A window longer than the data, a step of zero, a length that is not one (one line).
+        A local worker process that ended before its windows were done (killed, out of memory).
     ClusterError
         ``scheduler`` cannot be used.
     """

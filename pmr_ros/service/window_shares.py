@@ -11,16 +11,21 @@ worker whose share is done takes the back half of the largest share left
 
 Results come back one window at a time through a queue, as the windows are
 done, not at the end of a share: the parent unpickles them while the workers
-run, and a failing window is reported as soon as its share fails.
+run, and a failing window is reported as soon as its share fails.  A worker
+that dies (killed, out of memory) is reported too: a pool only replaces it, and
+the windows it held would be waited for forever.
 """
 
 from __future__ import annotations
 
+import os
 import queue
 from collections.abc import Iterator, MutableSequence, Sequence
 from multiprocessing.context import BaseContext
 from multiprocessing.pool import AsyncResult
 from typing import Any
+
+from .refusal import ServiceError
 
 __all__ = ["MIN_STEAL", "WindowShares", "share_bounds", "take_window"]
 
@@ -108,10 +113,12 @@ class WindowShares:
         self.tasks = tuple(tasks)
         self.jobs = jobs
         self._bounds = context.Array("q", share_bounds(len(self.tasks), jobs))
+        self._workers = context.Array("q", jobs, lock=False)  # each share's worker process id, once it began
         self._queue = context.Queue()
 
     def take(self, share: int) -> Any | None:
         """The next task of ``share`` (:func:`take_window`), or None when every window is taken."""
+        self._workers[share] = os.getpid()
         with self._bounds.get_lock():
             index = take_window(self._bounds.get_obj(), share)  # type: ignore[arg-type]  # a ctypes array of int64
         return None if index is None else self.tasks[index]
@@ -127,8 +134,10 @@ class WindowShares:
         ------
         Exception
             What a worker's share raised (a window's error), as soon as the pool reports it.
+        ServiceError
+            A worker process ended before the windows were done (one line; exit code 1).
         """
-        for _ in self.tasks:
+        for done in range(len(self.tasks)):
             while True:
                 try:
                     yield self._queue.get(timeout=poll_s)
@@ -136,3 +145,24 @@ class WindowShares:
                 except queue.Empty:
                     if running.ready() and not running.successful():
                         running.get()  # raises the worker's error here
+                    self._check_workers(done)
+
+    def _check_workers(self, done: int) -> None:
+        for pid in self._workers:
+            if pid and not _alive(pid):
+                raise ServiceError(
+                    f"a window worker process (pid {pid}) ended before its windows were done (killed? out of "
+                    f"memory?): {done} of {len(self.tasks)} windows diagnosed",
+                    code=1,
+                )
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs (POSIX: the pool's fork server reaps its ended children)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process now holds the id: ours has ended
+        return False
+    return True
