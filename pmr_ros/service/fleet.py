@@ -21,13 +21,23 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .refusal import ServiceError
 
-__all__ = ["FleetEntry", "diagnose_entry", "rank_rows", "read_fleet", "run_fleet"]
+__all__ = [
+    "WORKER_ENDED",
+    "FleetEntry",
+    "diagnose_entry",
+    "failed_entry",
+    "rank_rows",
+    "read_fleet",
+    "run_fleet",
+    "run_local",
+]
 
 
 @dataclass(frozen=True)
@@ -217,6 +227,47 @@ def entry_report(entry: FleetEntry, config: Any) -> dict[str, Any]:
     return report
 
 
+def failed_entry(name: str, reason: str) -> tuple[list[dict[str, Any]], None]:
+    """The one ``failed`` summary row of controller ``name`` and its missing report."""
+    row = {"controller": name, "element": None, "verdict": "failed", "onset": None, "ise_ratio": None}
+    return [row | {"size_over_tolerance": None, "report": None, "reason": " ".join(reason.split())}], None
+
+
+WORKER_ENDED = "its worker process ended (killed? out of memory?)"
+"""The reason of an entry whose diagnosis ended its process, and did again when run alone."""
+
+
+def run_local(entries: list[Any], *, jobs: int, work: Callable[[Any], Any] | None = None) -> dict[str, Any]:
+    """``work(entry)`` (default :func:`diagnose_entry`, a module's function) of every entry on ``jobs`` processes.
+
+    A process that ends mid-entry (the out-of-memory killer, a signal) breaks the whole pool: every entry not
+    done then is run again alone, one at a time, each on a process of its own, and one that ends its process
+    again is :func:`failed_entry` with :data:`WORKER_ENDED`; the others keep their results.
+    """
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    from ..core.sim.batch import worker_context
+
+    work = diagnose_entry if work is None else work
+    found: dict[str, Any] = {}  # by entry name
+    broken: list[Any] = []
+    with ProcessPoolExecutor(jobs, mp_context=worker_context()) as pool:
+        futures = {pool.submit(work, entry): entry for entry in entries}
+        for future in as_completed(futures):
+            try:
+                found[futures[future].name] = future.result()
+            except BrokenProcessPool:
+                broken.append(futures[future])
+    for entry in sorted(broken, key=entries.index):
+        with ProcessPoolExecutor(1, mp_context=worker_context()) as alone:
+            try:
+                found[entry.name] = alone.submit(work, entry).result()
+            except BrokenProcessPool:
+                found[entry.name] = failed_entry(entry.name, WORKER_ENDED)
+    return found
+
+
 def diagnose_entry(entry: FleetEntry) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
     """One controller: its summary rows and JSON report (None when it failed: one ``failed`` row saying why)."""
     from ..config import ConfigError, load_config
@@ -227,9 +278,7 @@ def diagnose_entry(entry: FleetEntry) -> tuple[list[dict[str, Any]], dict[str, A
                 raise ServiceError(f"{what} {path}: no such file")
         report = entry_report(entry, load_config(entry.params))
     except (ServiceError, ConfigError, ValueError, OSError) as exc:
-        reason = " ".join(str(exc).split())
-        row = {"controller": entry.name, "element": None, "verdict": "failed", "onset": None, "ise_ratio": None}
-        return [row | {"size_over_tolerance": None, "report": None, "reason": reason}], None
+        return failed_entry(entry.name, str(exc))
     folder = None if entry.report is None else entry.report.name
     return summary_rows(entry.name, report, folder), report
 
@@ -265,9 +314,6 @@ def run_fleet(
     elif jobs == 1:
         found = {entry.name: diagnose_entry(entry) for entry in entries}
     else:
-        from ..core.sim.batch import worker_context
-
-        with worker_context().Pool(jobs) as pool:
-            found = dict(zip((e.name for e in entries), pool.map(diagnose_entry, entries, chunksize=1), strict=True))
+        found = run_local(entries, jobs=jobs)
     rows = [row for entry in entries for row in found[entry.name][0]]
     return rank_rows(rows), {name: result[1] for name, result in found.items()}
