@@ -111,7 +111,6 @@ class WindowShares:
 
     def __init__(self, tasks: Sequence[Any], jobs: int, context: BaseContext):
         self.tasks = tuple(tasks)
-        self.jobs = jobs
         self._bounds = context.Array("q", share_bounds(len(self.tasks), jobs))
         self._workers = context.Array("q", jobs, lock=False)  # each share's worker process id, once it began
         self._queue = context.Queue()

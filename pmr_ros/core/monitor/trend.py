@@ -318,7 +318,9 @@ def trend_onsets(
     for element, rows_of in table.groupby("element", sort=False):
         ordered = rows_of.sort_values("window")
         times = tuple(ordered[time].to_numpy(dtype=object))
-        ends = (parsed[times] if times in parsed else parsed.setdefault(times, _seconds(ordered[time]))).copy()
+        if times not in parsed:
+            parsed[times] = _seconds(ordered[time])
+        ends = parsed[times].copy()
         first = _first_lasting_window(ordered)
         for parameter, key in PARAMETERS.items():
             errors = _errors(ordered, key, (default_errors or {}).get(parameter))

@@ -138,8 +138,6 @@ def _optional_json(part: Any) -> dict[str, Any] | None:
 
 def element_to_json(element: ElementDiagnosis) -> dict[str, Any]:
     """One element as JSON-ready values: position, verdict, method, model, each method's result, summary."""
-    # the absent parts tested here, not in _optional_json: a year's monitor spells 11,000 elements
-    classic, parametric, impact, quality = element.classic, element.parametric, element.impact, element.data_quality
     return {
         "element": element.name,
         "row": element.row,
@@ -147,11 +145,11 @@ def element_to_json(element: ElementDiagnosis) -> dict[str, Any]:
         "verdict": element.verdict,
         "method": element.method,
         "model": part_plain(element.model),
-        "classic": None if classic is None else part_plain(classic),
-        "parametric": None if parametric is None else part_plain(parametric),
+        "classic": _optional_json(element.classic),
+        "parametric": _optional_json(element.parametric),
         "reasons": list(element.reasons),
-        "impact": None if impact is None else part_plain(impact),
-        "data_quality": None if quality is None else part_plain(quality),
+        "impact": _optional_json(element.impact),
+        "data_quality": _optional_json(element.data_quality),
         SUMMARY_KEY: element.summary(),
     }
 
