@@ -132,3 +132,32 @@ def test_an_output_disturbance_enters_simulate_and_the_lockstep_batch_alike_and_
     # y(0): the plant at rest, so the measurement is noise + d(0), d from its own stream
     d0 = DisturbanceStream(disturbance, 2, 4).draw()
     np.testing.assert_allclose(disturbed.y[0] - plain.y[0], d0, rtol=0, atol=1e-15)
+
+
+def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    # a module that remembers which process imported it: a worker forked from a fork server that imported it
+    # holds the server's pid there, a worker that imported it itself its own
+    (tmp_path / "probe_module.py").write_text("import os\nIMPORTED_BY = os.getpid()\n\ndef setup():\n    pass\n")
+    script = (
+        "import os\n"
+        "import probe_module\n"
+        "from pmr_ros.core.sim.batch import worker_pool\n"
+        "def imported_before_fork(_):\n"
+        "    import probe_module\n"
+        "    return probe_module.IMPORTED_BY != os.getpid()\n"
+        "if __name__ == '__main__':\n"
+        "    with worker_pool(2, probe_module.setup, ()) as pool:\n"
+        "        print(pool.map(imported_before_fork, range(4)))\n"
+    )
+    (tmp_path / "main_script.py").write_text(script)
+    root = Path(__file__).resolve().parent.parent
+    env = {**__import__("os").environ, "PYTHONPATH": f"{tmp_path}:{root}"}
+    done = subprocess.run(
+        [sys.executable, str(tmp_path / "main_script.py")], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[True, True, True, True]"

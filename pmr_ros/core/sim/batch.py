@@ -44,7 +44,7 @@ from .excitation import PrbsGenerator, dither_generator
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .true_plant import DisturbanceStream, noise_generator
 
-__all__ = ["LockstepResult", "run_lockstep", "simulate_many", "worker_context", "worker_pool"]
+__all__ = ["LockstepResult", "preload_for", "run_lockstep", "simulate_many", "worker_context", "worker_pool"]
 
 
 @dataclass(frozen=True)
@@ -285,16 +285,33 @@ def worker_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("forkserver")
 
 
+def preload_for(context: multiprocessing.context.BaseContext, work: Callable[..., Any]) -> None:
+    """Have the fork server of ``context`` import the module of ``work`` when it starts.
+
+    Each worker otherwise imports it after the fork (2 s for the diagnosis's modules, most of it
+    scipy.signal), and in turn: the pool waits on a worker's pipe while the worker, mid-way through reading
+    its initial arguments, imports the module that defines its initializer.  A fork server's modules are set
+    when it starts; one already running (a pool earlier in this process) keeps its own, and the workers
+    import what it lacks themselves.
+    """
+    module = getattr(work, "__module__", None)
+    if context.get_start_method() == "forkserver" and module not in (None, "__main__"):
+        context.set_forkserver_preload([module])
+
+
 @contextmanager
 def worker_pool(
     jobs: int, initializer: Callable[..., None], initargs: tuple[Any, ...]
 ) -> Iterator[multiprocessing.pool.Pool]:
     """A pool of ``jobs`` :func:`worker_context` workers, each set up by ``initializer(*initargs)``.
 
-    Closed and joined when the block ends; terminated first when it raises (a Ctrl-C, a worker's error):
-    the workers' results still on their way are dropped rather than waited for.
+    The initializer's module is imported once by the fork server, which then forks the workers
+    (:func:`preload_for`). Closed and joined when the block ends; terminated first when it raises (a Ctrl-C,
+    a worker's error): the workers' results still on their way are dropped rather than waited for.
     """
-    pool = worker_context().Pool(jobs, initializer=initializer, initargs=initargs)
+    context = worker_context()
+    preload_for(context, initializer)
+    pool = context.Pool(jobs, initializer=initializer, initargs=initargs)
     try:
         yield pool
         pool.close()
