@@ -134,7 +134,7 @@ def test_an_output_disturbance_enters_simulate_and_the_lockstep_batch_alike_and_
     np.testing.assert_allclose(disturbed.y[0] - plain.y[0], d0, rtol=0, atol=1e-15)
 
 
-def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server(tmp_path):
+def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server_started_early_or_not(tmp_path):
     import subprocess
     import sys
     from pathlib import Path
@@ -145,19 +145,32 @@ def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server(tm
     script = (
         "import os\n"
         "import probe_module\n"
-        "from pmr_ros.core.sim.batch import worker_pool\n"
+        "from pmr_ros.core.sim.batch import start_fork_server, worker_pool\n"
         "def imported_before_fork(_):\n"
         "    import probe_module\n"
         "    return probe_module.IMPORTED_BY != os.getpid()\n"
+        "def fork_servers():\n"
+        "    import psutil\n"
+        "    return sum('forkserver' in ' '.join(p.cmdline()) for p in psutil.Process().children())\n"
         "if __name__ == '__main__':\n"
+        "    print(fork_servers())\n"
+        "    if os.environ.get('START_EARLY'):\n"
+        "        start_fork_server(probe_module.setup)\n"
+        "        start_fork_server(probe_module.setup)  # one server, however often asked\n"
+        "        print(fork_servers())\n"
         "    with worker_pool(2, probe_module.setup, ()) as pool:\n"
         "        print(pool.map(imported_before_fork, range(4)))\n"
     )
     (tmp_path / "main_script.py").write_text(script)
     root = Path(__file__).resolve().parent.parent
     env = {**__import__("os").environ, "PYTHONPATH": f"{tmp_path}:{root}"}
-    done = subprocess.run(
-        [sys.executable, str(tmp_path / "main_script.py")], capture_output=True, text=True, env=env, timeout=120
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "[True, True, True, True]"
+    for early, printed in (("", ["0"]), ("1", ["0", "1"])):  # start_fork_server: the server runs before any pool
+        done = subprocess.run(
+            [sys.executable, str(tmp_path / "main_script.py")],
+            capture_output=True,
+            text=True,
+            env={**env, "START_EARLY": early},
+            timeout=120,
+        )
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.split("\n")[:-1] == [*printed, "[True, True, True, True]"]

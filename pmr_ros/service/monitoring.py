@@ -363,6 +363,12 @@ def monitor(
     job = WindowJob(config, data, data.usable)
     tasks = [(index, first, last) for index, (first, last) in enumerate(plan)]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    if scheduler is None and jobs > 1:
+        from ..core.sim.batch import start_fork_server
+
+        # the workers' modules load on one core while this process loads the trend table's pandas on the other
+        start_fork_server(_init_worker)
+        import pandas  # noqa: F401
     if progress is not None:
         where = f"the Dask cluster at {scheduler}" if scheduler else f"{jobs} process(es)"
         progress(f"diagnosing {len(tasks)} windows on {where}")

@@ -44,7 +44,15 @@ from .excitation import PrbsGenerator, dither_generator
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .true_plant import DisturbanceStream, noise_generator
 
-__all__ = ["LockstepResult", "preload_for", "run_lockstep", "simulate_many", "worker_context", "worker_pool"]
+__all__ = [
+    "LockstepResult",
+    "preload_for",
+    "run_lockstep",
+    "simulate_many",
+    "start_fork_server",
+    "worker_context",
+    "worker_pool",
+]
 
 
 @dataclass(frozen=True)
@@ -297,6 +305,21 @@ def preload_for(context: multiprocessing.context.BaseContext, work: Callable[...
     module = getattr(work, "__module__", None)
     if context.get_start_method() == "forkserver" and module not in (None, "__main__"):
         context.set_forkserver_preload([module])
+
+
+def start_fork_server(initializer: Callable[..., None]) -> None:
+    """Start :func:`worker_context`'s fork server now, importing ``initializer``'s module, and do not wait for it.
+
+    The server imports while this process goes on (2 s for the diagnosis's modules); a :func:`worker_pool` made
+    later with the same initializer connects to it and forks its workers at once.  Nothing happens when the
+    server already runs.
+    """
+    import multiprocessing.forkserver
+
+    context = worker_context()
+    if context.get_start_method() == "forkserver":
+        preload_for(context, initializer)
+        multiprocessing.forkserver.ensure_running()
 
 
 @contextmanager
