@@ -9,8 +9,8 @@
 lockstep run (test/drifting.py), one gain ramping 0 -> +20 % over two weeks
 from day 120 and one delay stepping +2 samples on day 250.  Printed: the
 generation time, then the monitor's wall time (every window diagnosed on
-``--jobs`` processes, the trend table and the onsets) and the peak resident
-memory of this process and of its largest worker, and the onsets found
+``--jobs`` processes, the trend table and the onsets), the peak memory of this
+process and its workers together (:class:`PeakMemory`), and the onsets found
 against the injected ones.  ``--cache DIR`` keeps the generated record.
 
 ``fleet``: ``--controllers`` generated controllers of different shapes
@@ -88,16 +88,21 @@ def _shifted(changes: tuple[Change, ...], start: int) -> tuple[Change, ...]:
 
 
 class PeakMemory:
-    """The largest resident memory of this process and all its descendants together [MB], and their CPU time [s].
+    """The largest memory of this process and all its descendants together [MB], and their CPU time [s].
 
-    The pool's workers are the fork server's children; sampled every 0.2 s while it runs.  The CPU time
-    (user + system, each process's last sample) is the figure a shared machine does not inflate.
+    Two sums: of the proportional set sizes (``pss``: the physical memory they hold, a page shared by k
+    processes counted 1/k in each) and of the resident sizes (``peak``: a shared page counted in every
+    process that maps it).  The workers are forked from a fork server that imported the diagnosis's modules;
+    those pages stay shared, and the resident sum counts them once per process.  Sampled every 0.2 s; the
+    pool's workers are the fork server's children.  The CPU time (user + system, each process's last sample)
+    is the figure a shared machine does not inflate.
     """
 
     def __init__(self) -> None:
         import threading
 
         self.peak = 0.0
+        self.pss = 0.0
         self._cpu: dict[int, float] = {}
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._sample, daemon=True)
@@ -108,15 +113,18 @@ class PeakMemory:
         me = psutil.Process()
         start = sum(me.cpu_times()[:2])
         while not self._stop.wait(0.2):
-            total = me.memory_info().rss
+            mine = me.memory_full_info()
+            total, proportional = mine.rss, mine.pss
             self._cpu[me.pid] = sum(me.cpu_times()[:2]) - start
             for child in me.children(recursive=True):
                 try:
-                    total += child.memory_info().rss
+                    theirs = child.memory_full_info()
+                    total, proportional = total + theirs.rss, proportional + theirs.pss
                     self._cpu[child.pid] = sum(child.cpu_times()[:2])
                 except psutil.Error:
                     pass
             self.peak = max(self.peak, total / 2**20)
+            self.pss = max(self.pss, proportional / 2**20)
 
     @property
     def cpu_s(self) -> float:
@@ -154,7 +162,8 @@ def year(args: argparse.Namespace) -> None:
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
     )
     print(
-        f"peak memory: {memory.peak:.0f} MB this process and its workers together (this process alone "
+        f"peak memory: {memory.pss:.0f} MB this process and its workers together (proportional set sizes; "
+        f"resident sizes {memory.peak:.0f} MB, shared pages counted in each process; this process alone "
         f"{mine:.0f} MB; the record {record_mb:.0f} MB)"
     )
     (i, k), (j, m) = _elements(config)
