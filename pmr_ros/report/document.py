@@ -15,7 +15,7 @@ from ..outputs import write_text
 from .absolute import model_and_plant
 from .system_units import units_of
 
-__all__ = ["build_report", "injected_mismatch", "write_json"]
+__all__ = ["build_report", "injected_mismatch", "report_text", "write_json"]
 
 
 def injected_mismatch(config: PmrConfig, scenario: str) -> dict[str, dict[str, float | int]]:
@@ -68,6 +68,26 @@ def build_report(
     return report
 
 
+_WINDOWS = "\0windows\0"
+"""Where the windows go in the indented text (json writes the NUL as an escape, which no other text holds)."""
+
+
+def report_text(report: dict[str, Any]) -> str:
+    """``report`` as JSON text: indented, a monitor's ``windows`` one to a line.
+
+    A year's 352 windows are 3 million values; indented they took 2.0 s to write, as lines 0.5 s (json's C
+    encoder writes only unindented text), and a window per line reads and greps as well.
+    """
+    windows = report.get("windows")
+    if not windows:
+        return json.dumps(report, indent=2, ensure_ascii=False)
+    text = json.dumps({**report, "windows": [_WINDOWS]}, indent=2, ensure_ascii=False)
+    quoted = json.dumps(_WINDOWS)
+    indent = text[: text.index(quoted)].rsplit("\n", 1)[1]  # the line's leading spaces
+    lines = f",\n{indent}".join(json.dumps(window, ensure_ascii=False) for window in windows)
+    return text.replace(quoted, lines, 1)
+
+
 def write_json(report: dict[str, Any], path: str | Path) -> None:
-    """Write ``report`` to ``path`` (UTF-8, indented)."""
-    write_text(path, json.dumps(report, indent=2, ensure_ascii=False) + "\n")  # atomic: never a truncated report
+    """Write ``report`` to ``path`` (UTF-8, :func:`report_text`)."""
+    write_text(path, report_text(report) + "\n")  # atomic: never a truncated report
