@@ -264,3 +264,27 @@ def test_data_without_a_date_keep_their_seconds(config):
     data = replace(drifting_data(config, days=2, changes=()), start="1000 s")  # a time column of seconds
     found = monitor(data, config, window=DAY, step=DAY, jobs=1)
     assert [(w["start"], w["end"]) for w in found.windows] == [(1000.0, 1000.0 + 86400), (87400.0, 87400.0 + 86400)]
+
+
+def test_start_workers_starts_the_fork_server_only_for_local_windows_on_several_processes():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = (
+        "import sys, psutil\n"
+        "from pmr_ros.service.monitoring import start_workers\n"
+        "jobs, scheduler = int(sys.argv[1]), (sys.argv[2] or None)\n"
+        "start_workers(jobs=jobs, scheduler=scheduler)\n"
+        "print(sum('forkserver' in ' '.join(p.cmdline()) for p in psutil.Process().children()))\n"
+    )
+    root = Path(__file__).resolve().parent.parent
+    env = {**__import__("os").environ, "PYTHONPATH": str(root)}
+    servers = {}
+    for jobs, scheduler in ((1, ""), (2, "tcp://127.0.0.1:1"), (2, "")):
+        done = subprocess.run(
+            [sys.executable, "-c", script, str(jobs), scheduler], capture_output=True, text=True, env=env, timeout=120
+        )
+        assert done.returncode == 0, done.stderr
+        servers[jobs, scheduler] = done.stdout.strip()
+    assert servers == {(1, ""): "0", (2, "tcp://127.0.0.1:1"): "0", (2, ""): "1"}

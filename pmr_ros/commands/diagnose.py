@@ -189,6 +189,10 @@ def handle(args: argparse.Namespace) -> int:
     check_monitor_options(args)
     if args.json:
         writable_file(args.json, "--json")  # before any work, for a bag and an export alike
+    if args.window:
+        from ..service.monitoring import start_workers
+
+        start_workers(jobs=args.jobs, scheduler=args.scheduler)  # they load their modules while the record is read
     if source_kind(args.bag) == TABLE:
         if args.min_samples is not None:
             raise CommandError(f"--min-samples: an option for a bag; {args.bag} is judged on all its clean data")

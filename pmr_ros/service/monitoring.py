@@ -46,6 +46,7 @@ __all__ = [
     "WindowJob",
     "diagnose_window",
     "monitor",
+    "start_workers",
     "stretch_spans",
     "window_entry",
     "window_stretches",
@@ -228,6 +229,19 @@ def _init_worker(shipped: bytes, shares: WindowShares) -> None:
     _WORKER_JOB, _WORKER_PIECES, _WORKER_SHARES = job, PieceCache(job.config.model), shares
 
 
+def start_workers(*, jobs: int | None, scheduler: str | None) -> None:
+    """Start the local window workers' fork server now, when the windows will run on it; do not wait for it.
+
+    Its import of the diagnosis's modules (2 s) then runs beside what this process does meanwhile: the command
+    line calls it before reading a record, :func:`monitor` before its own imports (see
+    :func:`~pmr_ros.core.sim.batch.start_fork_server`).
+    """
+    if scheduler is None and (jobs or os.cpu_count() or 1) > 1:
+        from ..core.sim.batch import start_fork_server
+
+        start_fork_server(_init_worker)
+
+
 def _work_share(share: int) -> None:
     """Windows of ``share`` (and those it takes over) in order, each result sent as it is done."""
     if _WORKER_JOB is None or _WORKER_SHARES is None:
@@ -364,11 +378,8 @@ def monitor(
     tasks = [(index, first, last) for index, (first, last) in enumerate(plan)]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
     if scheduler is None and jobs > 1:
-        from ..core.sim.batch import start_fork_server
-
-        # the workers' modules load on one core while this process loads the trend table's pandas on the other
-        start_fork_server(_init_worker)
-        import pandas  # noqa: F401
+        start_workers(jobs=jobs, scheduler=scheduler)
+        import pandas  # noqa: F401  (the trend table's: loaded here while the fork server loads the workers')
     if progress is not None:
         where = f"the Dask cluster at {scheduler}" if scheduler else f"{jobs} process(es)"
         progress(f"diagnosing {len(tasks)} windows on {where}")
