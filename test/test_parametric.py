@@ -295,3 +295,33 @@ def test_unknown_method_is_refused(wood_berry):
         diagnose_with(
             record.r, record.u, record.y, wood_berry.model, wood_berry.pmr, wood_berry.parametric, method="bayes"
         )
+
+
+@pytest.mark.parametrize(("scenario", "rounds_settled"), [("none", 2), ("full", 4)])
+def test_the_leakage_rounds_end_once_settled_and_the_estimates_stay_those_of_every_round(
+    wood_berry, monkeypatch, scenario, rounds_settled
+):
+    """A round moving no parameter by LEAKAGE_SETTLED of its deviation ends them: the estimates move far less.
+
+    Measured: without mismatch both rows settle after one round; with the full mismatch neither does.
+    """
+    from pmr_ros.core.pmr.parametric import fit
+
+    record = simulate(wood_berry, samples=8192, seed=3, scenario=scenario)
+    rounds = []
+    offset = fit.leakage_offset
+    monkeypatch.setattr(fit, "leakage_offset", lambda *a, **k: rounds.append(1) or offset(*a, **k))
+    _, _, settled = _parametric(wood_berry, record)
+    assert len(rounds) == rounds_settled
+    monkeypatch.setattr(fit, "LEAKAGE_SETTLED", 0.0)  # never settled: every round of LEAKAGE_ROUNDS
+    rounds.clear()
+    _, _, every = _parametric(wood_berry, record)
+    assert len(rounds) == 2 * fit.LEAKAGE_ROUNDS  # two rows, a fit each
+    for name, result in every.items():
+        for quantity in ("gain", "tau"):
+            low, high = getattr(result, f"{quantity}_mismatch_pct_interval")
+            sd = (high - low) / (2 * 1.96)
+            estimate = getattr(settled[name], f"{quantity}_mismatch_pct")
+            assert_allclose(estimate, getattr(result, f"{quantity}_mismatch_pct"), rtol=0, atol=0.01 * sd)
+        for verdict in ("gain_verdict", "tau_verdict", "delay_verdict"):
+            assert getattr(settled[name], verdict) == getattr(result, verdict)
