@@ -330,6 +330,13 @@ def _onsets(table: Any, windows: Sequence[dict[str, Any]], window_s: float) -> d
     return entries
 
 
+def _plan(data: PlantData, window: int | float | str, step: int | float | str) -> list[tuple[int, int]]:
+    try:
+        return window_plan(n_samples=data.samples, window=window, step=step, times=data.time_s)
+    except ValueError as exc:
+        raise ServiceError(f"--{exc}") from None
+
+
 def monitor(
     data: PlantData,
     config: PmrConfig,
@@ -370,16 +377,13 @@ def monitor(
     ClusterError
         ``scheduler`` cannot be used.
     """
-    try:
-        plan = window_plan(n_samples=data.samples, window=window, step=step, times=data.time_s)
-    except ValueError as exc:
-        raise ServiceError(f"--{exc}") from None
+    plan = _plan(data, window, step)
     job = WindowJob(config, data, data.usable)
     tasks = [(index, first, last) for index, (first, last) in enumerate(plan)]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
-    if scheduler is None and jobs > 1:
-        start_workers(jobs=jobs, scheduler=scheduler)
-        import pandas  # noqa: F401  (the trend table's: loaded here while the fork server loads the workers')
+    start_workers(jobs=jobs, scheduler=scheduler)
+    import pandas  # noqa: F401  (the trend table's, loaded here while a fork server loads the workers' modules)
+
     if progress is not None:
         where = f"the Dask cluster at {scheduler}" if scheduler else f"{jobs} process(es)"
         progress(f"diagnosing {len(tasks)} windows on {where}")
