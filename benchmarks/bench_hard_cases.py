@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "test"))
 
 from hard_cases import CASES, Score, run, score  # noqa: E402
 
-from pmr_ros.core.sim.batch import worker_context  # noqa: E402
+from pmr_ros.core.sim.workers import worker_context  # noqa: E402
 
 
 def _runs(job: tuple[str, bool, list[int]]) -> Score:

@@ -55,25 +55,6 @@ def test_mpc_matrices_are_read_only_copies(wood_berry):
         m.A[0, 0] = 1.0
 
 
-def test_worker_pools_start_from_a_fork_server():
-    from pmr_ros.core.sim.batch import worker_context
-
-    assert worker_context().get_start_method() == "forkserver"
-
-
-def test_a_worker_pool_sets_up_its_workers_and_is_torn_down_on_an_error():
-    import math
-
-    from pmr_ros.core.sim.batch import worker_pool
-
-    with worker_pool(2, math.isfinite, (1.0,)) as pool:  # any picklable initializer
-        assert sorted(pool.imap_unordered(math.sqrt, [4.0, 9.0])) == [2.0, 3.0]
-    with pytest.raises(ValueError, match="math domain error"), worker_pool(2, math.isfinite, (1.0,)) as pool:
-        pool.map(math.sqrt, [-1.0])  # the worker's error reaches the caller; the pool is terminated and joined
-    with pytest.raises(ValueError, match="Pool not running"):
-        pool.map(math.sqrt, [4.0])
-
-
 def test_mv_dither_is_added_to_u_and_the_lockstep_batch_equals_simulate(wood_berry):
     from pmr_ros.core.sim.excitation import ExcitationSettings
 
@@ -132,45 +113,3 @@ def test_an_output_disturbance_enters_simulate_and_the_lockstep_batch_alike_and_
     # y(0): the plant at rest, so the measurement is noise + d(0), d from its own stream
     d0 = DisturbanceStream(disturbance, 2, 4).draw()
     np.testing.assert_allclose(disturbed.y[0] - plain.y[0], d0, rtol=0, atol=1e-15)
-
-
-def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server_started_early_or_not(tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    # a module that remembers which process imported it: a worker forked from a fork server that imported it
-    # holds the server's pid there, a worker that imported it itself its own
-    (tmp_path / "probe_module.py").write_text("import os\nIMPORTED_BY = os.getpid()\n\ndef setup():\n    pass\n")
-    script = (
-        "import os\n"
-        "import probe_module\n"
-        "from pmr_ros.core.sim.batch import start_fork_server, worker_pool\n"
-        "def imported_before_fork(_):\n"
-        "    import probe_module\n"
-        "    return probe_module.IMPORTED_BY != os.getpid()\n"
-        "def fork_servers():\n"
-        "    import psutil\n"
-        "    return sum('forkserver' in ' '.join(p.cmdline()) for p in psutil.Process().children())\n"
-        "if __name__ == '__main__':\n"
-        "    print(fork_servers())\n"
-        "    if os.environ.get('START_EARLY'):\n"
-        "        start_fork_server(probe_module.setup)\n"
-        "        start_fork_server(probe_module.setup)  # one server, however often asked\n"
-        "        print(fork_servers())\n"
-        "    with worker_pool(2, probe_module.setup, ()) as pool:\n"
-        "        print(pool.map(imported_before_fork, range(4)))\n"
-    )
-    (tmp_path / "main_script.py").write_text(script)
-    root = Path(__file__).resolve().parent.parent
-    env = {**__import__("os").environ, "PYTHONPATH": f"{tmp_path}:{root}"}
-    for early, printed in (("", ["0"]), ("1", ["0", "1"])):  # start_fork_server: the server runs before any pool
-        done = subprocess.run(
-            [sys.executable, str(tmp_path / "main_script.py")],
-            capture_output=True,
-            text=True,
-            env={**env, "START_EARLY": early},
-            timeout=120,
-        )
-        assert done.returncode == 0, done.stderr
-        assert done.stdout.split("\n")[:-1] == [*printed, "[True, True, True, True]"]

@@ -6,7 +6,7 @@ import signal
 
 import pytest
 
-from pmr_ros.core.sim.batch import worker_context, worker_pool
+from pmr_ros.core.sim.workers import worker_context, worker_pool
 from pmr_ros.service.refusal import ServiceError
 from pmr_ros.service.window_shares import MIN_STEAL, WindowShares, share_bounds, take_window
 
@@ -76,14 +76,14 @@ def test_results_come_back_from_pool_workers_once_each():
     tasks = list(range(60))
     shares = WindowShares(tasks, 2, worker_context())
     with worker_pool(2, _init, (shares,)) as pool:
-        got = list(shares.results(pool.map_async(_square_all, range(2), chunksize=1), poll_s=0.05))
+        got = list(shares.results([pool.submit(_square_all, k) for k in range(2)], poll_s=0.05))
     assert sorted(got) == [(i, i * i) for i in tasks]
 
 
 def test_a_failing_window_raises_in_the_parent():
     shares = WindowShares([1, 2, "bad", 3], 2, worker_context())
     with pytest.raises(ValueError, match="window 'bad' failed"), worker_pool(2, _init, (shares,)) as pool:
-        list(shares.results(pool.map_async(_square_all, range(2), chunksize=1), poll_s=0.05))
+        list(shares.results([pool.submit(_square_all, k) for k in range(2)], poll_s=0.05))
 
 
 def _die_on_bad(share: int) -> None:
@@ -97,7 +97,7 @@ def _die_on_bad(share: int) -> None:
 def test_a_worker_killed_mid_run_is_one_line_not_a_wait_forever():
     tasks = [1, 2, "die", *range(3, 40)]
     shares = WindowShares(tasks, 2, worker_context())
-    with pytest.raises(ServiceError, match=r"window worker process \(pid \d+\) ended .* of 40 windows") as caught:
+    with pytest.raises(ServiceError, match=r"window worker process ended .*: \d+ of 40 windows diagnosed") as caught:
         with worker_pool(2, _init, (shares,)) as pool:
-            list(shares.results(pool.map_async(_die_on_bad, range(2), chunksize=1), poll_s=0.05))
+            list(shares.results([pool.submit(_die_on_bad, k) for k in range(2)], poll_s=0.05))
     assert caught.value.code == 1

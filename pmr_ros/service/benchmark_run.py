@@ -37,8 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
 
-JOURNAL = "runs"
-"""The journal folder in ``out``."""
+JOURNAL = "runs"  # the journal folder in ``out``
 
 RESULTS = "results.parquet"  # in ``out``: one row per run, method and element (_write_results)
 CELLS = ["unit", "samples", "disturbance", "seed"]
@@ -168,13 +167,6 @@ def _tasks(lines: pd.DataFrame, request: BenchmarkRequest) -> list[RunTask]:
     return sorted(tasks, key=lambda t: (-t.samples * unit_config(t.unit).model.present.sum(), t.run))
 
 
-Recorder = Callable[[RunTask, list[dict], Record], None]
-
-
-def _worker(task: RunTask) -> tuple[RunTask, list[dict], Record]:
-    return run_one(task)
-
-
 def cluster_work(_config: PmrConfig, task: RunTask) -> tuple[RunTask, list[dict], float]:
     """What a Dask worker runs: one run; its record rides back on the task (``RunTask.record``)."""
     start = time.process_time()
@@ -182,7 +174,9 @@ def cluster_work(_config: PmrConfig, task: RunTask) -> tuple[RunTask, list[dict]
     return replace(done, record=record), rows, time.process_time() - start
 
 
-def _execute(tasks: list[RunTask], request: BenchmarkRequest, record: Recorder) -> None:
+def _execute(
+    tasks: list[RunTask], request: BenchmarkRequest, record: Callable[[RunTask, list[dict], Record], None]
+) -> None:
     if request.scheduler is not None:
         from ..sweep.cluster import ClusterError, check_scheduler, run_on_cluster
 
@@ -198,23 +192,19 @@ def _execute(tasks: list[RunTask], request: BenchmarkRequest, record: Recorder) 
         for task in tasks:
             record(*run_one(task))
     else:
-        from ..core.sim.batch import worker_context
+        from ..core.sim.workers import completed, worker_pool
 
-        with worker_context().Pool(min(request.jobs, len(tasks))) as pool:
-            for result in pool.imap_unordered(_worker, tasks):
+        with worker_pool(min(request.jobs, len(tasks))) as pool:
+            for result in completed(pool, run_one, tasks):
                 record(*result)
 
 
 def _write_results(path: Path, rows: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
     """``rows`` with their runs' cells, in run, method and element order, written to ``path``: the results."""
-    results = _cell_columns(rows, lines).sort_values(["run", "method", "element"])
+    cells = run_table(lines)[["run", *CELLS]]
+    results = cells.merge(rows, on="run", how="right").sort_values(["run", "method", "element"])
     results.to_parquet(path, index=False)
     return results
-
-
-def _cell_columns(results: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
-    cells = run_table(lines)[["run", *CELLS]]
-    return cells.merge(results, on="run", how="right")
 
 
 def _write_report(request: BenchmarkRequest, scores: pd.DataFrame, labelled: pd.DataFrame, wall_s: float) -> None:

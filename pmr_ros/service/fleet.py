@@ -242,17 +242,18 @@ def run_local(entries: list[Any], *, jobs: int, work: Callable[[Any], Any] | Non
 
     A process that ends mid-entry (the out-of-memory killer, a signal) breaks the whole pool: every entry not
     done then is run again alone, one at a time, each on a process of its own, and one that ends its process
-    again is :func:`failed_entry` with :data:`WORKER_ENDED`; the others keep their results.
+    again is :func:`failed_entry` with :data:`WORKER_ENDED`; the others keep their results.  The pools are
+    :func:`~pmr_ros.core.sim.workers.worker_pool` s: a Ctrl-C terminates their workers.
     """
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    from ..core.sim.batch import worker_context
+    from ..core.sim.workers import worker_pool
 
     work = diagnose_entry if work is None else work
     found: dict[str, Any] = {}  # by entry name
     broken: list[Any] = []
-    with ProcessPoolExecutor(jobs, mp_context=worker_context()) as pool:
+    with worker_pool(jobs) as pool:
         futures = {pool.submit(work, entry): entry for entry in entries}
         for future in as_completed(futures):
             try:
@@ -260,7 +261,7 @@ def run_local(entries: list[Any], *, jobs: int, work: Callable[[Any], Any] | Non
             except BrokenProcessPool:
                 broken.append(futures[future])
     for entry in sorted(broken, key=entries.index):
-        with ProcessPoolExecutor(1, mp_context=worker_context()) as alone:
+        with worker_pool(1) as alone:
             try:
                 found[entry.name] = alone.submit(work, entry).result()
             except BrokenProcessPool:

@@ -4,7 +4,7 @@ The record (a historian export or a bag, read and cleaned once) is cut into
 the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
 unbroken stretches are slices of the one record (a window's own deviations
 are the only copy).  Windows run on local processes (the sweep's
-``forkserver`` pool, :func:`pmr_ros.core.sim.batch.worker_context`, the record
+``forkserver`` pool, :func:`pmr_ros.core.sim.workers.worker_context`, the record
 memory-mapped by each worker: :mod:`.shipping`), in this
 process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
 results are the same, in window order.  Each window's entry carries its
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import os
 import re
-import signal
 import tempfile
 import threading
 import time
@@ -222,8 +221,6 @@ _WORKER_SHARES: WindowShares | None = None
 
 
 def _init_worker(shipped: bytes, shares: WindowShares) -> None:
-    # Ctrl-C goes to the whole process group; only the main process handles it.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
     global _WORKER_JOB, _WORKER_PIECES, _WORKER_SHARES
     job = unship(shipped)  # the record's arrays memory-mapped: not a copy per worker through the pool's pipe
     _WORKER_JOB, _WORKER_PIECES, _WORKER_SHARES = job, PieceCache(job.config.model), shares
@@ -234,10 +231,10 @@ def start_workers(*, jobs: int | None, scheduler: str | None) -> None:
 
     Its import of the diagnosis's modules (2 s) then runs beside what this process does meanwhile: the command
     line calls it before reading a record, :func:`monitor` before its own imports (see
-    :func:`~pmr_ros.core.sim.batch.start_fork_server`).
+    :func:`~pmr_ros.core.sim.workers.start_fork_server`).
     """
     if scheduler is None and (jobs or os.cpu_count() or 1) > 1:
-        from ..core.sim.batch import start_fork_server
+        from ..core.sim.workers import start_fork_server
 
         start_fork_server(_init_worker)
 
@@ -289,14 +286,15 @@ def _run(
         for task in tasks:
             record(task[0], diagnose_window(job, (task[1], task[2]), pieces=pieces))
     else:
-        from ..core.sim.batch import worker_context, worker_pool
+        from ..core.sim.workers import worker_context, worker_pool
 
         shares = WindowShares(tasks, jobs, worker_context())
         with (
             tempfile.TemporaryDirectory(prefix="pmr_ros_record_") as folder,
             worker_pool(jobs, _init_worker, (ship(job, Path(folder)), shares)) as pool,
         ):
-            for index, diagnosis in shares.results(pool.map_async(_work_share, range(jobs), chunksize=1)):
+            running = [pool.submit(_work_share, share) for share in range(jobs)]  # one share per worker
+            for index, diagnosis in shares.results(running):
                 record(index, diagnosis)
 
 

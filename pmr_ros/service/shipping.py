@@ -1,6 +1,6 @@
 """Large arrays to pool workers through memory-mapped files instead of the pool's pipe.
 
-A pool from the ``forkserver`` context (:func:`pmr_ros.core.sim.batch.worker_context`) sends each worker
+A pool from the ``forkserver`` context (:func:`pmr_ros.core.sim.workers.worker_context`) sends each worker
 its initializer's arguments through a socket, pickled whole: a year of 1-minute data of a 4x8 controller
 (101 MB) took 2.3 s of the monitor's start on this 2-core machine, with the parent blocked.  :func:`ship`
 pickles an object with every large array written to a ``.npy`` file of a folder instead, and

@@ -12,17 +12,18 @@ worker whose share is done takes the back half of the largest share left
 Results come back one window at a time through a queue, as the windows are
 done, not at the end of a share: the parent unpickles them while the workers
 run, and a failing window is reported as soon as its share fails.  A worker
-that dies (killed, out of memory) is reported too: a pool only replaces it, and
-the windows it held would be waited for forever.
+that dies (killed, out of memory) is reported too: it breaks the executor
+(:func:`~pmr_ros.core.sim.workers.worker_pool`), whose shares' futures then fail
+rather than the windows it held being waited for forever.
 """
 
 from __future__ import annotations
 
-import os
 import queue
 from collections.abc import Iterator, MutableSequence, Sequence
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing.context import BaseContext
-from multiprocessing.pool import AsyncResult
 from typing import Any
 
 from .refusal import ServiceError
@@ -97,7 +98,7 @@ class WindowShares:
 
     Made in the parent and handed to each pool worker in its initializer's arguments (the bounds are shared
     memory, the queue a pipe).  A worker runs ``take(share)`` until None and sends each result with ``put``;
-    the parent reads them from :meth:`results`.
+    the parent submits one such task per share and reads the results from :meth:`results`.
 
     Parameters
     ----------
@@ -112,12 +113,10 @@ class WindowShares:
     def __init__(self, tasks: Sequence[Any], jobs: int, context: BaseContext):
         self.tasks = tuple(tasks)
         self._bounds = context.Array("q", share_bounds(len(self.tasks), jobs))
-        self._workers = context.Array("q", jobs, lock=False)  # each share's worker process id, once it began
         self._queue = context.Queue()
 
     def take(self, share: int) -> Any | None:
         """The next task of ``share`` (:func:`take_window`), or None when every window is taken."""
-        self._workers[share] = os.getpid()
         with self._bounds.get_lock():
             index = take_window(self._bounds.get_obj(), share)  # type: ignore[arg-type]  # a ctypes array of int64
         return None if index is None else self.tasks[index]
@@ -126,13 +125,15 @@ class WindowShares:
         """Send one window's result to the parent."""
         self._queue.put(result)
 
-    def results(self, running: AsyncResult, *, poll_s: float = 0.5) -> Iterator[Any]:
-        """Every window's result as it comes, until all ``len(tasks)`` have.
+    def results(self, running: Sequence[Future[Any]], *, poll_s: float = 0.5) -> Iterator[Any]:
+        """Every window's result as it comes, until all ``len(tasks)`` have; ``running``: the shares' futures.
+
+        The futures are looked at whenever the queue is quiet for ``poll_s`` seconds.
 
         Raises
         ------
         Exception
-            What a worker's share raised (a window's error), as soon as the pool reports it.
+            What a worker's share raised (a window's error), as soon as its future holds it.
         ServiceError
             A worker process ended before the windows were done (one line; exit code 1).
         """
@@ -142,26 +143,18 @@ class WindowShares:
                     yield self._queue.get(timeout=poll_s)
                     break
                 except queue.Empty:
-                    if running.ready() and not running.successful():
-                        running.get()  # raises the worker's error here
-                    self._check_workers(done)
+                    self._check(running, done)
 
-    def _check_workers(self, done: int) -> None:
-        for pid in self._workers:
-            if pid and not _alive(pid):
+    def _check(self, running: Sequence[Future[Any]], done: int) -> None:
+        """Raise what a share's future that ended without its windows holds."""
+        for future in running:
+            if not future.done() or future.exception() is None:
+                continue
+            try:
+                future.result()  # raises the worker's error here
+            except BrokenProcessPool:  # a worker ended (SIGKILL, the out-of-memory killer): the pool is broken
                 raise ServiceError(
-                    f"a window worker process (pid {pid}) ended before its windows were done (killed? out of "
-                    f"memory?): {done} of {len(self.tasks)} windows diagnosed",
+                    f"a window worker process ended before its windows were done (killed? out of memory?): "
+                    f"{done} of {len(self.tasks)} windows diagnosed",
                     code=1,
-                )
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` still runs (POSIX: the pool's fork server reaps its ended children)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # someone else's process now holds the id: ours has ended
-        return False
-    return True
+                ) from None

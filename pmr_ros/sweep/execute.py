@@ -10,7 +10,6 @@ interrupted sweep keeps them and ``resume`` skips the runs already there.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable
@@ -24,8 +23,9 @@ from ..config import PmrConfig
 from ..core.pmr.diagnosis import diagnose
 from ..core.records import Record
 from ..core.results.codec import csv_fields
-from ..core.sim.batch import run_lockstep, worker_pool
+from ..core.sim.batch import run_lockstep
 from ..core.sim.model import TransferMatrix
+from ..core.sim.workers import completed, worker_pool
 from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
@@ -146,8 +146,6 @@ _WORKER_CONFIG: PmrConfig | None = None
 
 
 def _init_worker(config: PmrConfig) -> None:
-    # Ctrl-C goes to the whole process group; only the main process handles it.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
     global _WORKER_CONFIG
     _WORKER_CONFIG = config
 
@@ -236,7 +234,7 @@ def _run_here(config: PmrConfig, tasks: list[PointTask], record: Recorder) -> No
 
 def _run_pool(config: PmrConfig, tasks: list[PointTask], jobs: int, record: Recorder) -> None:
     with worker_pool(jobs, _init_worker, (config,)) as pool:
-        for task, rows, cpu_s in pool.imap_unordered(_work, tasks):
+        for task, rows, cpu_s in completed(pool, _work, tasks):
             record(task, rows, cpu_s)
 
 

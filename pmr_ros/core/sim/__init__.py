@@ -6,7 +6,8 @@ and MV dither, ``closed_loop`` one run, ``batch`` many runs in lockstep,
 ``memory`` and ``footprint`` what a run needs before it is allocated; elements of
 any linear type (``lti``: FOPTD, integrating, empty; ``rational``: transfer
 functions; ``step_curve``: step-response curves; ``elements`` builds one by
-kind; ``realize`` one state-space system for a matrix of them).
+kind; ``realize`` one state-space system for a matrix of them); ``workers`` the
+local worker processes that run many of them.
 
 The names below are imported when first used, so importing one module of
 this package does not load the others.
@@ -76,7 +77,7 @@ _WHERE = {
     "states": "footprint",
     "transfer_function": "rational",
     "window_bytes": "memory",
-    "worker_context": "batch",
+    "worker_context": "workers",
 }
 """Each public name -> the module of this package that defines it."""
 
@@ -146,7 +147,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _WHERE, __all__)
 
 
 if TYPE_CHECKING:
-    from .batch import LockstepResult, run_lockstep, simulate_many, worker_context
+    from .batch import LockstepResult, run_lockstep, simulate_many
     from .closed_loop import LoopConfig, RunPlan, simulate
     from .elements import ELEMENT_KINDS, build_element
     from .excitation import (
@@ -186,3 +187,4 @@ if TYPE_CHECKING:
     from .realize import element_outputs
     from .step_curve import StepResponse, as_step_response, dead_time_samples
     from .true_plant import DisturbanceStream, FoptdPlant, OutputDisturbance, disturbance_generator, noise_generator
+    from .workers import worker_context

@@ -28,12 +28,8 @@ floating-point summation order (tested to 1e-9).
 
 from __future__ import annotations
 
-import multiprocessing
-import multiprocessing.pool
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -44,15 +40,7 @@ from .excitation import PrbsGenerator, dither_generator
 from .model import SCENARIOS, StateSpace, TransferMatrix
 from .true_plant import DisturbanceStream, noise_generator
 
-__all__ = [
-    "LockstepResult",
-    "preload_for",
-    "run_lockstep",
-    "simulate_many",
-    "start_fork_server",
-    "worker_context",
-    "worker_pool",
-]
+__all__ = ["LockstepResult", "run_lockstep", "simulate_many"]
 
 
 @dataclass(frozen=True)
@@ -279,67 +267,3 @@ def run_lockstep(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: i
 def simulate_many(config: LoopConfig, runs: Sequence[tuple[str, int]], samples: int | None = None) -> list[Record]:
     """The records of :func:`run_lockstep` (one per ``(scenario, seed)`` in ``runs``)."""
     return run_lockstep(config, runs, samples).records
-
-
-def worker_context() -> multiprocessing.context.BaseContext:
-    """The multiprocessing context for pools of batch runs: ``forkserver``.
-
-    A plain fork copies a process that may already hold ROS 2 middleware
-    threads (a node set run in the same process, as in the test suite or a
-    shell that also diagnoses); such a child can crash in C++ code it
-    inherited mid-operation.  Workers from a fork server start from a clean
-    process instead.
-    """
-    return multiprocessing.get_context("forkserver")
-
-
-def preload_for(context: multiprocessing.context.BaseContext, work: Callable[..., Any]) -> None:
-    """Have the fork server of ``context`` import the module of ``work`` when it starts.
-
-    Each worker otherwise imports it after the fork (2 s for the diagnosis's modules, most of it
-    scipy.signal), and in turn: the pool waits on a worker's pipe while the worker, mid-way through reading
-    its initial arguments, imports the module that defines its initializer.  A fork server's modules are set
-    when it starts; one already running (a pool earlier in this process) keeps its own, and the workers
-    import what it lacks themselves.
-    """
-    module = getattr(work, "__module__", None)
-    if context.get_start_method() == "forkserver" and module not in (None, "__main__"):
-        context.set_forkserver_preload([module])
-
-
-def start_fork_server(initializer: Callable[..., None]) -> None:
-    """Start :func:`worker_context`'s fork server now, importing ``initializer``'s module, and do not wait for it.
-
-    The server imports while this process goes on (2 s for the diagnosis's modules); a :func:`worker_pool` made
-    later with the same initializer connects to it and forks its workers at once.  Nothing happens when the
-    server already runs.
-    """
-    import multiprocessing.forkserver
-
-    context = worker_context()
-    if context.get_start_method() == "forkserver":
-        preload_for(context, initializer)
-        multiprocessing.forkserver.ensure_running()
-
-
-@contextmanager
-def worker_pool(
-    jobs: int, initializer: Callable[..., None], initargs: tuple[Any, ...]
-) -> Iterator[multiprocessing.pool.Pool]:
-    """A pool of ``jobs`` :func:`worker_context` workers, each set up by ``initializer(*initargs)``.
-
-    The initializer's module is imported once by the fork server, which then forks the workers
-    (:func:`preload_for`). Closed and joined when the block ends; terminated first when it raises (a Ctrl-C,
-    a worker's error): the workers' results still on their way are dropped rather than waited for.
-    """
-    context = worker_context()
-    preload_for(context, initializer)
-    pool = context.Pool(jobs, initializer=initializer, initargs=initargs)
-    try:
-        yield pool
-        pool.close()
-    except BaseException:
-        pool.terminate()
-        raise
-    finally:
-        pool.join()
