@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import math
+import os
+import re
+import signal
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from pmr_ros.benchmark.dataset import read_run
-from pmr_ros.benchmark.runner import METHODS
+from pmr_ros.benchmark.runner import METHODS, RunTask, run_one
 from pmr_ros.benchmark.scoring import label_results, score
 from pmr_ros.benchmark.units import unit_config
 from pmr_ros.cli import main
@@ -163,3 +167,39 @@ def test_report_only_scores_the_results_again_to_the_same_numbers(quick, tmp_pat
     after = pd.read_csv(quick / "scores.csv")
     pd.testing.assert_frame_equal(before, after, rtol=1e-12)
     assert "## Headline" in report.read_text() and (tmp_path / "figures" / "benchmark_roc.png").is_file()
+
+
+KILLED_RUN = 132
+"""The last of ``--units wood_berry --samples 2048 --runs-per-cell 2`` (runs 1, 2, 131, 132; dealt by number)."""
+
+
+def _die_on_the_last_run(task: RunTask) -> tuple:
+    """The pool's work, but run :data:`KILLED_RUN` ends its worker."""
+    if task.run == KILLED_RUN:
+        os.kill(os.getpid(), signal.SIGKILL)  # the out-of-memory killer's way: no exception, no result
+    return run_one(task)
+
+
+def test_a_killed_worker_ends_the_benchmark_in_one_line_and_its_finished_runs_are_kept(tmp_path, capsys, monkeypatch):
+    from pmr_ros.benchmark.journal import Journal
+    from pmr_ros.service import benchmark_run
+
+    out = tmp_path / "o"
+    argv = ["benchmark", "--units", "wood_berry", "--samples", "2048", "--runs-per-cell", "2"]
+    argv += ["--methods", "classic", "--out", str(out), "--quiet"]
+    monkeypatch.setattr(benchmark_run, "run_one", _die_on_the_last_run)  # what the pool's workers run
+    assert main([*argv, "--jobs", "2"]) == 1
+    err = capsys.readouterr().err
+    found = re.fullmatch(
+        r"pmr-ros: error: a benchmark worker process ended before its runs were done \(killed\? out of memory\?\): "
+        r"(\d) of 4 runs done, their rows in (\S+); continue with --resume\n",
+        err,
+    )
+    assert found, err
+    assert Path(found[2]) == out / "runs"
+    # the runs done before the worker ended (two at least: the killing run began when a worker came free)
+    kept = {run for run, _method in Journal(out / "runs").done()}
+    assert len(kept) == int(found[1]) >= 2 and KILLED_RUN not in kept and kept <= {1, 2, 131}
+    monkeypatch.undo()
+    assert main([*argv, "--jobs", "1", "--resume"]) == 0  # the rest, from where it stopped
+    assert set(pd.read_parquet(out / "results.parquet")["run"]) == {1, 2, 131, 132}

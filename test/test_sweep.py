@@ -5,6 +5,9 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+import re
+import signal
 from dataclasses import replace
 from pathlib import Path
 
@@ -708,3 +711,33 @@ def test_an_unreachable_scheduler_is_one_clear_line(tmp_path, capsys, monkeypatc
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--scheduler tcp://127.0.0.1:9: cannot connect" in err[0]
+
+
+def _die_on_the_smallest_nu(task: sweep_execute.PointTask) -> tuple:
+    """The pool's work, but the point nu = 1 (the last one dealt: slowest first) ends its worker."""
+    if task.point.nu == 1.0:
+        os.kill(os.getpid(), signal.SIGKILL)  # the out-of-memory killer's way: no exception, no result
+    return sweep_execute._work(task)
+
+
+def test_a_killed_worker_ends_the_sweep_in_one_line_and_its_finished_points_are_kept(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "o"
+    argv = ["sweep", "--out", str(out), "--elements", "G11", "--nu", "1,2,3", "--seeds", "1"]
+    argv += ["--samples", str(SAMPLES), "--methods", "classic", "--quiet", "--no-report"]
+    monkeypatch.setattr(sweep_execute, "_work", _die_on_the_smallest_nu)  # what the pool's workers run
+    assert main([*argv, "--jobs", "2"]) == 1
+    err = capsys.readouterr().err
+    found = re.fullmatch(
+        r"pmr-ros: error: a sweep worker process ended before its points were done \(killed\? out of memory\?\): "
+        r"(\d) of 3 points done, their rows in (\S+); continue with --resume\n",
+        err,
+    )
+    assert found, err
+    rows = store.read_rows(out / store.RESULTS_FILE)
+    assert Path(found[2]) == out / store.RESULTS_FILE
+    # the points done before the worker ended (nu = 2 at least: the killing point began when a worker came free)
+    kept = sorted({r["nu"] for r in rows})
+    assert len(kept) == int(found[1]) >= 1 and 1.0 not in kept and len(rows) == len(kept) * len(SCENARIOS) * 4
+    monkeypatch.undo()
+    assert main([*argv, "--jobs", "1", "--resume"]) == 0  # the rest, from where it stopped
+    assert sorted({r["nu"] for r in store.read_rows(out / store.RESULTS_FILE)}) == [1.0, 2.0, 3.0]

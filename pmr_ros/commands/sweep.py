@@ -287,7 +287,12 @@ def _timed_execution(
 
 
 def _execute(args: argparse.Namespace, config: PmrConfig, tasks: list, results: Path):
-    """Run the tasks locally or on the cluster of ``--scheduler``; a cluster that cannot be used is a clean error."""
+    """Run the tasks locally or on the cluster of ``--scheduler``; a cluster that cannot be used is a clean error.
+
+    So is a local worker process that ended mid-point (killed, out of memory): one line, exit code 1, saying
+    where the points done by then are.
+    """
+    from ..core.sim.workers import WorkerEnded
     from ..sweep.cluster import ClusterError
     from ..sweep.execute import execute
 
@@ -295,6 +300,12 @@ def _execute(args: argparse.Namespace, config: PmrConfig, tasks: list, results: 
         return execute(config, tasks, results, jobs=args.jobs, progress=not args.quiet, scheduler=args.scheduler)
     except ClusterError as exc:
         raise CommandError(str(exc)) from None
+    except WorkerEnded as exc:
+        raise CommandError(
+            f"a sweep worker process ended before its points were done (killed? out of memory?): {exc.done} of "
+            f"{exc.total} points done, their rows in {results}; continue with --resume",
+            code=1,
+        ) from None
 
 
 def _done_runs(results: Path, n_elements: int) -> set[tuple]:

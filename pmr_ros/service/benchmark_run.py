@@ -192,11 +192,18 @@ def _execute(
         for task in tasks:
             record(*run_one(task))
     else:
-        from ..core.sim.workers import completed, worker_pool
+        from ..core.sim.workers import WorkerEnded, completed, worker_pool
 
-        with worker_pool(min(request.jobs, len(tasks))) as pool:
-            for result in completed(pool, run_one, tasks):
-                record(*result)
+        try:
+            with worker_pool(min(request.jobs, len(tasks))) as pool:
+                for result in completed(pool, run_one, tasks):
+                    record(*result)
+        except WorkerEnded as exc:  # the runs done by then are in the journal: one line, exit code 1
+            raise ServiceError(
+                f"a benchmark worker process ended before its runs were done (killed? out of memory?): {exc.done} of "
+                f"{exc.total} runs done, their rows in {request.out / JOURNAL}; continue with --resume",
+                code=1,
+            ) from None
 
 
 def _write_results(path: Path, rows: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
@@ -379,10 +386,12 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
         if bar:
             bar.update(1)
 
-    if todo:
-        _execute(todo, request, record)
-    if bar:
-        bar.close()
+    try:
+        if todo:
+            _execute(todo, request, record)
+    finally:  # the bar's line ended before an error's line
+        if bar:
+            bar.close()
     wall_s = time.perf_counter() - start
     results = _write_results(request.out / RESULTS, _planned_rows(journal, tasks), lines)
     write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(todo)}) + "\n")

@@ -25,7 +25,7 @@ from ..core.records import Record
 from ..core.results.codec import csv_fields
 from ..core.sim.batch import run_lockstep
 from ..core.sim.model import TransferMatrix
-from ..core.sim.workers import completed, worker_pool
+from ..core.sim.workers import WorkerEnded, completed, worker_pool
 from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
@@ -182,6 +182,9 @@ def execute(
     (:func:`pmr_ros.sweep.cluster.run_on_cluster`); the rows are the same.
     On Ctrl-C the pool (or the cluster's pending points) is stopped, the
     finished points stay in the CSV and KeyboardInterrupt is raised again.
+    A pool worker that ends mid-point (killed, out of memory) stops the sweep
+    with :class:`~pmr_ros.core.sim.workers.WorkerEnded` once the points done by
+    then are in the CSV.
     """
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     bar = ProgressBar(sum(len(t.runs) for t in tasks), stream=sys.stderr) if progress else None
@@ -215,6 +218,10 @@ def execute(
             "continue with --resume",
             file=sys.stderr,
         )
+        raise
+    except WorkerEnded:
+        if bar:
+            bar.close()
         raise
     if bar:
         bar.close()
