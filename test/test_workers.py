@@ -5,6 +5,16 @@ from __future__ import annotations
 import pytest
 
 
+def _script_env(folder, files: dict[str, str]) -> dict[str, str]:
+    """Write ``files`` (name -> text) into ``folder``; the environment in which a script there imports them."""
+    import os
+    from pathlib import Path
+
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    return {**os.environ, "PYTHONPATH": f"{folder}:{Path(__file__).resolve().parent.parent}"}
+
+
 def test_worker_pools_start_from_a_fork_server():
     from pmr_ros.core.sim.workers import worker_context
 
@@ -90,12 +100,9 @@ def test_ctrl_c_of_the_process_group_ends_a_pool_promptly_without_the_workers_tr
     import subprocess
     import sys
     import time
-    from pathlib import Path
 
     # a task that says when it has begun (a worker's output is the script's), then takes a minute
-    (tmp_path / "naps.py").write_text(
-        "import time\n\ndef nap(seconds):\n    print('started', flush=True)\n    time.sleep(seconds)\n"
-    )
+    naps = "import time\n\ndef nap(seconds):\n    print('started', flush=True)\n    time.sleep(seconds)\n"
     script = (
         "import sys\n"
         "import naps\n"
@@ -108,9 +115,7 @@ def test_ctrl_c_of_the_process_group_ends_a_pool_promptly_without_the_workers_tr
         "        print('interrupted', flush=True)\n"
         "        sys.exit(130)\n"
     )
-    (tmp_path / "main_script.py").write_text(script)
-    root = Path(__file__).resolve().parent.parent
-    env = {**os.environ, "PYTHONPATH": f"{tmp_path}:{root}"}
+    env = _script_env(tmp_path, {"naps.py": naps, "main_script.py": script})
     child = subprocess.Popen(
         [sys.executable, str(tmp_path / "main_script.py")],
         stdout=subprocess.PIPE,
@@ -136,11 +141,10 @@ def test_ctrl_c_of_the_process_group_ends_a_pool_promptly_without_the_workers_tr
 def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server_started_early_or_not(tmp_path):
     import subprocess
     import sys
-    from pathlib import Path
 
     # a module that remembers which process imported it: a worker forked from a fork server that imported it
     # holds the server's pid there, a worker that imported it itself its own
-    (tmp_path / "probe_module.py").write_text("import os\nIMPORTED_BY = os.getpid()\n\ndef setup():\n    pass\n")
+    probe = "import os\nIMPORTED_BY = os.getpid()\n\ndef setup():\n    pass\n"
     script = (
         "import os\n"
         "import probe_module\n"
@@ -160,9 +164,7 @@ def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server_st
         "    with worker_pool(2, probe_module.setup, ()) as pool:\n"
         "        print(list(pool.map(imported_before_fork, range(4))))\n"
     )
-    (tmp_path / "main_script.py").write_text(script)
-    root = Path(__file__).resolve().parent.parent
-    env = {**__import__("os").environ, "PYTHONPATH": f"{tmp_path}:{root}"}
+    env = _script_env(tmp_path, {"probe_module.py": probe, "main_script.py": script})
     for early, printed in (("", ["0"]), ("1", ["0", "1"])):  # start_fork_server: the server runs before any pool
         done = subprocess.run(
             [sys.executable, str(tmp_path / "main_script.py")],
