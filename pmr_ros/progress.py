@@ -1,9 +1,10 @@
-"""A small text progress bar with an ETA, on stderr (the sweep's runs, the bytes of a long data file)."""
+"""A small text progress bar with an ETA, on stderr (the sweep's runs, the bytes of a long data file, windows)."""
 
 from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from typing import TextIO
 
 
@@ -81,3 +82,23 @@ class ProgressBar:
         if self._tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def progress_callback(
+    label: str, *, unit: str | None = None
+) -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
+    """A progress bar with an ETA on a terminal (stderr), None (quiet) elsewhere; and a function that ends it.
+
+    ``update(done, total)`` draws it; ``unit`` is what is counted (default: MB of a CSV, else rows).
+    """
+    if not sys.stderr.isatty():
+        return None, lambda: None
+    bar: list[ProgressBar] = []
+    counted = unit or ("MB" if label.endswith("csv") else "rows")
+
+    def update(done: int, total: int) -> None:
+        if not bar:
+            bar.append(ProgressBar(total, label, stream=sys.stderr, unit=counted))
+        bar[0].update(done - bar[0].done)
+
+    return update, lambda: bar[0].close() if bar else None

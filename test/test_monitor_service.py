@@ -288,3 +288,27 @@ def test_start_workers_starts_the_fork_server_only_for_local_windows_on_several_
         assert done.returncode == 0, done.stderr
         servers[jobs, scheduler] = done.stdout.strip()
     assert servers == {(1, ""): "0", (2, "tcp://127.0.0.1:1"): "0", (2, ""): "1"}
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_each_window_done_is_told_as_it_comes(config, jobs):
+    data = drifting_data(config, days=3, changes=())
+    told = []
+    found = monitor(data, config, window=DAY, step=DAY // 2, jobs=jobs, windows_done=lambda *a: told.append(a))
+    assert told == [(k, len(found.windows)) for k in range(1, len(found.windows) + 1)] and len(told) == 5
+
+
+def test_the_window_command_draws_a_progress_bar_of_windows_on_a_terminal(export, monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
+    assert main([*argv, "--step", "1d", "--jobs", "1"]) == 0
+    drawn = terminal.getvalue()
+    assert "windows [" in drawn and "3/3 windows 100%" in drawn  # four days: windows ending on days 2, 3, 4

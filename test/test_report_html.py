@@ -213,7 +213,7 @@ def test_a_bags_report_has_every_element(capsys, tmp_path):
 
 
 def test_progress_only_on_a_terminal(monkeypatch):
-    from pmr_ros.commands.plant_data import progress_callback
+    from pmr_ros.progress import progress_callback
 
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     update, close = progress_callback("reading x.csv")

@@ -14,10 +14,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..progress import progress_callback
 from . import EXIT_INSUFFICIENT, CommandError, load_checked_config
 from .model_output import check_model_output
 
-__all__ = ["BAG", "TABLE", "diagnose_table", "progress_callback", "source_kind", "write_bag_report"]
+__all__ = ["BAG", "TABLE", "diagnose_table", "source_kind", "write_bag_report"]
 
 BAG, TABLE = "bag", "table"
 """What ``pmr-ros diagnose`` reads."""
@@ -44,22 +45,6 @@ def source_kind(path: str | Path) -> str:
         f"{path}: not a bag (a rosbag2 bag is a directory or an .mcap file) nor a historian export "
         f"({', '.join(FORMATS)}); save the export as CSV or Parquet"
     )
-
-
-def progress_callback(label: str) -> Any:
-    """A progress bar with an ETA on a terminal (stderr), None (quiet) elsewhere; and a function that ends it."""
-    if not sys.stderr.isatty():
-        return None, lambda: None
-    from ..progress import ProgressBar
-
-    bar: list[ProgressBar] = []
-
-    def update(done: int, total: int) -> None:
-        if not bar:
-            bar.append(ProgressBar(total, label, stream=sys.stderr, unit="MB" if label.endswith("csv") else "rows"))
-        bar[0].update(done - bar[0].done)
-
-    return update, lambda: bar[0].close() if bar else None
 
 
 def _table_config(args: argparse.Namespace) -> Any:

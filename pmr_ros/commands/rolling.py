@@ -141,14 +141,29 @@ def diagnose_windows(args: argparse.Namespace, data: Any, config: Any, report_of
     ``report_of(diagnosis)`` builds the JSON report of the last window (the
     source's own fields: file or bag).
     """
+    from ..progress import progress_callback
     from ..report import format_table
     from ..report.html import ReportInput
     from ..service.closing import close_and_write
     from ..service.monitoring import WindowJob, monitor, window_stretches
 
     step = args.step or default_step(args.window)
-    say = None if getattr(args, "quiet", False) else (lambda line: print(line, file=sys.stderr))
-    found = monitor(data, config, window=args.window, step=step, jobs=args.jobs, scheduler=args.scheduler, progress=say)
+    quiet = getattr(args, "quiet", False)
+    say = None if quiet else (lambda line: print(line, file=sys.stderr))
+    update, close = (None, lambda: None) if quiet else progress_callback("windows", unit="windows")
+    try:
+        found = monitor(
+            data,
+            config,
+            window=args.window,
+            step=step,
+            jobs=args.jobs,
+            scheduler=args.scheduler,
+            progress=say,
+            windows_done=update,
+        )
+    finally:  # the bar's line ended before an error's line
+        close()
     last = found.diagnoses[-1]
     if last.status == "ok":
         last = close_and_write(config, last, model_path=getattr(args, "write_model", None))

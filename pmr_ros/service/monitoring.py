@@ -3,7 +3,7 @@
 The record (a historian export or a bag, read and cleaned once) is cut into
 the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
 unbroken stretches are slices of the one record (a window's own deviations
-are the only copy).  Windows run on local processes (the sweep's
+are the only copy; :mod:`.window_job`, whose names this module also gives).  Windows run on local processes (the sweep's
 ``forkserver`` pool, :func:`pmr_ros.core.sim.workers.worker_context`, the record
 memory-mapped by each worker: :mod:`.shipping`), in this
 process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
@@ -21,7 +21,6 @@ import time
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -29,15 +28,13 @@ import numpy as np
 
 from ..config import PmrConfig
 from ..core.monitor import OnsetSettings, onset_entries, trend_onsets, trend_table, window_plan
-from ..core.pmr.diagnosis import diagnose_stretches
 from ..core.pmr.piecewise import PieceCache
-from ..core.records import Record
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
 from ..data import PlantData
-from .historian import limits_given
 from .refusal import ServiceError
 from .shipping import ship, unship
+from .window_job import WindowJob, diagnose_window, stretch_spans, window_stretches
 from .window_shares import WindowShares
 
 __all__ = [
@@ -50,86 +47,6 @@ __all__ = [
     "window_entry",
     "window_stretches",
 ]
-
-
-@dataclass(frozen=True)
-class WindowJob:
-    """What every worker holds once: the configuration, the whole record and its usable-sample mask.
-
-    Attributes
-    ----------
-    config : PmrConfig
-    data : PlantData
-        The whole record, cleaned.
-    usable : ndarray of bool, shape (samples,)
-        ``data.usable``, computed once.
-    """
-
-    config: PmrConfig
-    data: PlantData
-    usable: np.ndarray
-
-
-def stretch_spans(job: WindowJob, first: int, last: int) -> list[tuple[int, int]]:
-    """The first and last sample (inclusive, in the whole record) of each unbroken usable stretch of ``first..last``."""
-    usable = job.usable[first : last + 1]
-    edges = np.flatnonzero(np.diff(np.concatenate(([False], usable, [False])).astype(np.int8))) + first
-    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
-def window_stretches(
-    job: WindowJob, first: int, last: int, *, deviations: bool = True, pieces: PieceCache | None = None
-) -> list[Record]:
-    """The unbroken usable stretches of samples ``first..last`` (inclusive), each one's means removed if ``deviations``.
-
-    Each stretch is a slice of the record; only the deviations are new arrays, and with ``pieces`` a stretch
-    the window before held too is that window's (:meth:`PieceCache.stretch`: the same deviations).
-    """
-    out = []
-    for a, b in stretch_spans(job, first, last):
-        if pieces is not None and deviations:
-            out.append(pieces.stretch((a, b), partial(_stretch, job, a, b, deviations=True)))
-        else:
-            out.append(_stretch(job, a, b, deviations=deviations))
-    return out
-
-
-def _stretch(job: WindowJob, a: int, b: int, *, deviations: bool) -> Record:
-    """Samples ``a..b`` (inclusive) of the record, their means removed if ``deviations``."""
-    part = {key: values[a : b + 1] for key, values in job.data.signals.items()}
-    if deviations:
-        part = {key: values - values.mean(axis=0) for key, values in part.items()}
-    manual = None if job.data.manual is None else job.data.manual[a : b + 1]  # b inclusive, as above
-    manual = manual if manual is not None and manual.any() else None
-    return Record(part["r"], part["u"], part["y"], part.get("dither"), part.get("dv"), manual)
-
-
-def diagnose_window(job: WindowJob, span: tuple[int, int], *, pieces: PieceCache | None = None) -> Diagnosis:
-    """The diagnosis of one window (one estimate from its unbroken stretches), with its data quality.
-
-    With ``pieces`` the stretches it shares with the windows before it are not filtered and transformed again
-    (:mod:`pmr_ros.core.pmr.piecewise`; the same diagnosis).
-    """
-    first, last = span
-    config = job.config
-    quality = config.quality if limits_given(config) else config.quality.without_limits()
-    stretches = window_stretches(job, first, last, pieces=pieces)
-
-    def diagnosed() -> Diagnosis:
-        return diagnose_stretches(
-            stretches,
-            model=config.model,
-            pmr=config.pmr,
-            parametric=config.parametric,
-            quality=quality,
-            as_read=window_stretches(job, first, last, deviations=False),
-            disturbance_model=config.disturbance_model,
-        )
-
-    if pieces is None:
-        return diagnosed()
-    with pieces.window(stretches, stretch_spans(job, first, last)):
-        return diagnosed()
 
 
 _DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
@@ -298,6 +215,25 @@ def _run(
                 record(index, diagnosis)
 
 
+def _diagnoses(
+    job: WindowJob,
+    tasks: list[tuple[int, int, int]],
+    jobs: int,
+    scheduler: str | None,
+    windows_done: Callable[[int, int], None] | None,
+) -> list[Diagnosis]:
+    """Every window's diagnosis (:func:`_run`), in window order; ``windows_done(done, total)`` as each comes."""
+    found: dict[int, Diagnosis] = {}
+
+    def record(index: int, diagnosis: Diagnosis) -> None:
+        found[index] = diagnosis
+        if windows_done is not None:
+            windows_done(len(found), len(tasks))
+
+    _run(job, tasks, jobs, scheduler, record)
+    return [found[index] for index in range(len(tasks))]
+
+
 def _window_seconds(window: int | float | str, ts: float) -> float:
     from ..core.monitor import parse_span
 
@@ -344,6 +280,7 @@ def monitor(
     jobs: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[str], None] | None = None,
+    windows_done: Callable[[int, int], None] | None = None,
 ) -> Monitoring:
     """Diagnose every window of ``data``, lay the results out as a trend table and find each element's onsets.
 
@@ -362,6 +299,8 @@ def monitor(
         A Dask scheduler's address: the windows run on its cluster instead.
     progress : callable, optional
         Told, in one line, what is about to run.
+    windows_done : callable, optional
+        ``windows_done(done, total)`` as each window's diagnosis comes (a progress bar's).
 
     Returns
     -------
@@ -386,12 +325,9 @@ def monitor(
         where = f"the Dask cluster at {scheduler}" if scheduler else f"{jobs} process(es)"
         progress(f"diagnosing {len(tasks)} windows on {where}")
     start = time.perf_counter()
-    found: dict[int, Diagnosis] = {}
-    _run(job, tasks, jobs, scheduler, found.__setitem__)
-    diagnoses = [found[index] for index in range(len(tasks))]
+    diagnoses = _diagnoses(job, tasks, jobs, scheduler, windows_done)
     # the JSON entries after the run: built while the workers ran, one run's peak memory was 897 MB, not 770
     windows = [window_entry(i, span, d, job) for i, (span, d) in enumerate(zip(plan, diagnoses, strict=True))]
-    table = trend_table(windows)
-    window_s = _window_seconds(window, data.sample_time_s)
+    table, window_s = trend_table(windows), _window_seconds(window, data.sample_time_s)
     onsets = _onsets(table, windows, window_s)
     return Monitoring(plan, diagnoses, windows, table, onsets, window_s, time.perf_counter() - start)
