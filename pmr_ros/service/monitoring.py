@@ -222,8 +222,13 @@ def _diagnoses(
     scheduler: str | None,
     windows_done: Callable[[int, int], None] | None,
 ) -> list[Diagnosis]:
-    """Every window's diagnosis (:func:`_run`), in window order; ``windows_done(done, total)`` as each comes."""
+    """Every window's diagnosis (:func:`_run`), in window order; ``windows_done(done, total)`` before and as each comes.
+
+    Told ``(0, total)`` first: a progress bar's clock then starts with the run, not with its first window.
+    """
     found: dict[int, Diagnosis] = {}
+    if windows_done is not None:
+        windows_done(0, len(tasks))
 
     def record(index: int, diagnosis: Diagnosis) -> None:
         found[index] = diagnosis
@@ -300,7 +305,7 @@ def monitor(
     progress : callable, optional
         Told, in one line, what is about to run.
     windows_done : callable, optional
-        ``windows_done(done, total)`` as each window's diagnosis comes (a progress bar's).
+        ``windows_done(done, total)`` from ``(0, total)`` on, as each window's diagnosis comes (a progress bar's).
 
     Returns
     -------
