@@ -92,6 +92,7 @@ def test_a_killed_worker_is_worker_ended_after_the_results_that_came_not_a_wait_
         with worker_pool(1) as pool:  # one worker: the tasks before the killing one are done first
             got.extend(completed(pool, _die_on_negative, [1, 2, 3, -1, 4]))
     assert got == [1, 2, 3] and (caught.value.done, caught.value.total) == (3, 5)
+    assert caught.value.unfinished == (-1, 4)  # in the order given
 
 
 def test_ctrl_c_of_the_process_group_ends_a_pool_promptly_without_the_workers_tracebacks(tmp_path):

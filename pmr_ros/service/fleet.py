@@ -23,6 +23,7 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -237,6 +238,10 @@ WORKER_ENDED = "its worker process ended (killed? out of memory?)"
 """The reason of an entry whose diagnosis ended its process, and did again when run alone."""
 
 
+def _named(work: Callable[[Any], Any], entry: Any) -> tuple[str, Any]:
+    return entry.name, work(entry)
+
+
 def run_local(entries: list[Any], *, jobs: int, work: Callable[[Any], Any] | None = None) -> dict[str, Any]:
     """``work(entry)`` (default :func:`diagnose_entry`, a module's function) of every entry on ``jobs`` processes.
 
@@ -245,22 +250,20 @@ def run_local(entries: list[Any], *, jobs: int, work: Callable[[Any], Any] | Non
     again is :func:`failed_entry` with :data:`WORKER_ENDED`; the others keep their results.  The pools are
     :func:`~pmr_ros.core.sim.workers.worker_pool` s: a Ctrl-C terminates their workers.
     """
-    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    from ..core.sim.workers import worker_pool
+    from ..core.sim.workers import WorkerEnded, completed, worker_pool
 
     work = diagnose_entry if work is None else work
     found: dict[str, Any] = {}  # by entry name
-    broken: list[Any] = []
+    broken: tuple[Any, ...] = ()
     with worker_pool(jobs) as pool:
-        futures = {pool.submit(work, entry): entry for entry in entries}
-        for future in as_completed(futures):
-            try:
-                found[futures[future].name] = future.result()
-            except BrokenProcessPool:
-                broken.append(futures[future])
-    for entry in sorted(broken, key=entries.index):
+        try:
+            for name, result in completed(pool, partial(_named, work), entries):
+                found[name] = result
+        except WorkerEnded as ended:
+            broken = ended.unfinished  # in the fleet's order
+    for entry in broken:
         with worker_pool(1) as alone:
             try:
                 found[entry.name] = alone.submit(work, entry).result()

@@ -16,7 +16,7 @@ from __future__ import annotations
 import multiprocessing
 import signal
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from functools import partial
@@ -126,13 +126,15 @@ class WorkerEnded(RuntimeError):
     ----------
     done, total : int
         The tasks whose results came, and all the tasks.
+    unfinished : tuple
+        The tasks whose results did not come, in the order they were given.
     """
 
-    def __init__(self, *, done: int, total: int) -> None:
+    def __init__(self, *, done: int, total: int, unfinished: tuple[Any, ...] = ()) -> None:
         super().__init__(
             f"a worker process ended before its tasks were done (killed? out of memory?): {done} of {total} done"
         )
-        self.done, self.total = done, total
+        self.done, self.total, self.unfinished = done, total, unfinished
 
 
 def completed(pool: ProcessPoolExecutor, work: Callable[[_Task], _Result], tasks: Iterable[_Task]) -> Iterator[_Result]:
@@ -145,15 +147,15 @@ def completed(pool: ProcessPoolExecutor, work: Callable[[_Task], _Result], tasks
     Exception
         What ``work`` raised for a task, as soon as it is known.
     """
-    futures = [pool.submit(work, task) for task in tasks]
-    done, lost = 0, False
+    futures = {pool.submit(work, task): task for task in tasks}
+    lost: set[Future[_Result]] = set()
     for future in as_completed(futures):
         try:
             result = future.result()
         except BrokenProcessPool:  # this task's or another's worker ended; those done before still come
-            lost = True
+            lost.add(future)
             continue
-        done += 1
         yield result
     if lost:
-        raise WorkerEnded(done=done, total=len(futures))
+        unfinished = tuple(task for future, task in futures.items() if future in lost)
+        raise WorkerEnded(done=len(futures) - len(lost), total=len(futures), unfinished=unfinished)
