@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import signal
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,6 +21,8 @@ from pmr_ros.core.results import ClassicResult, Diagnosis, ElementDiagnosis, Par
 from pmr_ros.core.results.codec import diagnosis_from_json, diagnosis_to_json
 from pmr_ros.core.sim.batch import simulate_many
 from pmr_ros.core.sim.closed_loop import simulate
+from pmr_ros.service.closing import close_diagnosis
+from pmr_ros.service.refusal import ServiceError
 
 
 def _diagnose(config, record):
@@ -134,6 +137,33 @@ def test_impact_ranks_the_mismatches_by_what_they_do_to_control(wood_berry_diagn
     np.testing.assert_allclose(with_impact.impact.ise_ratio, alone.ise / base.ise, rtol=1e-12)
     assert diagnosis_to_json(with_impact)["elements"][first.name]["impact"]["rank"] == 1
     assert diagnosis_from_json(diagnosis_to_json(with_impact)) == with_impact
+
+
+def test_the_impacts_simulations_run_through_the_mapper_in_order_and_on_workers_give_the_same_figures(
+    wood_berry_diagnosis,
+):
+    config, diagnosis = wood_berry_diagnosis
+    update = corrected_model(config.model, diagnosis)
+    config = replace(config, impact=replace(config.impact, samples=512))
+    seen = []
+
+    def mapper(work, tasks):
+        seen.append(len(tasks))
+        return [work(task) for task in reversed(tasks)][::-1]  # run out of order, returned in order
+
+    here = control_impact(diagnosis, loop=config, update=update, samples=512)
+    mapped = control_impact(diagnosis, loop=config, update=update, samples=512, mapper=mapper)
+    assert seen == [len(update.changes) + 2]  # one call: the loop as modelled, each element, all together
+    assert mapped == here
+    on_workers = close_diagnosis(diagnosis, config, jobs=2).diagnosis  # two worker processes
+    assert on_workers == close_diagnosis(diagnosis, config).diagnosis == here
+
+
+def test_a_killed_impact_worker_ends_in_one_line():
+    from pmr_ros.service.closing import _on_workers
+
+    with pytest.raises(ServiceError, match=r"^control impact: a worker process ended .*\(killed\? out of memory\?\)$"):
+        _on_workers(2)(signal.raise_signal, [signal.SIGKILL, signal.SIGKILL])
 
 
 def test_a_plant_that_breaks_the_loop_has_an_impact_far_beyond_any_estimated_mismatch():

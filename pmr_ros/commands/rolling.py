@@ -8,6 +8,7 @@ each element's onsets, and writes ``--json``, ``--trend`` and ``--report``.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -166,7 +167,10 @@ def diagnose_windows(args: argparse.Namespace, data: Any, config: Any, report_of
         close()
     last = found.diagnoses[-1]
     if last.status == "ok":
-        last = close_and_write(config, last, model_path=getattr(args, "write_model", None))
+        # the impact's simulations on the windows' local workers (its fork server runs already); on one
+        # process here when the windows ran on a cluster
+        jobs = 1 if args.scheduler else (args.jobs or os.cpu_count() or 1)
+        last = close_and_write(config, last, model_path=getattr(args, "write_model", None), jobs=jobs)
     report = monitor_report(report_of(last), found, args)
     if last.status == "ok":
         sys.stdout.write(format_table(last, report))

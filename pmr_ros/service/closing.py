@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -21,7 +21,7 @@ import numpy as np
 from ..config import PmrConfig
 from ..config.write import curve_file_path, model_params_text, write_curve_file, write_params_file
 from ..contract.windowing import VERDICT, WindowOutcome
-from ..core.loop.impact import control_impact
+from ..core.loop.impact import Mapper, control_impact
 from ..core.loop.update import ModelUpdate, NotCorrectable, corrected_model
 from ..core.results import Diagnosis
 from ..core.sim.augment import augmented_model
@@ -69,7 +69,7 @@ class Closed:
         return self.update is not None and bool(self.update.changes)
 
 
-def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
+def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig, *, jobs: int = 1) -> Closed:
     """The control impact of ``diagnosis``'s mismatches and the corrected model.
 
     Parameters
@@ -78,6 +78,9 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
         Verdicts on the controller's model ``config.model``.
     config : PmrConfig
         The controller's model and tuning, the excitation and ``impact.samples``.
+    jobs : int
+        Worker processes for the impact's closed-loop simulations (one per mismatched element, and two more);
+        1: one after another in this process.
 
     Returns
     -------
@@ -101,9 +104,33 @@ def close_diagnosis(diagnosis: Diagnosis, config: PmrConfig) -> Closed:
         if skipped is not None:
             return Closed(diagnosis, update, impact_note=skipped)
         diagnosis = control_impact(
-            diagnosis, loop=config, update=update, samples=config.impact.samples, controller=controller
+            diagnosis,
+            loop=config,
+            update=update,
+            samples=config.impact.samples,
+            controller=controller,
+            mapper=_on_workers(jobs) if jobs > 1 else None,
         )
     return Closed(diagnosis, update)
+
+
+def _on_workers(jobs: int) -> Mapper:
+    """A mapper that runs its tasks on up to ``jobs`` local worker processes, results in the tasks' order."""
+
+    def mapper(work: Callable[[Any], Any], tasks: Sequence[Any]) -> list[Any]:
+        from concurrent.futures.process import BrokenProcessPool
+
+        from ..core.sim.workers import worker_pool
+
+        try:
+            with worker_pool(min(jobs, len(tasks))) as pool:
+                return list(pool.map(work, tasks))
+        except BrokenProcessPool:
+            raise ServiceError(
+                "control impact: a worker process ended before its simulation was done (killed? out of memory?)"
+            ) from None
+
+    return mapper
 
 
 def external_note(config: PmrConfig) -> str:
@@ -236,7 +263,12 @@ def close_window(outcome: WindowOutcome, config: PmrConfig) -> ClosedWindow:
 
 
 def close_and_write(
-    config: PmrConfig, diagnosis: Diagnosis, *, model_path: str | None = None, notes: list[str] | None = None
+    config: PmrConfig,
+    diagnosis: Diagnosis,
+    *,
+    model_path: str | None = None,
+    notes: list[str] | None = None,
+    jobs: int = 1,
 ) -> Diagnosis:
     """The diagnosis with its control impact; the corrected model written to ``model_path`` if given.
 
@@ -250,13 +282,15 @@ def close_and_write(
     notes : list of str, optional
         Receives why the control impact was not computed, when it was skipped
         (:attr:`Closed.impact_note`), for the command to print.
+    jobs : int
+        Worker processes for the impact's simulations (:func:`close_diagnosis`).
 
     Raises
     ------
     ServiceError
         ``model_path`` with a diagnosis that cannot give a corrected model (exit code 3).
     """
-    closed = close_diagnosis(diagnosis, config)
+    closed = close_diagnosis(diagnosis, config, jobs=jobs)
     if closed.impact_note and notes is not None:
         notes.append(closed.impact_note)
     if closed.update is None:

@@ -28,7 +28,10 @@ loops have no feedforward: their impact simulates the G elements without DVs.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +45,18 @@ from ..sim.true_plant import OutputDisturbance
 from .pi_loops import ControllerSettings, PiTuning, simulate_pi
 from .update import ModelUpdate, with_changes
 
-__all__ = ["ImpactSettings", "LoopFigures", "control_impact", "loop_figures", "pi_figures", "weighted_errors"]
+__all__ = [
+    "ImpactSettings",
+    "LoopFigures",
+    "Mapper",
+    "control_impact",
+    "loop_figures",
+    "pi_figures",
+    "weighted_errors",
+]
+
+Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], Sequence[Any]]
+"""``mapper(work, tasks)``: ``[work(t) for t in tasks]`` in order, here or on worker processes."""
 
 UNSTABLE = 1e9
 """An output beyond this many times the setpoint swing counts as a loop gone unstable."""
@@ -270,6 +284,7 @@ def control_impact(
     update: ModelUpdate,
     samples: int,
     controller: ControllerSettings | None = None,
+    mapper: Mapper | None = None,
 ) -> Diagnosis:
     """The diagnosis with the control impact of each mismatched element and of all together.
 
@@ -285,6 +300,9 @@ def control_impact(
         Closed-loop samples per simulation.
     controller : ControllerSettings, optional
         The controller simulated (:func:`loop_figures`); default the MPC.
+    mapper : callable, optional
+        Runs the ``N + 2`` independent simulations (the loop as modelled, each element alone, all together):
+        ``mapper(work, plants)``, e.g. a process pool's ``map`` (``work`` pickles); default one after another here.
 
     Returns
     -------
@@ -304,16 +322,36 @@ def control_impact(
     if not acting:
         return diagnosis
 
-    def figures(plant: TransferMatrix, dv_plant: TransferMatrix | None) -> LoopFigures:
-        return loop_figures(loop, plant, samples=samples, controller=controller, disturbance_plant=dv_plant)
-
-    base = figures(loop.model, loop.disturbance_model)
-    alone = {c.name: figures(*_plants(loop, diagnosis, update, c.name)) for c in acting}
+    dv_together = loop.disturbance_model if pi else (update.disturbance_model or loop.disturbance_model)
+    plants = [
+        (loop.model, loop.disturbance_model),
+        *(_plants(loop, diagnosis, update, c.name) for c in acting),
+        (update.model, dv_together),
+    ]
+    work = partial(_figures, loop=loop, samples=samples, controller=controller)
+    figures: list[LoopFigures] = list((mapper or _in_order)(work, plants))
+    base, all_changed = figures[0], figures[-1]
+    alone = dict(zip((c.name for c in acting), figures[1:-1], strict=True))
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
     elements = dict(diagnosis.elements)
     for name, result in alone.items():
         ise, movement = result.ratio_to(base)
         elements[name] = replace(elements[name], impact=ImpactResult(ise, movement, ranked.index(name) + 1))
-    dv_together = loop.disturbance_model if pi else (update.disturbance_model or loop.disturbance_model)
-    together = figures(update.model, dv_together).ratio_to(base)
+    together = all_changed.ratio_to(base)
     return replace(diagnosis, elements=elements, impact=ImpactResult(*together, rank=0))
+
+
+def _figures(
+    plants: tuple[TransferMatrix, TransferMatrix | None],
+    *,
+    loop: LoopConfig,
+    samples: int,
+    controller: ControllerSettings | None,
+) -> LoopFigures:
+    """:func:`loop_figures` on ``(plant, disturbance_plant)``: one of :func:`control_impact`'s simulations."""
+    plant, dv_plant = plants
+    return loop_figures(loop, plant, samples=samples, controller=controller, disturbance_plant=dv_plant)
+
+
+def _in_order(work: Callable[[Any], Any], tasks: Sequence[Any]) -> list[Any]:
+    return [work(task) for task in tasks]
