@@ -322,14 +322,11 @@ def control_impact(
     if not acting:
         return diagnosis
 
+    # the loop as modelled, each element alone, all together: independent simulations
     dv_together = loop.disturbance_model if pi else (update.disturbance_model or loop.disturbance_model)
-    plants = [
-        (loop.model, loop.disturbance_model),
-        *(_plants(loop, diagnosis, update, c.name) for c in acting),
-        (update.model, dv_together),
-    ]
+    plants = [(loop.model, loop.disturbance_model), *(_plants(loop, diagnosis, update, c.name) for c in acting)]
     work = partial(_figures, loop=loop, samples=samples, controller=controller)
-    figures: list[LoopFigures] = list((mapper or _in_order)(work, plants))
+    figures: list[LoopFigures] = list((mapper or _in_order)(work, [*plants, (update.model, dv_together)]))
     base, all_changed = figures[0], figures[-1]
     alone = dict(zip((c.name for c in acting), figures[1:-1], strict=True))
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
