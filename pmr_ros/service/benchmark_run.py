@@ -21,30 +21,31 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..benchmark import dataset, markdown, plots, scoring
+from ..benchmark import dataset
 from ..benchmark.journal import Journal, fingerprint
 from ..benchmark.runner import METHODS, RunTask, run_one
 from ..benchmark.scenarios import read_scenarios, run_table
 from ..benchmark.units import all_units, unit_config
 from ..config import PmrConfig
 from ..core.records import Record
-from ..outputs import write_bytes, write_text
+from ..outputs import write_text
 from ..progress import ProgressBar
+from .benchmark_files import (
+    JOURNAL,
+    MANIFEST,
+    RESULTS,
+    left_to_do,
+    open_journal,
+    planned_rows,
+    score_and_write,
+    write_results,
+)
 from .refusal import ServiceError
 
 if TYPE_CHECKING:
     import pandas as pd  # annotations only: pandas is the data extra, imported where used
 
 __all__ = ["BenchmarkRequest", "BenchmarkSummary", "rescore", "run_benchmark", "select_runs"]
-
-JOURNAL = "runs"  # the journal folder in ``out``
-
-RESULTS = "results.parquet"  # in ``out``: one row per run, method and element (_write_results)
-CELLS = ["unit", "samples", "disturbance", "seed"]
-"""The columns of results.parquet that name a run's cell (:func:`_write_results`), not a method's result."""
-
-MANIFEST = "benchmark.json"
-"""Beside results.parquet: the run's wall time [s] and number of runs, for ``--report-only``."""
 
 
 @dataclass(frozen=True)
@@ -206,58 +207,6 @@ def _execute(
             ) from None
 
 
-def _write_results(path: Path, rows: pd.DataFrame, lines: pd.DataFrame) -> pd.DataFrame:
-    """``rows`` with their runs' cells, in run, method and element order, written to ``path``: the results."""
-    cells = run_table(lines)[["run", *CELLS]]
-    results = cells.merge(rows, on="run", how="right").sort_values(["run", "method", "element"])
-    results.to_parquet(path, index=False)
-    return results
-
-
-def _write_report(request: BenchmarkRequest, scores: pd.DataFrame, labelled: pd.DataFrame, wall_s: float) -> None:
-    folder = request.report.parent / "figures"
-    folder.mkdir(parents=True, exist_ok=True)
-    figures = {}
-    drawn = {
-        "benchmark_detection.png": ("detection at 1 % false alarms", plots.length_figure,
-                                    ("detection_at_1", "detection at 1 % FA")),
-        "benchmark_coverage.png": ("dK interval coverage", plots.length_figure, ("gain_coverage", "dK coverage")),
-        "benchmark_time.png": ("CPU time per diagnosis", plots.length_figure, ("cpu_s", "CPU s / diagnosis")),
-    }  # fmt: skip
-    for name, (title, draw, args) in drawn.items():
-        write_bytes(folder / name, draw(scores, *args, log=name == "benchmark_time.png"))
-        figures[title] = f"figures/{name}"
-    longest = int(labelled["samples"].max())
-    write_bytes(folder / "benchmark_roc.png", plots.roc_figure(labelled, samples=longest))
-    figures[f"ROC at {longest} samples"] = "figures/benchmark_roc.png"
-    subset = _subset_text(labelled)
-    paired = scoring.paired_scores(labelled)
-    text = markdown.report_text(scores, subset=subset, figures=figures, wall_s=wall_s, paired=paired)
-    write_text(request.report, text)
-
-
-def _subset_text(labelled: pd.DataFrame) -> str:
-    runs = labelled.drop_duplicates("run")
-    cells = runs.groupby(["unit", "disturbance", "samples"]).size()
-    units = ", ".join(sorted(set(runs["unit"])))
-    lengths = ", ".join(f"{n:,}" for n in sorted(set(runs["samples"])))
-    return (
-        f"{len(runs)} runs of the scenario file (units {units}; lengths {lengths} samples; "
-        f"{cells.min()}-{cells.max()} runs per unit, disturbance and length)"
-    )
-
-
-def _score_and_write(
-    request: BenchmarkRequest, results: pd.DataFrame, lines: pd.DataFrame, wall_s: float
-) -> pd.DataFrame:
-    labelled = scoring.label_results(results.drop(columns=CELLS), lines)
-    scores = scoring.score(labelled)
-    write_text(request.out / "scores.csv", scores.to_csv(index=False))
-    write_text(request.out / "roc.csv", scoring.roc_table(labelled).to_csv(index=False))
-    _write_report(request, scores, labelled, wall_s)
-    return scores
-
-
 def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     """Score what ``request.out`` holds again and write scores.csv and the report (no run).
 
@@ -282,7 +231,7 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
             raise ServiceError(f"--report-only: {exc}") from None
         rows = journal.read()
         lines = scenarios[scenarios["run"].isin(rows["run"])].reset_index(drop=True)
-        results = _write_results(path, rows, lines)
+        results = write_results(path, rows, lines)
     elif path.is_file():
         results = pd.read_parquet(path)
         lines = scenarios[scenarios["run"].isin(results["run"])].reset_index(drop=True)
@@ -292,76 +241,9 @@ def rescore(request: BenchmarkRequest) -> BenchmarkSummary:
     # a journal may hold the runs of many invocations: the last one's wall time is not theirs
     known = manifest.is_file() and not from_journal
     wall_s = float(json.loads(manifest.read_text())["wall_s"]) if known else math.nan
-    scores = _score_and_write(request, results, lines, wall_s)
+    scores = score_and_write(results, lines, out=request.out, report=request.report, wall_s=wall_s)
     scored = int(results["run"].nunique())
     return BenchmarkSummary(scored, scores, wall_s, scored)
-
-
-def _left_to_do(tasks: list[RunTask], done: set[tuple[int, str]]) -> list[RunTask]:
-    """``tasks`` without the methods ``done`` has for their run; tasks with no method left dropped."""
-    left = [replace(t, methods=tuple(m for m in t.methods if (t.run, m) not in done)) for t in tasks]
-    return [t for t in left if t.methods]
-
-
-def _planned_rows(journal: Journal, tasks: list[RunTask]) -> pd.DataFrame:
-    """The journal's rows of the (run, method) pairs of ``tasks``."""
-    rows = journal.read()
-    planned = {(t.run, m) for t in tasks for m in t.methods}
-    wanted = [(int(r), str(m)) in planned for r, m in zip(rows["run"], rows["method"], strict=True)]
-    return rows[wanted].reset_index(drop=True)
-
-
-def _seed_journal(journal: Journal, path: Path, scenarios: pd.DataFrame, key: str) -> None:
-    """Begin ``journal`` with the runs of the results.parquet at ``path``, once its runs are the scenario file's.
-
-    Raises
-    ------
-    ServiceError
-        A run of the file whose unit, length, disturbance or seed is not that of the same run in ``scenarios``.
-    """
-    import pandas as pd
-
-    results = pd.read_parquet(path)
-    runs = results[["run", *CELLS]].drop_duplicates("run")
-    table = run_table(scenarios)[["run", *CELLS]]
-    merged = runs.merge(table, on="run", how="left", suffixes=("", "_file"))
-    for _, line in merged.iterrows():
-        if any(str(line[c]) != str(line[f"{c}_file"]) for c in CELLS):
-            raise ServiceError(
-                f"--resume: {path}: run {int(line['run'])} is {line['unit']} of {line['samples']} samples there, "
-                "not the scenario file's: results of another scenario file; use --force to start afresh"
-            )
-    journal.start(key)
-    journal.seed(results.drop(columns=CELLS))
-
-
-def _open_journal(request: BenchmarkRequest, scenarios: pd.DataFrame) -> Journal:
-    """``out``'s journal, continued (``resume``) or begun anew; one that holds runs is kept unless told.
-
-    With ``resume``, an ``out`` that holds a results.parquet and no journal (a committed or downloaded run) is
-    continued from that file (:func:`_seed_journal`).
-
-    Raises
-    ------
-    ServiceError
-        ``resume`` with runs of another scenario file, or neither ``resume`` nor ``force`` with runs kept.
-    """
-    journal, key, shipped = Journal(request.out / JOURNAL), fingerprint(scenarios), request.out / RESULTS
-    if request.resume and not journal.count() and shipped.is_file():
-        _seed_journal(journal, shipped, scenarios, key)
-    if request.resume:
-        try:
-            journal.check(key)
-        except ValueError as exc:
-            raise ServiceError(f"--resume: {exc}; use --force to start afresh") from None
-    elif journal.count() and not request.force:
-        raise ServiceError(
-            f"--out {request.out}: {journal.folder} holds {journal.count()} finished run(s); "
-            "use --resume to continue them or --force to start afresh"
-        )
-    else:
-        journal.start(key)
-    return journal
 
 
 def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
@@ -370,8 +252,8 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
     lines = select_runs(scenarios, request)
     tasks = _tasks(lines, request)
     request.out.mkdir(parents=True, exist_ok=True)
-    journal = _open_journal(request, scenarios)
-    todo = _left_to_do(tasks, journal.done() if request.resume else set())
+    journal = open_journal(request.out, scenarios, resume=request.resume, force=request.force)
+    todo = left_to_do(tasks, journal.done() if request.resume else set())
     if request.export is not None:
         for unit in sorted(set(lines["unit"])):
             dataset.write_model(request.export, unit, unit_config(unit).model)
@@ -393,7 +275,7 @@ def run_benchmark(request: BenchmarkRequest) -> BenchmarkSummary:
         if bar:
             bar.close()
     wall_s = time.perf_counter() - start
-    results = _write_results(request.out / RESULTS, _planned_rows(journal, tasks), lines)
+    results = write_results(request.out / RESULTS, planned_rows(journal, tasks), lines)
     write_text(request.out / MANIFEST, json.dumps({"wall_s": wall_s, "runs": len(todo)}) + "\n")
-    scores = _score_and_write(request, results, lines, wall_s)
+    scores = score_and_write(results, lines, out=request.out, report=request.report, wall_s=wall_s)
     return BenchmarkSummary(len(todo), scores, wall_s, int(results["run"].nunique()))
