@@ -51,3 +51,15 @@ def shared_value(tmp_path_factory: pytest.TempPathFactory, name: str, compute: C
 
     folder = shared_folder(tmp_path_factory, name, make)
     return pickle.loads((folder / "value.pickle").read_bytes())  # noqa: S301 - written by this session
+
+
+class SharedValues:
+    """``shared(name, compute)``: :func:`shared_value`, kept in this process too (the ``shared`` fixture)."""
+
+    def __init__(self, tmp_path_factory: pytest.TempPathFactory) -> None:
+        self.tmp_path_factory, self.values = tmp_path_factory, {}
+
+    def __call__(self, name: str, compute: Callable[[], T]) -> T:
+        if name not in self.values:
+            self.values[name] = shared_value(self.tmp_path_factory, name, compute)
+        return self.values[name]
