@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from session_share import SharedValues
 
 from pmr_ros.config import load_config
 
@@ -11,6 +12,15 @@ from pmr_ros.config import load_config
 def wood_berry():
     """The shipped Wood-Berry configuration."""
     return load_config()
+
+
+@pytest.fixture(scope="session")
+def shared(tmp_path_factory):
+    """``shared(name, compute)``: ``compute()`` once per test session, shared by the xdist workers.
+
+    ``name`` must say every input of ``compute`` (test/session_share.py); for read-only results.
+    """
+    return SharedValues(tmp_path_factory)
 
 
 # ROS 2 isolation fixtures (a private rclpy Context and ROS domain per test): test/ros_fixtures.py

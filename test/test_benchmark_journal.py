@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
+from session_share import shared_folder
 
 from pmr_ros.benchmark.journal import Journal, fingerprint
 from pmr_ros.benchmark.scenarios import read_scenarios
@@ -60,18 +61,25 @@ def test_a_journal_refuses_another_scenario_file_and_starts_anew_when_told(tmp_p
 
 @pytest.fixture(scope="module")
 def whole(tmp_path_factory):
-    """The selection run once without a stop: the reference."""
-    out = tmp_path_factory.mktemp("whole")
-    assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out)]) == 0
-    return pd.read_parquet(out / "results.parquet")
+    """The selection run once without a stop: the reference (run once per session: test/session_share.py)."""
+
+    def benchmark(out):
+        out.mkdir()
+        assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out)]) == 0
+
+    return pd.read_parquet(
+        shared_folder(tmp_path_factory, "test_benchmark_journal_whole", benchmark) / "results.parquet"
+    )
 
 
 @pytest.fixture(scope="module")
 def classic(tmp_path_factory):
-    """The selection run with the classic PMR alone (tests copy it before they change it)."""
-    out = tmp_path_factory.mktemp("classic") / "out"
-    assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 0
-    return out
+    """The selection run with the classic PMR alone, once per session (tests copy it before they use it)."""
+
+    def benchmark(out):
+        assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 0
+
+    return shared_folder(tmp_path_factory, "test_benchmark_journal_classic", benchmark)
 
 
 def _same_results(got: pd.DataFrame, want: pd.DataFrame) -> None:
@@ -125,7 +133,7 @@ def test_a_journal_with_runs_is_kept_unless_resumed_or_forced(classic, tmp_path,
 
 
 def test_resume_refuses_the_journal_of_another_scenario_file(classic, tmp_path, capsys):
-    out = classic
+    out = shutil.copytree(classic, tmp_path / "other")  # the shared folder is read, never resumed
     shorter = tmp_path / "scenarios.csv"
     lines = (REPO / "config" / "benchmark_scenarios.csv").read_text().splitlines()
     shorter.write_text("\n".join(lines[:-1]) + "\n")

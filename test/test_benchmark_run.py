@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import shutil
 import signal
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
+from session_share import shared_folder
 
 from pmr_ros.benchmark.dataset import read_run
 from pmr_ros.benchmark.runner import METHODS, RunTask, run_one
@@ -27,9 +29,13 @@ TINY = ["--quick", "--samples", "2048", "--quiet"]
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
-    out = tmp_path_factory.mktemp("benchmark")
-    assert main(["benchmark", *TINY, "--out", str(out), "--export", str(out / "export")]) == 0
-    return out
+    """The quick benchmark's folder, run once per session (its tests only read it; test/session_share.py)."""
+
+    def benchmark(out):
+        out.mkdir()
+        assert main(["benchmark", *TINY, "--out", str(out), "--export", str(out / "export")]) == 0
+
+    return shared_folder(tmp_path_factory, "test_benchmark_run_quick", benchmark)
 
 
 def test_quick_runs_every_method_on_every_element_and_writes_the_report(quick):
@@ -161,10 +167,11 @@ def test_on_a_dask_cluster_the_results_are_the_local_ones(quick, tmp_path):
 
 
 def test_report_only_scores_the_results_again_to_the_same_numbers(quick, tmp_path):
-    before = pd.read_csv(quick / "scores.csv")
+    copy = shutil.copytree(quick, tmp_path / "quick")  # report-only writes scores.csv: not into the shared folder
+    before = pd.read_csv(copy / "scores.csv")
     report = tmp_path / "again.md"
-    assert main(["benchmark", "--report-only", "--out", str(quick), "--report", str(report), "--quiet"]) == 0
-    after = pd.read_csv(quick / "scores.csv")
+    assert main(["benchmark", "--report-only", "--out", str(copy), "--report", str(report), "--quiet"]) == 0
+    after = pd.read_csv(copy / "scores.csv")
     pd.testing.assert_frame_equal(before, after, rtol=1e-12)
     assert "## Headline" in report.read_text() and (tmp_path / "figures" / "benchmark_roc.png").is_file()
 

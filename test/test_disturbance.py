@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from benchmark_scripts import load_benchmark
 from binomial import max_failures, min_successes
+from session_share import shared_value
 
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
 from pmr_ros.core.records import Record
@@ -29,15 +30,31 @@ tolerance in most elements (at 8,192 samples 41 % of the no-mismatch elements st
 bench = load_benchmark("bench_disturbance")
 
 
+class _Studies(dict):
+    """Per (case, scenario): the score over SEEDS and the diagnoses, each run when first asked for.
+
+    Once per session: the first xdist worker to ask runs it, the others read it (test/session_share.py).
+    """
+
+    def __init__(self, wood_berry, tmp_path_factory):
+        super().__init__()
+        self.wood_berry, self.tmp_path_factory = wood_berry, tmp_path_factory
+
+    def __missing__(self, key):
+        case, scenario = key
+
+        def run():
+            config = bench.case_config(case, self.wood_berry)
+            return bench.run_case(config, scenario, SEEDS, CASE_SAMPLES[case])
+
+        self[key] = shared_value(self.tmp_path_factory, f"test_disturbance_study_{case}_{scenario}", run)
+        return self[key]
+
+
 @pytest.fixture(scope="module")
-def studies(wood_berry):
+def studies(wood_berry, tmp_path_factory):
     """Per (case, scenario): the score over SEEDS and the diagnoses."""
-    out = {}
-    for case in ("saturation", "disturbance"):
-        config = bench.case_config(case, wood_berry)
-        for scenario in ("none", "full"):
-            out[case, scenario] = bench.run_case(config, scenario, SEEDS, CASE_SAMPLES[case])
-    return out
+    return _Studies(wood_berry, tmp_path_factory)
 
 
 @pytest.mark.parametrize("case", ["saturation", "disturbance"])

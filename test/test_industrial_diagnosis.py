@@ -125,29 +125,33 @@ def configs(tmp_path_factory):
 class _Diagnoses:
     """Both methods' diagnoses of ``[label, scenario, seed, method]``, each system and scenario simulated on first use.
 
-    One piece per system and scenario, so that the parallel test workers share the work out.
+    One piece per system and scenario, so that the parallel test workers share the work out; each piece once per
+    session (the ``shared`` fixture), whichever worker asks first.
     """
 
-    def __init__(self, configs) -> None:
-        self.configs, self.done = configs, {}
+    def __init__(self, configs, shared) -> None:
+        self.configs, self.shared = configs, shared
 
     def __getitem__(self, key):
         label, scenario, seed, method = key
-        if (label, scenario) not in self.done:
+
+        def piece():
             config = self.configs[label]
             records = simulate_many(config, [(scenario, s) for s in SEEDS])
-            self.done[label, scenario] = {
+            return {
                 (s, m): diagnose_record(record, config, method=m, with_dither=True)
                 for s, record in zip(SEEDS, records, strict=True)
                 for m in ("classic", "parametric")
             }
-        return self.done[label, scenario][seed, method]
+
+        name = f"test_industrial_diagnosis_{label.replace(' ', '_')}_{scenario}_seeds_{'_'.join(map(str, SEEDS))}"
+        return self.shared(name, piece)[seed, method]
 
 
 @pytest.fixture(scope="module")
-def diagnoses(configs):
+def diagnoses(configs, shared):
     """Both methods' diagnoses of every system and scenario, over :data:`SEEDS` (computed as the tests ask)."""
-    return _Diagnoses(configs)
+    return _Diagnoses(configs, shared)
 
 
 def _truth(config, scenario: str):

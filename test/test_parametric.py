@@ -1,7 +1,6 @@
 """The parametric PMR: exactness, calibrated intervals and verdicts, the data-quality guard."""
 
 from dataclasses import replace
-from functools import cache
 
 import numpy as np
 import pytest
@@ -59,24 +58,26 @@ def test_noise_free_fit_recovers_the_injected_mismatch_exactly():
         assert e.verdict == "mismatch"
 
 
-@cache
-def _campaign(scenario: str):
+def _campaign(shared, scenario: str):
     """Per seed of :data:`SEEDS`, the parametric results of a Wood-Berry run of ``scenario``.
 
-    Computed once per process and scenario, so that the parallel test workers share the two campaigns out.
+    Computed once per session and scenario (the ``shared`` fixture): the test workers share the two campaigns out.
     """
-    config = load_config()
-    return [
-        _parametric(config, record)[2] for record in simulate_many(config, [(scenario, s) for s in range(1, SEEDS + 1)])
-    ]
+
+    def campaign():
+        config = load_config()
+        runs = [(scenario, s) for s in range(1, SEEDS + 1)]
+        return [_parametric(config, record)[2] for record in simulate_many(config, runs)]
+
+    return shared(f"test_parametric_campaign_{scenario}_{SEEDS}_seeds", campaign)
 
 
 @pytest.mark.parametrize("scenario", ["full", "none"])
-def test_95_percent_intervals_cover_the_injected_mismatch_in_90_percent_of_seeds(wood_berry, scenario):
+def test_95_percent_intervals_cover_the_injected_mismatch_in_90_percent_of_seeds(wood_berry, shared, scenario):
     truth = wood_berry.mismatch.for_scenario(scenario)
     for j, name in enumerate(wood_berry.model.element_names()):
         i, k = divmod(j, 2)
-        runs = [run[name] for run in _campaign(scenario)]
+        runs = [run[name] for run in _campaign(shared, scenario)]
         gain = np.sum([lo <= truth.gain_pct[i, k] <= hi for lo, hi in (e.gain_mismatch_pct_interval for e in runs)])
         tau = np.sum(
             [lo <= truth.time_constant_pct[i, k] <= hi for lo, hi in (e.tau_mismatch_pct_interval for e in runs)]
@@ -87,19 +88,19 @@ def test_95_percent_intervals_cover_the_injected_mismatch_in_90_percent_of_seeds
         assert tau >= least, f"{scenario} {name} tau coverage {tau} of {SEEDS}"
 
 
-def test_false_alarms_at_most_5_percent_per_element_without_mismatch(wood_berry):
+def test_false_alarms_at_most_5_percent_per_element_without_mismatch(wood_berry, shared):
     for name in wood_berry.model.element_names():
-        alarms = np.sum([run[name].verdict == "mismatch" for run in _campaign("none")])
+        alarms = np.sum([run[name].verdict == "mismatch" for run in _campaign(shared, "none")])
         # at most 8 of 50: what a 5 % false-alarm rate stays within with probability >= 1 - 1e-3 (test/binomial.py)
         assert alarms <= max_failures(SEEDS, 0.05), f"{name}: {alarms} of {SEEDS} false alarms"
-        assert np.sum([run[name].verdict == "ok" for run in _campaign("none")]) >= min_successes(SEEDS, 0.95)
+        assert np.sum([run[name].verdict == "ok" for run in _campaign(shared, "none")]) >= min_successes(SEEDS, 0.95)
 
 
-def test_every_injected_mismatch_detected_in_95_percent_of_seeds(wood_berry):
+def test_every_injected_mismatch_detected_in_95_percent_of_seeds(wood_berry, shared):
     mm = wood_berry.mismatch
     for j, name in enumerate(wood_berry.model.element_names()):
         i, k = divmod(j, 2)
-        runs = [run[name] for run in _campaign("full")]
+        runs = [run[name] for run in _campaign(shared, "full")]
         detected = min_successes(
             SEEDS, 0.95
         )  # 42 of 50: what a 95 % detection rate reaches with probability >= 1 - 1e-3

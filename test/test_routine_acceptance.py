@@ -45,10 +45,15 @@ def _diagnose(config, record):
 
 
 @pytest.fixture(scope="module")
-def routine():
+def routine(shared):
+    """The shipped routine month, simulated and diagnosed once per session (the ``shared`` fixture)."""
     config = load_config(ROUTINE)
-    record = simulate(config)
-    return config, record, _diagnose(config, record)
+
+    def run():
+        record = simulate(config)
+        return record, _diagnose(config, record)
+
+    return config, *shared("test_routine_acceptance_debutanizer_routine_as_shipped", run)
 
 
 def _within_specification(name, element):
@@ -61,8 +66,8 @@ def _within_specification(name, element):
     return p.delay_mismatch_samples == size
 
 
-def test_the_configuration_injects_what_this_test_checks(routine):
-    config, _, _ = routine
+def test_the_configuration_injects_what_this_test_checks():
+    config = load_config(ROUTINE)  # the routine fixture's: its configuration, not its month of simulation
     names = config.model.element_names()
     changed = (config.mismatch.gain_pct != 0) | (config.mismatch.time_constant_pct != 0)
     changed |= config.mismatch.delay_samples != 0

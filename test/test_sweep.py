@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from session_share import shared_folder
 
 from pmr_ros.cli import main
 from pmr_ros.config import load_config
@@ -101,9 +102,12 @@ def test_baseline_tuning_is_kept_and_slow_points_get_a_longer_horizon(wood_berry
 
 @pytest.fixture(scope="module")
 def small_sweep(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sweep") / "out"
-    assert main(["sweep", "--out", str(out), "--jobs", "2", *SMALL]) == 0
-    return out
+    """The small sweep's folder, swept once per session (its tests only read it; test/session_share.py)."""
+
+    def sweep(out):
+        assert main(["sweep", "--out", str(out), "--jobs", "2", *SMALL]) == 0
+
+    return shared_folder(tmp_path_factory, "small_sweep", sweep)
 
 
 def test_small_sweep_csv_shape(small_sweep):
@@ -356,13 +360,35 @@ def test_interrupt_keeps_finished_points(tmp_path, wood_berry, monkeypatch):
     assert sorted(t.point.nu for t in left) == [1.0, 2.0]
 
 
-def test_report_only_refuses_another_configuration(small_sweep, tmp_path, capsys):
+@pytest.fixture
+def figures_named(monkeypatch):
+    """The names of the figures a report asks for, not drawn: for the tests of a report's text.
+
+    Drawing is a second a figure; test_small_sweep_report and the non-square sweep draw them (the same write_report).
+    """
+    from pmr_ros.report import sweep_document
+
+    named = []
+
+    def name_only(summary, *, path, **kwargs):
+        named.append(path.name)
+        return path
+
+    monkeypatch.setattr(sweep_document, "plot_sweep", name_only)
+    return named
+
+
+def test_report_only_refuses_another_configuration(small_sweep, tmp_path, capsys, figures_named):
     report = tmp_path / "report.md"
     argv = ["sweep", "--out", str(small_sweep), "--report-only", "--report", str(report)]
     assert main([*argv, "--config", "config/three_by_three.yaml"]) == 2
     err = capsys.readouterr().err
     assert "another configuration" in err and "--config" in err and "Traceback" not in err and not report.exists()
+    assert figures_named == []
     assert main(argv) == 0 and "Np = 40" in report.read_text()
+    assert sorted(figures_named) == sorted(
+        f"sweep_{e}_{q}{m}.png" for e in ("G11", "G21") for q in ("gain", "tau", "delay") for m in ("", "_parametric")
+    )
 
 
 def test_report_only_needs_results(tmp_path, capsys):
@@ -380,7 +406,7 @@ OTHER_LOOP = """
 """
 
 
-def test_report_of_another_system_quotes_its_own_configuration(tmp_path):
+def test_report_of_another_system_quotes_its_own_configuration(tmp_path, figures_named):
     config_file = tmp_path / "three_by_three_np50.yaml"
     config_file.write_text((Path("config") / "three_by_three.yaml").read_text() + OTHER_LOOP)
     config = load_config(config_file)
@@ -407,6 +433,9 @@ def test_report_of_another_system_quotes_its_own_configuration(tmp_path):
         "--quiet",
     ]
     assert main(argv) == 0
+    assert sorted(figures_named) == sorted(
+        f"sweep_{e}_{q}.png" for e in ("G11", "G23") for q in ("gain", "tau", "delay")
+    )
     report = (out / "reproduction.md").read_text()
     expected = [
         "three_by_three",
@@ -608,7 +637,13 @@ def test_point_model_changes_only_the_swept_time_constant(wood_berry):
     np.testing.assert_array_equal(model.gain, wood_berry.model.gain)
 
 
-def test_load_config_is_unchanged_by_a_sweep(small_sweep):
+def test_load_config_is_unchanged_by_a_sweep(tmp_path):
+    # a sweep in this process (--jobs 1) whose point G11 x 3.25 runs with Np = 50, not the configured 40
+    argv = ["sweep", "--out", str(tmp_path / "o"), "--elements", "G11", "--nu", "3.25", "--seeds", "1"]
+    assert (
+        main([*argv, "--samples", str(SAMPLES), "--methods", "classic", "--jobs", "1", "--quiet", "--no-report"]) == 0
+    )
+    assert {r["prediction_horizon"] for r in store.read_rows(tmp_path / "o" / store.RESULTS_FILE)} == {50}
     assert load_config().mpc.prediction_horizon == 40
 
 
@@ -689,7 +724,8 @@ def dask_cluster():
 
 def test_sweep_on_a_dask_cluster_writes_the_local_pools_rows(small_sweep, dask_cluster, tmp_path):
     out = tmp_path / "dask"
-    assert main(["sweep", "--out", str(out), "--scheduler", dask_cluster.scheduler_address, *SMALL]) == 0
+    argv = ["sweep", "--out", str(out), "--scheduler", dask_cluster.scheduler_address, "--no-report", *SMALL]
+    assert main(argv) == 0  # the rows are this test's claim; the report is written from rows alike (small_sweep)
     local = _by_key(store.read_rows(small_sweep / store.RESULTS_FILE))
     remote = _by_key(store.read_rows(out / store.RESULTS_FILE))
     assert remote.keys() == local.keys()
