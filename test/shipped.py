@@ -25,8 +25,16 @@ def without_impact(folder: Path, source: str | Path | None = None) -> Path:
     For node-set tests that check no control impact: a verdict with a mismatch costs the diagnostician 9-11
     closed-loop simulations of 4,096 samples for it (test_nodes, test_live_update and test_update check the impact).
     """
+    return with_impact_samples(folder, 0, source, "without_impact.yaml")
+
+
+def with_impact_samples(folder: Path, samples: int, source: str | Path | None = None, name: str = "") -> Path:
+    """``source`` (default the shipped Wood-Berry) as a params file in ``folder`` with ``impact.samples: samples``.
+
+    Short impact simulations serve tests that compare the node set's impact with the batch's (equal at any length).
+    """
     doc = yaml.safe_load((Path(source) if source else config_dir() / "wood_berry.yaml").read_text())
-    doc["/**"]["ros__parameters"]["impact"] = {"samples": 0}
-    out = folder / "without_impact.yaml"
+    doc["/**"]["ros__parameters"]["impact"] = {"samples": samples}
+    out = folder / (name or f"impact_{samples}.yaml")
     out.write_text(yaml.safe_dump(doc, sort_keys=False))
     return out

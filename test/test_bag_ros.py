@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from ros_fixtures import console_script  # noqa: E402
-from shipped import without_impact  # noqa: E402
+from shipped import with_impact_samples, without_impact  # noqa: E402
 
 from pmr_ros.bag.reader import open_bag  # noqa: E402
 from pmr_ros.bag.storage import RUN_CONFIG_KEY  # noqa: E402
@@ -129,6 +129,8 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     path = tmp_path / "run_bag"
     argv = [
         "run",
+        "--config",  # impact simulations of 1,024 samples, not 4,096: the run's and diagnose's are compared below
+        str(with_impact_samples(tmp_path, 1024)),
         "--samples",
         str(samples),
         "--bag",
@@ -156,6 +158,7 @@ def test_run_bag_records_the_node_set_and_diagnose_matches_it(ros_domain, tmp_pa
     run = json.loads((tmp_path / "run.json").read_text())
     offline = json.loads((tmp_path / "offline.json").read_text())
     assert offline["elements"] == run["elements"] and offline["impact"] == run["impact"]  # one machine, one bag: exact
+    assert run["impact"] is not None and config.params["impact"]["samples"] == 1024  # compared, as the run made it
     # Never overwritten without --force; --batch cannot record.
     assert main(argv) == 2
     err = capsys.readouterr().err

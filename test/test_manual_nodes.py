@@ -18,7 +18,10 @@ from pmr_ros.node_set import NodeSetOptions, node_parameter_values, run_node_set
 
 pytestmark = pytest.mark.ros
 
-SAMPLES = 4096
+SAMPLES = 2560
+"""Past the last stretch's end (2200) (was 4,096): the node set equals the batch at any length, and at 2,560 the batch
+diagnosis is "ok", every element decided (mismatch) with parametric gains, and knowing the modes moves them by
+0.1-1.7 pp (measured), far beyond ESTIMATE_TOLERANCE_PP."""
 STRETCHES = [[600, 500, "reflux"], [1800, 400, 1]]
 """As a params file read by pmr-ros may nest them, with an MV's name."""
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from ros_fixtures import console_script  # noqa: E402
+from shipped import with_impact_samples  # noqa: E402
 
 from pmr_ros.bag.reader import open_bag  # noqa: E402
 from pmr_ros.config import config_dir, load_config  # noqa: E402
@@ -117,8 +118,10 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
     # 2,000 samples (was 3,000; the run's latency-bound hops cost ~25 ms a sample under load): the batch
     # diagnosis of 2,000 samples is "ok" with every verdict decided, as at 3,000 (measured)
     samples = 2000
-    # the plant starts once all four subscribers of y are there: controller, diagnostician, two recorders
-    run_file = _params_file(tmp_path, samples, simulation={"wait_for_subscribers": 4})
+    # the plant starts once all four subscribers of y are there: controller, diagnostician, two recorders;
+    # impact simulations of 1,024 samples, not 4,096 (the diagnostician's and the batch's are compared below)
+    impact = {"samples": 1024}
+    run_file = _params_file(tmp_path, samples, simulation={"wait_for_subscribers": 4}, impact=impact)
     # two recorders of the live set, stopped half-way, one by Ctrl-C and one by SIGTERM
     recorders = {
         how: ros.start(
@@ -137,11 +140,12 @@ def test_four_processes_give_the_batch_verdicts_and_loaded_recorders_lose_nothin
         assert _stop(ros, recorders[how], how) == 0
     assert ros.spin_until(lambda: watcher.final is not None, 300.0), _logs(tmp_path)
     diagnosis, info = watcher.final
-    config = load_config(overrides={"run": {"samples": samples}})
+    config = load_config(overrides={"run": {"samples": samples}, "impact": impact})
     batch = simulate(config)
     expected = diagnose(batch.r, batch.u, batch.y, model=config.model, pmr=config.pmr, parametric=config.parametric)
     expected = close_diagnosis(expected, config).diagnosis  # the diagnostician adds the control impact
     assert diagnosis.status == expected.status == "ok"
+    assert diagnosis.impact is not None  # compared with the rest
     # other processes: verdicts exact, numbers to the tolerance of core.results.compare_diagnoses
     assert compare_diagnoses(diagnosis_to_json(diagnosis)["elements"], diagnosis_to_json(expected)["elements"]) == []
     assert info["first_sample"] == 0 and info["window_samples"] == samples
@@ -225,11 +229,13 @@ def test_two_node_sets_in_one_domain_under_their_namespaces_each_report_their_ow
         tmp_path / "record.log",
     )
     _wait_subscribed(ros, topic("measured_output").resolved("/column_a"), 1)
-    # column_a's plant waits for its recorder too (3 subscribers of y), however long DDS takes to discover it
-    waits = {"column_a": ("--wait-for-subscribers", "3"), "column_b": ()}
+    # impact simulations of 1,024 samples, not 4,096 (only their presence is checked here); column_a's plant waits
+    # for its recorder too (3 subscribers of y), however long DDS takes to discover it
+    impact = ("--config", str(with_impact_samples(tmp_path, 1024)))
+    options = {"column_a": (*impact, "--wait-for-subscribers", "3"), "column_b": impact}
     runs = {
         name: _run(
-            ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples), *waits[name]
+            ros, tmp_path, name, "--namespace", name, "--seed", str(seed), "--samples", str(samples), *options[name]
         )
         for name, seed in (("column_a", 1), ("column_b", 2))
     }
