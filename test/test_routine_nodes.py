@@ -24,6 +24,9 @@ def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain,
             "run": {"samples": 4096},
             "diagnostician": {"window_samples": 4096, "min_samples": 2048},
             "mismatch": {"disturbance_gain_pct": [20.0, 0.0]},
+            # MV dither: with x_D's setpoint the only one that moves, its row is not identifiable without it
+            # (every verdict inconclusive, no D11 gain to compare); with it D11 is a decided mismatch
+            "excitation": {"mv_dither_amplitude": 0.2},
             **FEED_RATE_ZONE,
         }
     )
@@ -45,5 +48,7 @@ def test_node_set_with_dvs_zones_and_setpoint_steps_equals_the_batch(ros_domain,
     verdicts = {name: e.verdict for name, e in result.diagnosis.elements.items()}
     assert verdicts == {name: e.verdict for name, e in expected.elements.items()}
     assert {"D11", "D21"} <= set(verdicts)
+    assert verdicts["D11"] == "mismatch" and verdicts["D21"] == "ok"  # +20 % injected on D11 alone
     d11 = result.diagnosis.elements["D11"].parametric
+    assert d11.gain_mismatch_pct is not None
     assert d11.gain_mismatch_pct == pytest.approx(expected.elements["D11"].parametric.gain_mismatch_pct, abs=1e-6)
