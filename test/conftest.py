@@ -2,10 +2,24 @@
 
 from __future__ import annotations
 
+import signal
+
 import pytest
 from session_share import SharedValues
 
 from pmr_ros.config import load_config
+
+
+def pytest_configure(config):
+    """Ctrl-C as a terminal gives it, whoever started the suite.
+
+    A command a non-interactive shell starts in the background (``./test.sh &``, some CI runners) inherits
+    SIGINT ignored, and Python then leaves it ignored: the tests that send Ctrl-C to a pool or a node
+    would see nothing happen, and every process they start would inherit it too.  A handled signal is
+    reset to its default in a new program, so the processes the tests start take Ctrl-C as from a shell.
+    """
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
