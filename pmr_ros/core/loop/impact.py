@@ -326,7 +326,7 @@ def control_impact(
     dv_together = loop.disturbance_model if pi else (update.disturbance_model or loop.disturbance_model)
     plants = [(loop.model, loop.disturbance_model), *(_plants(loop, diagnosis, update, c.name) for c in acting)]
     work = partial(_figures, loop=loop, samples=samples, controller=controller)
-    figures: list[LoopFigures] = list((mapper or _in_order)(work, [*plants, (update.model, dv_together)]))
+    figures: list[LoopFigures] = list((mapper or map)(work, [*plants, (update.model, dv_together)]))
     base, all_changed = figures[0], figures[-1]
     alone = dict(zip((c.name for c in acting), figures[1:-1], strict=True))
     ranked = sorted(alone, key=lambda name: -min(alone[name].ratio_to(base)[0], 1e300))
@@ -348,7 +348,3 @@ def _figures(
     """:func:`loop_figures` on ``(plant, disturbance_plant)``: one of :func:`control_impact`'s simulations."""
     plant, dv_plant = plants
     return loop_figures(loop, plant, samples=samples, controller=controller, disturbance_plant=dv_plant)
-
-
-def _in_order(work: Callable[[Any], Any], tasks: Sequence[Any]) -> list[Any]:
-    return [work(task) for task in tasks]
