@@ -176,3 +176,15 @@ def test_a_worker_pool_has_its_initializer_module_imported_by_the_fork_server_st
         )
         assert done.returncode == 0, done.stderr
         assert done.stdout.split("\n")[:-1] == [*printed, "[True, True, True, True]"]
+
+
+def test_worker_count_is_the_jobs_asked_or_the_cores_at_least_one_and_at_most_one_a_task(monkeypatch):
+    import os
+
+    from pmr_ros.core.sim.workers import worker_count
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 6)
+    assert [worker_count(None), worker_count(0), worker_count(2), worker_count(None, tasks=4)] == [6, 6, 2, 4]
+    assert [worker_count(3, tasks=8), worker_count(3, tasks=0), worker_count(1, tasks=5)] == [3, 1, 1]
+    monkeypatch.setattr(os, "cpu_count", lambda: None)  # unknown: one process
+    assert worker_count(None, tasks=9) == 1

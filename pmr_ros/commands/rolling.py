@@ -8,7 +8,6 @@ each element's onsets, and writes ``--json``, ``--trend`` and ``--report``.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -142,6 +141,7 @@ def diagnose_windows(args: argparse.Namespace, data: Any, config: Any, report_of
     ``report_of(diagnosis)`` builds the JSON report of the last window (the
     source's own fields: file or bag).
     """
+    from ..core.sim.workers import worker_count
     from ..progress import progress_callback
     from ..report import format_table
     from ..report.html import ReportInput
@@ -169,7 +169,7 @@ def diagnose_windows(args: argparse.Namespace, data: Any, config: Any, report_of
     if last.status == "ok":
         # the impact's simulations on the windows' local workers (its fork server runs already); on one
         # process here when the windows ran on a cluster
-        jobs = 1 if args.scheduler else (args.jobs or os.cpu_count() or 1)
+        jobs = 1 if args.scheduler else worker_count(args.jobs)
         last = close_and_write(config, last, model_path=getattr(args, "write_model", None), jobs=jobs)
     report = monitor_report(report_of(last), found, args)
     if last.status == "ok":

@@ -19,7 +19,6 @@ the size of the decided mismatch over its tolerance.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -306,8 +305,10 @@ def run_fleet(
     reports : dict
         Each controller's JSON report (None where it failed), by name.
     """
+    from ..core.sim.workers import worker_count
+
     found: dict[str, tuple[list[dict[str, Any]], dict[str, Any] | None]] = {}
-    jobs = max(1, min(jobs or os.cpu_count() or 1, len(entries)))
+    jobs = worker_count(jobs, tasks=len(entries))
     if scheduler is not None:
         from ..sweep.cluster import run_on_cluster
 

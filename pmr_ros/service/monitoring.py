@@ -3,7 +3,8 @@
 The record (a historian export or a bag, read and cleaned once) is cut into
 the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
 unbroken stretches are slices of the one record (a window's own deviations
-are the only copy; :mod:`.window_job`, whose names this module also gives).  Windows run on local processes (the sweep's
+are the only copy; :mod:`.window_job`, whose names this module also gives).
+Windows run on local processes (the sweep's
 ``forkserver`` pool, :func:`pmr_ros.core.sim.workers.worker_context`, the record
 memory-mapped by each worker: :mod:`.shipping`), in this
 process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
@@ -13,7 +14,6 @@ elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
 
 from __future__ import annotations
 
-import os
 import re
 import tempfile
 import threading
@@ -31,6 +31,7 @@ from ..core.monitor import OnsetSettings, onset_entries, trend_onsets, trend_tab
 from ..core.pmr.piecewise import PieceCache
 from ..core.results import Diagnosis
 from ..core.results.codec import diagnosis_to_json
+from ..core.sim.workers import worker_count
 from ..data import PlantData
 from .refusal import ServiceError
 from .shipping import ship, unship
@@ -150,9 +151,9 @@ def start_workers(*, jobs: int | None, scheduler: str | None) -> None:
     line calls it before reading a record, :func:`monitor` before its own imports (see
     :func:`~pmr_ros.core.sim.workers.start_fork_server`).
     """
-    if scheduler is None and (jobs or os.cpu_count() or 1) > 1:
-        from ..core.sim.workers import start_fork_server
+    from ..core.sim.workers import start_fork_server
 
+    if scheduler is None and worker_count(jobs) > 1:
         start_fork_server(_init_worker)
 
 
@@ -322,7 +323,7 @@ def monitor(
     plan = _plan(data, window, step)
     job = WindowJob(config, data, data.usable)
     tasks = [(index, first, last) for index, (first, last) in enumerate(plan)]
-    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    jobs = worker_count(jobs, tasks=len(tasks))
     start_workers(jobs=jobs, scheduler=scheduler)
     import pandas  # noqa: F401  (the trend table's, loaded here while a fork server loads the workers' modules)
 

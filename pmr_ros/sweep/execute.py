@@ -9,7 +9,6 @@ interrupted sweep keeps them and ``resume`` skips the runs already there.
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from collections.abc import Callable
@@ -25,7 +24,7 @@ from ..core.records import Record
 from ..core.results.codec import csv_fields
 from ..core.sim.batch import run_lockstep
 from ..core.sim.model import TransferMatrix
-from ..core.sim.workers import WorkerEnded, completed, worker_pool
+from ..core.sim.workers import WorkerEnded, completed, worker_count, worker_pool
 from ..progress import ProgressBar
 from . import store
 from .plan import SweepPlan, SweepPoint, row_time_constant_ratio
@@ -186,7 +185,7 @@ def execute(
     with :class:`~pmr_ros.core.sim.workers.WorkerEnded` once the points done by
     then are in the CSV.
     """
-    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
+    jobs = worker_count(jobs, tasks=len(tasks))
     bar = ProgressBar(sum(len(t.runs) for t in tasks), stream=sys.stderr) if progress else None
     # The slowest points (largest nu: longest horizons) go first, so no process idles at the end.
     ordered = sorted(tasks, key=lambda t: -t.point.nu)

@@ -14,6 +14,7 @@ its one line.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import signal
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -22,10 +23,30 @@ from contextlib import contextmanager
 from functools import partial
 from typing import Any, TypeVar
 
-__all__ = ["WorkerEnded", "completed", "preload_for", "start_fork_server", "worker_context", "worker_pool"]
+__all__ = [
+    "WorkerEnded",
+    "completed",
+    "preload_for",
+    "start_fork_server",
+    "worker_context",
+    "worker_count",
+    "worker_pool",
+]
 
 _Task = TypeVar("_Task")
 _Result = TypeVar("_Result")
+
+
+def worker_count(jobs: int | None, *, tasks: int | None = None) -> int:
+    """Local worker processes for ``tasks`` tasks: ``jobs``, by default the cores; at least 1, at most one a task.
+
+    Examples
+    --------
+    >>> worker_count(4, tasks=3), worker_count(2, tasks=0), worker_count(1)
+    (3, 1, 1)
+    """
+    count = jobs or os.cpu_count() or 1
+    return max(1, count if tasks is None else min(count, tasks))
 
 
 def worker_context() -> multiprocessing.context.BaseContext:
