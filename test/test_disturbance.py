@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from benchmark_scripts import load_benchmark
 from binomial import max_failures, min_successes
-from session_share import shared_value
 
 from pmr_ros.core.pmr.diagnosis import diagnose_stretches
 from pmr_ros.core.records import Record
@@ -30,31 +29,30 @@ tolerance in most elements (at 8,192 samples 41 % of the no-mismatch elements st
 bench = load_benchmark("bench_disturbance")
 
 
-class _Studies(dict):
+class _Studies:
     """Per (case, scenario): the score over SEEDS and the diagnoses, each run when first asked for.
 
-    Once per session: the first xdist worker to ask runs it, the others read it (test/session_share.py).
+    Once per session through the ``shared`` fixture: the first xdist worker to ask runs it, the others read it
+    (test/session_share.py), and each process keeps what it read.
     """
 
-    def __init__(self, wood_berry, tmp_path_factory):
-        super().__init__()
-        self.wood_berry, self.tmp_path_factory = wood_berry, tmp_path_factory
+    def __init__(self, wood_berry, shared):
+        self.wood_berry, self.shared = wood_berry, shared
 
-    def __missing__(self, key):
+    def __getitem__(self, key):
         case, scenario = key
 
         def run():
             config = bench.case_config(case, self.wood_berry)
             return bench.run_case(config, scenario, SEEDS, CASE_SAMPLES[case])
 
-        self[key] = shared_value(self.tmp_path_factory, f"test_disturbance_study_{case}_{scenario}", run)
-        return self[key]
+        return self.shared(f"test_disturbance_study_{case}_{scenario}", run)
 
 
 @pytest.fixture(scope="module")
-def studies(wood_berry, tmp_path_factory):
+def studies(wood_berry, shared):
     """Per (case, scenario): the score over SEEDS and the diagnoses."""
-    return _Studies(wood_berry, tmp_path_factory)
+    return _Studies(wood_berry, shared)
 
 
 @pytest.mark.parametrize("case", ["saturation", "disturbance"])
