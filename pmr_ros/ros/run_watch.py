@@ -25,8 +25,8 @@ __all__ = ["REAL_TIME_ALLOWANCE_S", "RunLimits", "RunStalled", "RunWatch"]
 REAL_TIME_ALLOWANCE_S = 0.1
 """How much longer than its period each sample of a real-time run may take before the run is overdue [s].
 The node set cannot keep every pace: asked for 400 samples/s, its one executor thread made 86 samples/s
-alone on the 2 cores (11.6 ms a sample) and took up to 57 ms a sample at a load of about 10 (600 samples
-in 5-34 s over 40 runs); 0.1 s leaves almost twice that."""
+alone on the 2 cores (11.6 ms a sample) and took up to 63 ms a sample under two busy loops and a second
+run (600 samples in 2.6-37.9 s over 93 runs, at loads up to 10); 0.1 s leaves over half as much again."""
 
 
 class RunStalled(RuntimeError):
