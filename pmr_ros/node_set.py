@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
@@ -24,18 +23,28 @@ from rclpy.node import Node
 
 from .config import PmrConfig, flatten_parameters, load_config
 from .contract.layout import CONFLICT, diagnosis_from_array, read_estimates, read_signal
-from .contract.topics import SIGNAL_TOPICS, topic
+from .contract.topics import DISTURBANCE_TOPIC, SIGNAL_TOPICS, topic
 from .core.records import Record
 from .core.results import Diagnosis
 from .ros.flow import ProgressReporter, stamp_ns
 from .ros.messages import message_class, qos_profile
 from .ros.parameters import parameter_overrides
+from .ros.run_watch import RunLimits, RunStalled, RunWatch
 from .ros.signals import stop_requests
 
 if TYPE_CHECKING:
+    from .nodes.plant import PlantNode
     from .nodes.pmr_diagnostician import PmrDiagnosticianNode
 
 DISCOVERY_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
+
+VERDICT_TIMEOUT_S = 180.0
+"""How long a run may go without progress while the diagnostician diagnoses [s]: the final verdict comes
+with its control impact (11 closed-loop simulations of 4,096 samples for a 3x3: 14-31 s at a load of 7;
+on CI a final diagnosis under load outlasted the 30 s stall timeout)."""
+
+_WATCHED_TOPICS = {**SIGNAL_TOPICS, "dv": DISTURBANCE_TOPIC}
+"""Signal -> contract key of the topics a stall names."""
 
 
 class NodeSetError(RuntimeError):
@@ -134,6 +143,10 @@ class _Listener(Node):
         if int(round(stamp / self.sample_time)) == self.final_sample:
             self.estimates = msg
 
+    def recorded(self) -> dict[str, int]:
+        """Signal -> samples recorded (empty without recording)."""
+        return dict(self.counts)
+
     @property
     def done(self) -> bool:
         recorded = all(c >= self.final_sample + 1 for c in self.counts.values())
@@ -191,7 +204,10 @@ class NodeSetOptions:
         Set the diagnostician's window, update period and minimum to the run
         length, so it diagnoses once, the whole run, like the batch path.
     stall_timeout_s : float
-        Give up when no sample goes by for this long [s].
+        Give up when the run goes this long without progress toward its end [s]: no new sample of
+        the plant, none taken by the diagnostician or recorded, no final verdicts (:mod:`pmr_ros.ros.run_watch`).
+    verdict_timeout_s : float
+        ... or this long while the diagnostician diagnoses [s] (:data:`VERDICT_TIMEOUT_S`).
     extra_parameters : dict, optional
         Dotted parameter values for every node (after ``diagnose_once``).
     executor_kind : str
@@ -212,6 +228,7 @@ class NodeSetOptions:
     record: bool = False
     diagnose_once: bool = True
     stall_timeout_s: float = 30.0
+    verdict_timeout_s: float = VERDICT_TIMEOUT_S
     extra_parameters: dict[str, Any] | None = None
     executor_kind: str = "events"
     private: bool = False
@@ -231,52 +248,7 @@ class NodeSetOptions:
         return extra
 
 
-class _Watch:
-    """Progress of the plant: when the run started, and whether it stalled."""
-
-    def __init__(self, plant: Any, samples: int, stall_timeout_s: float, diagnostician: Any = None) -> None:
-        self.plant, self.samples, self.timeout = plant, samples, stall_timeout_s
-        self.diagnostician = diagnostician
-        self.started: float | None = None
-        self.last_progress, self.last_sample = time.monotonic(), plant.sample
-        self._received = 0
-
-    def check(self) -> None:
-        """Note progress (the diagnostician told when the plant finished); raise :class:`NodeSetError` on a stall."""
-        if self.plant.finished and self.diagnostician is not None and not self.diagnostician.run_complete:
-            self.diagnostician.finish_run()  # its silence watchdog stops: no stale warning after the run
-        now = time.monotonic()
-        if self.plant.sample != self.last_sample:
-            self.started = self.started if self.started is not None else now
-            self.last_progress, self.last_sample = now, self.plant.sample
-        elif self._diagnostician_working():
-            # after the last sample the diagnostician still takes queued samples or diagnoses: that is progress
-            # (on a loaded 2-core machine the final diagnosis alone outlasted the stall timeout)
-            self.last_progress = now
-        elif now - self.last_progress > self.timeout:
-            if not self.plant.finished:
-                raise NodeSetError(
-                    f"the node set stalled at sample {self.plant.sample} of {self.samples} "
-                    f"(no progress for {self.timeout:g} s)"
-                )
-            raise NodeSetError(
-                f"no final verdicts on {topic('diagnostics').name} within {self.timeout:g} s after the last sample"
-            )
-
-    def _diagnostician_working(self) -> bool:
-        d = self.diagnostician
-        if d is None:
-            return False
-        received, self._received = self._received, d.messages_received
-        return d.busy or d.messages_received != received
-
-    @property
-    def wall_time_s(self) -> float:
-        """From the first published sample to now [s]."""
-        return time.monotonic() - (self.started or time.monotonic())
-
-
-def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watch: _Watch, stop: list[int]) -> None:
+def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watch: RunWatch, stop: list[int]) -> None:
     while not (listener.done and all(getattr(node, "done", True) for node in nodes)):
         executor.spin_once(timeout_sec=0.05)
         if stop:
@@ -287,7 +259,24 @@ def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watc
         failure = next((f for node in nodes if (f := getattr(node, "failure", None))), None)
         if failure:
             raise NodeSetError(failure)
-        watch.check()
+        try:
+            watch.check()
+        except RunStalled as exc:
+            raise NodeSetError(str(exc)) from None
+
+
+def _watch(plant: PlantNode, diagnostician: Any, listener: _Listener, nodes: list[Node], options: NodeSetOptions):
+    """The run's bounded watch, with the plant's own pace and start-up bound (its parameters, overrides applied)."""
+    limits = RunLimits(
+        samples=plant.samples,
+        stall_timeout_s=options.stall_timeout_s,
+        verdict_timeout_s=options.verdict_timeout_s,
+        start_timeout_s=plant.start_bound_s,
+        real_time_rate_hz=plant.config.simulation.real_time_rate_hz,
+    )
+    labels = {s: f"{s} on {listener.resolve_topic_name(topic(key).name)}" for s, key in _WATCHED_TOPICS.items()}
+    others = [n for n in nodes if n not in (plant, diagnostician, listener) and hasattr(n, "done")]
+    return RunWatch(plant, diagnostician, listener, limits, labels=labels, others=others)
 
 
 def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None = None) -> NodeSetRun:
@@ -303,7 +292,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
     Raises
     ------
     NodeSetError
-        When the loop stalls.
+        When the run stalls or overruns its bounds (one line naming the node or topic and the sample).
     """
     config = config or load_config()
     options = options or NodeSetOptions()
@@ -316,7 +305,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
         try:
             nodes = build_nodes(config, context, extra, options.namespace)
             # build_nodes' order: the diagnostician first, the plant last
-            diagnostician, plant = cast("PmrDiagnosticianNode", nodes[0]), nodes[-1]
+            diagnostician, plant = cast("PmrDiagnosticianNode", nodes[0]), cast("PlantNode", nodes[-1])
             listener = _Listener(context, config, options.record, options.namespace)
             nodes.append(listener)
             if options.extra_nodes is not None:
@@ -324,7 +313,7 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
             executor = make_executor(options.executor_kind, context)
             for node in nodes:
                 executor.add_node(node)
-            watch = _Watch(plant, config.run.samples, options.stall_timeout_s, diagnostician)
+            watch = _watch(plant, diagnostician, listener, nodes, options)
             _spin_until_done(executor, nodes, listener, watch, stop)
             diagnosis, info = diagnosis_from_array(listener.final, diagnostician.get_name())
             record_out = _recorded(listener) if options.record else None

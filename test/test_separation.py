@@ -107,6 +107,16 @@ def test_mixture_interval_is_the_normal_one_for_one_component_and_the_mixture_qu
     assert mixture_interval(means, np.array([0.1, np.inf]), weights, level=0.95) == (-math.inf, math.inf)
 
 
+def test_mixture_interval_of_components_without_spread_is_their_common_value():
+    # a live real-time window's tau: three delay vectors, each fit pinned at the lower bound log(0.05) with sd 0
+    # (brentq raised "f(a) and f(b) must have different signs" and the window lost its verdicts)
+    means = np.full(3, math.log(0.05))
+    low, high = mixture_interval(means, np.zeros(3), np.array([1.0, 0.876, 0.755]), level=0.95)
+    np.testing.assert_allclose([low, high], [math.log(0.05)] * 2, atol=1e-9)
+    low, high = mixture_interval(np.array([0.0, 1.0]), np.zeros(2), np.array([0.5, 0.5]), level=0.95)
+    assert low == pytest.approx(0.0, abs=1e-9) and high == pytest.approx(1.0, abs=1e-9)
+
+
 def test_a_model_gain_of_about_zero_is_negligible_and_a_small_one_is_not():
     model = TransferMatrix(
         gain=[[2.0, 1e-6, 0.005]], time_constant=[[10.0, 10.0, 10.0]], delay=[[1.0, 1.0, 1.0]], sample_time=1.0

@@ -132,6 +132,17 @@ class PlantNode(ConfiguredNode):
         """A plant whose realization cannot fit in memory is refused before it is built (one line, exit 2)."""
         check_plant_memory(config, self._source)
 
+    @property
+    def start_bound_s(self) -> float:
+        """The longest this plant waits before its first sample [s of wall time].
+
+        For its peers, then for the consumers it does not know yet, then (a run under way) for the controller's
+        input to resume after.
+        """
+        sim = self.config.simulation
+        waits = CONSUMER_DISCOVERY_S + RESUME_SETTLE_S + RESUME_WAIT_S
+        return max(sim.discovery_settle_s, sim.startup_timeout_s) + waits
+
     def _mode(self) -> str:
         sim = self.config.simulation
         if sim.lockstep:

@@ -172,7 +172,10 @@ def mixture_interval(means: np.ndarray, sds: np.ndarray, weights: np.ndarray, *,
     if means.size == 1:
         z = float(ndtri(0.5 + level / 2.0))
         return float(means[0] - z * sds[0]), float(means[0] + z * sds[0])
-    low, high = float(np.min(means - 40.0 * sds)), float(np.max(means + 40.0 * sds))
+    # 40 deviations either side, and a little more: components with no spread (a fit pinned at a bound, sd 0)
+    # gave a bracket of zero width, whose ends had the same sign, and brentq raised (a live window lost its verdict)
+    margin = 40.0 * sds + 1e-9 * (1.0 + np.abs(means))
+    low, high = float(np.min(means - margin)), float(np.max(means + margin))
 
     def quantile(q: float) -> float:
         return float(brentq(lambda x: float(weights @ ndtr((x - means) / sds)) - q, low, high, xtol=1e-12))
