@@ -66,9 +66,12 @@ _qr_delete = getattr(scipy.linalg.qr_delete, "__wrapped__", scipy.linalg.qr_dele
 """``scipy.linalg.qr_delete`` itself, without the wrapper that scipy >= 1.15 puts around it for stacks of
 matrices (two thirds of a drop's time on the MPC's small matrices; one matrix here, so the same result)."""
 
-_FEW_ROTATIONS = 2
-"""Most rotations a drop applies itself, each two small numpy products; more go to ``qr_delete`` in one call,
-whose fixed cost is that of about two rotations.  An MPC step mostly drops one of the last few constraints."""
+_dger, _drot = scipy.linalg.blas.dger, scipy.linalg.blas.drot
+"""BLAS's rank-one update and plane rotation, in place on contiguous rows: a fraction of numpy's several calls."""
+
+_FEW_ROTATIONS = 3
+"""Most rotations a drop applies itself, each two ``drot`` calls; more go to ``qr_delete`` in one call, whose
+fixed cost is that of about three rotations.  An MPC step mostly drops one of the last few constraints."""
 
 
 def _upper_inverse(triangle: np.ndarray) -> np.ndarray:
@@ -131,8 +134,8 @@ class _ActiveSet:
         v[0] += math.copysign(norm, d2[0])
         vv = 2.0 * norm * (norm + abs(float(d2[0])))  # v @ v, without computing it
         if vv > 0.0:
-            free = self.Jt[q:]
-            free -= (v * (2.0 / vv))[:, None] * (v @ free)  # np.outer's product, without its overhead
+            free = self.Jt[q:]  # rows of a C-ordered array: its transpose is Fortran-ordered, updated in place
+            _dger(-2.0 / vv, v @ free, v, a=free.T, overwrite_a=1)  # free -= v (v' free) 2 / v'v, one BLAS call
         delta = -math.copysign(norm, d2[0])
         self.R[:q, q] = d[:q]
         self.R[q, q] = delta
@@ -154,7 +157,7 @@ class _ActiveSet:
             J, triangle = _qr_delete(
                 self.Jt.T, self.R[:, :q], index, which="col", overwrite_qr=True, check_finite=False
             )
-            self.Jt = J.T
+            self.Jt = np.ascontiguousarray(J.T)  # C-ordered, as add and _rotate_out update its rows in place
             self.R[:, : q - 1] = triangle
             self.R[:, q - 1] = 0.0
         else:
@@ -169,7 +172,7 @@ class _ActiveSet:
             self.R_inverse[: q - 1, : q - 1] = _upper_inverse(self.R[: q - 1, : q - 1])
 
     def _rotate_out(self, index: int) -> None:
-        """Column ``index`` out of R and the rotations applied here, one 2 x 2 product on R and one on J' each."""
+        """Column ``index`` out of R and the rotations applied here, to rows of R and of J' in place (BLAS ``drot``)."""
         q = self.size
         R, Jt = self.R, self.Jt
         R[:, index : q - 1] = R[:, index + 1 : q]
@@ -178,9 +181,8 @@ class _ActiveSet:
             a, b = float(R[i, i]), float(R[i + 1, i])
             if b != 0.0:
                 h = math.hypot(a, b)
-                rotation = np.array([[a / h, b / h], [-b / h, a / h]])
-                R[i : i + 2, i : q - 1] = rotation @ R[i : i + 2, i : q - 1]
-                Jt[i : i + 2] = rotation @ Jt[i : i + 2]
+                _drot(R[i, i : q - 1], R[i + 1, i : q - 1], a / h, b / h, overwrite_x=1, overwrite_y=1)
+                _drot(Jt[i], Jt[i + 1], a / h, b / h, overwrite_x=1, overwrite_y=1)
                 R[i + 1, i] = 0.0  # exactly, not to rounding: R_inverse is the inverse of a triangle
 
 
