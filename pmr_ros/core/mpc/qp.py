@@ -90,7 +90,7 @@ class _ActiveSet:
 
     def __init__(self, jt0: np.ndarray) -> None:
         n = jt0.shape[0]
-        self.Jt = jt0.copy()
+        self.Jt = jt0.copy()  # C-ordered (ndarray.copy's default), as add and drop update its rows in place
         self.R = np.zeros((n, n))
         self.R_inverse = np.zeros((n, n))
         self.rows: list[int] = []
@@ -172,7 +172,7 @@ class _ActiveSet:
             self.R_inverse[: q - 1, : q - 1] = _upper_inverse(self.R[: q - 1, : q - 1])
 
     def _rotate_out(self, index: int) -> None:
-        """Column ``index`` out of R and the rotations applied here, to rows of R and of J' in place (BLAS ``drot``)."""
+        """Column ``index`` out of R; the rotations that restore its triangle, on rows of R and J' in place."""
         q = self.size
         R, Jt = self.R, self.Jt
         R[:, index : q - 1] = R[:, index + 1 : q]
