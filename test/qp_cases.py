@@ -34,3 +34,23 @@ def osqp_solution(H, A, q, lower, upper) -> np.ndarray:
         polishing=True,
     )
     return solver.solve(raise_error=False).x
+
+
+def degenerate_qp(rng: np.random.Generator, n: int = 10) -> tuple[np.ndarray, ...]:
+    """``(H, A, q, lower, upper)`` of a feasible QP with degenerate constraints, from the MPC's kind of rows.
+
+    Box rows (as the MPC's move limits) some with zero width (equalities), the rows of a running sum (its
+    input limits), a repeated row and an opposite one (dependent normals), and a linear term far outside
+    the boxes, so that many bounds are active at the minimizer, often as many as there are variables.
+    """
+    M = rng.normal(size=(n, n))
+    H = M @ M.T + 0.1 * np.eye(n)
+    A = np.vstack([np.eye(n), np.tril(np.ones((n, n))), rng.normal(size=(2, n))])
+    A = np.vstack([A, A[n + 2], -A[-1]])  # a repeated row and an opposite one
+    m = A.shape[0]
+    centre = A @ rng.normal(scale=0.2, size=n)
+    width = rng.uniform(0.0, 0.5, m)
+    width[rng.random(m) < 0.15] = 0.0  # equality rows
+    lower, upper = centre - width, centre + width
+    lower[rng.random(m) < 0.1] = -np.inf
+    return H, A, rng.normal(scale=50.0, size=n), lower, upper

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from qp_cases import osqp_solution, random_qp
+import scipy.optimize
+from qp_cases import degenerate_qp, osqp_solution, random_qp
 
 from pmr_ros.config import config_dir, load_config
 from pmr_ros.core.mpc.controller import LinearMpc
@@ -36,6 +37,36 @@ def test_random_qps_meet_the_optimality_conditions_and_equalosqp_solution(seed):
     active = {abs(s) - 1 for s in solution.active}
     ax = A @ solution.x
     assert all(min(abs(ax[i] - lower[i]), abs(ax[i] - upper[i])) < 1e-9 for i in active)
+
+
+def _degenerate_kkt_residual(H, A, q, lower, upper, x, tol=1e-9):
+    """Largest violation of the KKT conditions at x, for equality and dependent rows too (multipliers >= 0 by NNLS).
+
+    Each row at its lower bound may push with ``+a``, each at its upper with ``-a`` (an equality row both ways).
+    """
+    ax = A @ x
+    normals = np.vstack([A[np.abs(ax - lower) < tol], -A[np.abs(ax - upper) < tol]])
+    gradient = H @ x + q
+    stationarity = scipy.optimize.nnls(normals.T, gradient)[1] if normals.size else np.linalg.norm(gradient)
+    return max(stationarity, np.max(lower - ax), np.max(ax - upper), 0.0)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_degenerate_qps_are_solved_exactly_cold_and_warm(seed):
+    """Equality rows, repeated and opposite rows, many bounds active: the optimality conditions and OSQP."""
+    rng = np.random.default_rng(seed)
+    H, A, q, lower, upper = degenerate_qp(rng)
+    qp = DenseQp(H, A)
+    cold = qp.solve(q, lower=lower, upper=upper)
+    assert cold.solved and len(cold.active) >= 3
+    assert _degenerate_kkt_residual(H, A, q, lower, upper, cold.x) < 1e-8 * (1.0 + np.abs(q).max())
+    np.testing.assert_allclose(cold.x, osqp_solution(H, A, q, lower, upper), atol=1e-6)
+    nearby = q + rng.normal(scale=5.0, size=q.size)  # a step later: the active set moved a little
+    warm = qp.solve(nearby, lower=lower, upper=upper, guess=cold.active)
+    again = DenseQp(H, A).solve(nearby, lower=lower, upper=upper)
+    assert warm.solved and again.solved
+    np.testing.assert_allclose(warm.x, again.x, rtol=0.0, atol=1e-9 * max(np.abs(again.x).max(), 1.0))
+    np.testing.assert_allclose(warm.x, osqp_solution(H, A, nearby, lower, upper), atol=1e-6)
 
 
 def test_unconstrained_optimum_is_returned_when_nothing_binds():
