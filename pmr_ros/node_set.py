@@ -22,7 +22,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from .config import PmrConfig, flatten_parameters, load_config
-from .contract.layout import CONFLICT, diagnosis_from_array, read_estimates, read_signal
+from .contract.layout import CONFLICT, FAILED, diagnosis_from_array, read_estimates, read_signal
 from .contract.topics import DISTURBANCE_TOPIC, SIGNAL_TOPICS, topic
 from .core.records import Record
 from .core.results import Diagnosis
@@ -48,7 +48,7 @@ _WATCHED_TOPICS = {**SIGNAL_TOPICS, "dv": DISTURBANCE_TOPIC}
 
 
 class NodeSetError(RuntimeError):
-    """The node set did not finish (stalled or timed out); the message says where."""
+    """The node set did not finish (stalled, timed out, or its final diagnosis failed); the message says where."""
 
 
 @dataclass
@@ -96,6 +96,7 @@ class _Listener(Node):
         self.final = None
         self.final_has_verdict = False
         self.conflict: str | None = None
+        self.failure: str | None = None  # the final window's diagnosis failed: the run ends with this line
         self.estimates = None
         self.arrays: dict[str, np.ndarray] = {}
         self.counts: dict[str, int] = {}
@@ -132,9 +133,13 @@ class _Listener(Node):
 
     def _on_diagnostics(self, msg) -> None:
         diagnosis, info = diagnosis_from_array(msg)
-        if info.get("status") == CONFLICT:
+        status, final = info.get("status"), info.get("last_sample") == self.final_sample
+        if status == CONFLICT:
             self.conflict = diagnosis.reason
-        if info.get("last_sample") == self.final_sample and info.get("status") != CONFLICT:
+        if final and status == FAILED:  # no verdict will come for the run's last window: no use waiting
+            window = f"the final window (samples {info.get('first_sample', '?')}..{self.final_sample})"
+            self.failure = f"the diagnosis of {window} failed: {diagnosis.reason}"
+        elif final and status != CONFLICT:
             self.final = msg
             self.final_has_verdict = diagnosis.status == "ok"
 
@@ -255,7 +260,8 @@ def _spin_until_done(executor: Any, nodes: list[Node], listener: _Listener, watc
             raise KeyboardInterrupt
         if listener.conflict is not None:
             raise NodeSetError(f"the diagnostician reports a conflict: {listener.conflict}")
-        # an extra node that cannot go on (a recorder on a full disk) ends the run with its one-line reason
+        # a node that cannot go on (a recorder on a full disk; the listener when the final window's diagnosis
+        # failed) ends the run with its one-line reason
         failure = next((f for node in nodes if (f := getattr(node, "failure", None))), None)
         if failure:
             raise NodeSetError(failure)
@@ -292,7 +298,8 @@ def run_node_set(config: PmrConfig | None = None, options: NodeSetOptions | None
     Raises
     ------
     NodeSetError
-        When the run stalls or overruns its bounds (one line naming the node or topic and the sample).
+        When the run stalls or overruns its bounds (one line naming the node or topic and the sample), or the
+        diagnosis of its final window failed (one line naming the exception).
     """
     config = config or load_config()
     options = options or NodeSetOptions()

@@ -1,11 +1,14 @@
 """A node set whose final verdicts never come, run as a child process by test_node_set_stall.py.
 
 ``python test/stalled_run.py CASE DOMAIN`` runs a short lockstep node set in ROS domain DOMAIN and
-prints ``NodeSetError: <its line>`` (exit 1) when the run ends in a stall, ``finished`` (exit 0)
-otherwise.  CASE is ``busy`` (the diagnostician's diagnosis never ends: its worker stays busy)
-or ``publishing`` (the diagnosis fails, so no verdict is published, and a stray producer goes on
-publishing y after the run's last sample).  Before the run's watch was bounded, either one spun
-forever: a busy worker, or messages still reaching the diagnostician, counted as progress.
+prints ``NodeSetError: <its line>`` (exit 1) when the run ends in an error, ``finished`` (exit 0)
+otherwise.  CASE is ``busy`` (the diagnostician's diagnosis never ends: its worker stays busy),
+``publishing`` (the diagnostician's job dies before it publishes anything, so no status comes for
+the last window, and a stray producer goes on publishing y after the run's last sample) or
+``failing`` (the core's diagnosis raises: the last window's statuses say so).  Before the run's
+watch was bounded, the first two spun forever: a busy worker, or messages still reaching the
+diagnostician, counted as progress.  Before a failed diagnosis was published, the third waited
+for the stall timeout.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import sys
 import time
 
 from pmr_ros.config import load_config
+from pmr_ros.contract import windowing
 from pmr_ros.contract.topics import topic
 from pmr_ros.node_set import NodeSetError, NodeSetOptions, run_node_set
 from pmr_ros.nodes.pmr_diagnostician import PmrDiagnosticianNode
@@ -36,6 +40,14 @@ def _never_ending_diagnosis(node: PmrDiagnosticianNode, *args) -> None:
 
 def _failing_diagnosis(node: PmrDiagnosticianNode, *args) -> None:
     raise RuntimeError("diagnosis failed on purpose (test)")
+
+
+FAILURE = "RuntimeError: the core failed on purpose (test)"
+"""What the ``failing`` case's core raises, as the statuses and the run's line name it."""
+
+
+def _failing_core(*args, **kwargs) -> None:
+    raise RuntimeError(FAILURE.split(": ", 1)[1])
 
 
 def _stray_producer(config):
@@ -69,9 +81,11 @@ def _stray_producer(config):
 def main(case: str, domain: int) -> int:
     """Run the case; print the outcome's one line."""
     config = load_config(overrides={"run": {"samples": SAMPLES}, "pmr": {"segment_length": 64}})
+    extra = None
     if case == "busy":
         PmrDiagnosticianNode._diagnose = _never_ending_diagnosis  # type: ignore[method-assign]
-        extra = None
+    elif case == "failing":
+        windowing.diagnose_stretches = _failing_core
     else:
         PmrDiagnosticianNode._diagnose = _failing_diagnosis  # type: ignore[method-assign]
         extra = _stray_producer(config)

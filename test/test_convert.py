@@ -10,7 +10,9 @@ import pytest
 import rclpy  # noqa: F401  # the ROS 2 wheels are part of the set-up (test.sh): missing is an error, not a skip
 from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 
+from pmr_ros.contract.failed_window import failure_reason
 from pmr_ros.contract.layout import (
+    FAILED,
     decode_value,
     diagnosis_from_array,
     encode_value,
@@ -168,6 +170,18 @@ def test_no_verdict_statuses_carry_the_reason_and_no_numbers():
     short = Diagnosis.insufficient(method="classic", models=models, reason="too short", samples=10)
     warn = convert.diagnosis_statuses(short, prefix="pmr/sys", hardware_id="sys", window={})
     assert warn[0].level == DiagnosticStatus.WARN and warn[0].message == "insufficient data: too short"
+
+
+def test_a_failed_diagnosis_is_an_error_naming_the_exception_in_one_line():
+    reason = failure_reason(ValueError("f(a) and f(b)\n  must have different signs"))
+    assert reason == "ValueError: f(a) and f(b) must have different signs"
+    assert failure_reason(KeyError()) == "KeyError"  # no message: the type alone
+    models = {"G11": (0, 0, MODEL), "G12": (0, 1, MODEL)}
+    empty = Diagnosis.insufficient(method="parametric", models=models, reason=reason, samples=0)
+    statuses = convert.diagnosis_statuses(empty, prefix="pmr/sys", hardware_id="sys", window={}, state=FAILED)
+    assert {(s.level, s.message) for s in statuses} == {(DiagnosticStatus.ERROR, f"diagnosis failed: {reason}")}
+    back, info = diagnosis_from_array(convert.diagnostic_array(statuses, 0.0))
+    assert info["status"] == "failed" and back.status == "insufficient_data" and back.reason == reason
 
 
 def test_estimates_message_round_trip():

@@ -1,4 +1,6 @@
-"""A node set whose final verdicts never come ends in one line naming what is stuck, within its bounds.
+"""A node set without final verdicts ends in one line: what is stuck, within its bounds, or why it failed.
+
+A final diagnosis that fails ends the run at once, its line naming the exception.
 
 Each case runs in a child process (test/stalled_run.py) so that a runner that does spin forever fails
 this test after TIMEOUT_S instead of hanging the suite.
@@ -13,7 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-from stalled_run import STALL_TIMEOUT_S, VERDICT_TIMEOUT_S
+from stalled_run import FAILURE, SAMPLES, STALL_TIMEOUT_S, VERDICT_TIMEOUT_S
 
 pytestmark = pytest.mark.ros
 
@@ -64,3 +66,13 @@ def test_a_producer_publishing_after_the_run_is_no_progress(ros_domain, children
     assert "no final verdicts (for sample 299)" in line, line
     silent = float(line.split("stalled (")[1].split(" s")[0])
     assert STALL_TIMEOUT_S <= silent <= VERDICT_TIMEOUT_S + 1
+
+
+def test_a_final_diagnosis_that_fails_ends_the_run_at_once_naming_the_failure(ros_domain, children):
+    # the last window's statuses say the diagnosis failed: no verdict will come, so no waiting for the stall timeout
+    code, out, took = _run("failing", ros_domain, children)
+    line = _outcome(out)
+    assert code == 1, out[-3000:]
+    window = f"samples 0..{SAMPLES - 1}"
+    assert line == f"NodeSetError: the diagnosis of the final window ({window}) failed: {FAILURE}", line
+    print(f"the failing run ended after {took:.1f} s (its process's start included)")

@@ -536,6 +536,31 @@ def test_the_impact_and_the_proposal_are_computed_on_the_worker_thread(ros, monk
     assert threads and all(name.startswith("pmr_diagnosis") and name != executor for name in threads), threads
 
 
+def test_a_window_whose_diagnosis_fails_says_so_and_the_next_window_is_diagnosed(ros, monkeypatch):
+    """The failed window's statuses replace the last ones (ERROR, the exception in one line); the node goes on."""
+    from pmr_ros.contract import windowing
+
+    real, calls = windowing.diagnose_stretches, []
+
+    def diagnose_stretches(*args, **kwargs):
+        calls.append(True)
+        if len(calls) == 1:  # the first window with enough data: the core raises
+            raise np.linalg.LinAlgError("SVD did not converge\n(on purpose, test)")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(windowing, "diagnose_stretches", diagnose_stretches)
+    h = Harness(ros)
+    h.send_samples(range(600))
+    failed = [(m, i) for m, (_, i) in zip(h.received, h.statuses(), strict=True) if i["status"] == "failed"]
+    assert len(failed) == 1, [i["status"] for _, i in h.statuses()]
+    msg, info = failed[0]
+    reason = "LinAlgError: SVD did not converge (on purpose, test)"
+    assert {(s.level, s.message) for s in msg.status} == {(DiagnosticStatus.ERROR, f"diagnosis failed: {reason}")}
+    assert len(msg.status) == 5 and (info["first_sample"], info["last_sample"]) == (0, 499)  # G11..G22, the summary
+    final, info = h.statuses()[-1]
+    assert final.status == "ok" and info["last_sample"] == 599 and len(calls) > 1  # the next window: a verdict
+
+
 def _node_set(ros, config, extra):
     """The four nodes of ``config`` on the test's Context, owned by the test; the flat parameters they got."""
     from pmr_ros.node_set import build_nodes

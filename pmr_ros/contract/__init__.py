@@ -4,7 +4,8 @@
 messages' contents as plain data; ``samples`` a message's sample index and
 checks; ``alignment`` lines r, u, y up by sample stamp; ``windowing`` decides
 when and what the diagnostician diagnoses; ``model_topics`` the model topics'
-payloads; ``status_names`` the /diagnostics status names.  The live node
+payloads; ``status_names`` the /diagnostics status names; ``failed_window``
+the statuses of a window whose diagnosis raised.  The live node
 (:mod:`pmr_ros.nodes.pmr_diagnostician`) and the offline replay of a bag
 (:mod:`pmr_ros.bag.offline`) both run this code, so they agree.
 
@@ -25,6 +26,7 @@ _WHERE = {
     "CONFLICT": "layout",
     "CONTRACT_FILE": "topics",
     "ContractError": "topics",
+    "FAILED": "layout",
     "GRID_TOLERANCE": "samples",
     "LEVELS": "layout",
     "NO_VERDICT": "layout",
@@ -46,6 +48,8 @@ _WHERE = {
     "diagnosis_from_array": "layout",
     "encode_value": "layout",
     "evaluate_window": "windowing",
+    "failed_window": "failed_window",
+    "failure_reason": "failed_window",
     "level_name": "layout",
     "load_contract": "topics",
     "msg_defs_dir": "topics",
@@ -70,6 +74,7 @@ _WHERE = {
     "window_info": "windowing",
     "window_stretches": "windowing",
     "with_system": "model_topics",
+    "without_verdict": "windowing",
 }
 """Each public name -> the module of this package that defines it."""
 
@@ -80,6 +85,7 @@ __all__ = [
     "CONFLICT",
     "CONTRACT_FILE",
     "ContractError",
+    "FAILED",
     "GRID_TOLERANCE",
     "LEVELS",
     "NO_VERDICT",
@@ -101,6 +107,8 @@ __all__ = [
     "diagnosis_from_array",
     "encode_value",
     "evaluate_window",
+    "failed_window",
+    "failure_reason",
     "level_name",
     "load_contract",
     "msg_defs_dir",
@@ -125,6 +133,7 @@ __all__ = [
     "window_info",
     "window_stretches",
     "with_system",
+    "without_verdict",
 ]
 
 
@@ -133,8 +142,10 @@ __getattr__, __dir__ = lazy_exports(__name__, _WHERE, __all__)
 
 if TYPE_CHECKING:
     from .alignment import AlignedStretch, SampleAligner
+    from .failed_window import failed_window, failure_reason
     from .layout import (
         CONFLICT,
+        FAILED,
         LEVELS,
         NO_VERDICT,
         STALE,
@@ -177,4 +188,5 @@ if TYPE_CHECKING:
         window_dither,
         window_info,
         window_stretches,
+        without_verdict,
     )

@@ -4,7 +4,7 @@ A /diagnostics status carries one element's fields as KeyValues spelled by
 the result codec (:func:`pmr_ros.core.results.codec.status_key_values`:
 ``parametric.gain_mismatch_pct``, ``parametric.gain_mismatch_pct_low``,
 ``model.gain`` ..., plus ``status`` (``ok``, ``insufficient_data``,
-``stale`` or ``conflict``), ``reason``, the window and ``impact_all.*``); the
+``stale``, ``conflict`` or ``failed``), ``reason``, the window and ``impact_all.*``); the
 estimates topic names ``<element>/<path>`` of the same spelling.  The
 functions here only read attributes (``header.stamp.sec``,
 ``status[].values``) and hand the pairs to the codec, so they work alike on
@@ -31,6 +31,7 @@ from .status_names import ROOT, SUMMARY, split_status_name
 
 __all__ = [
     "CONFLICT",
+    "FAILED",
     "LEVELS",
     "NO_VERDICT",
     "STALE",
@@ -55,7 +56,10 @@ CONFLICT = "conflict"
 """``status`` of statuses published because two publishers send on one signal topic (two node sets
 without their own namespaces, or a stray publisher): the samples cannot be told apart."""
 
-NO_VERDICT = ("insufficient_data", STALE, CONFLICT)
+FAILED = "failed"
+"""``status`` of statuses published because the window's diagnosis raised: the reason names the exception."""
+
+NO_VERDICT = ("insufficient_data", STALE, CONFLICT, FAILED)
 """``status`` values of statuses without numbers."""
 
 
@@ -114,7 +118,7 @@ def diagnosis_from_array(
         (stale data included) with the reason.
     info : dict
         ``levels`` (element -> level name), ``messages``, ``status`` (ok,
-        insufficient_data or stale) and the window fields.
+        insufficient_data, stale, conflict or failed) and the window fields.
     """
     statuses, levels, messages = {}, {}, {}
     for status in msg.status:

@@ -35,6 +35,7 @@ __all__ = [
     "window_dither",
     "window_info",
     "window_stretches",
+    "without_verdict",
 ]
 
 VERDICT, INSUFFICIENT, STALE = "verdict", "insufficient_data", "stale"
@@ -125,7 +126,7 @@ class WindowOutcome:
     Attributes
     ----------
     kind : str
-        ``verdict``, ``insufficient_data`` or ``stale``.
+        ``verdict``, ``insufficient_data`` or ``stale``; the live node's own also ``conflict`` or ``failed``.
     diagnosis : Diagnosis
         With ``status == "ok"`` for a verdict; without numbers (every element
         inconclusive for ``reason``) otherwise.
@@ -272,7 +273,11 @@ def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) ->
     return UsefulData([pieces[j] for j in keep], [data[j] for j in keep], held, len(pieces), shortest, data)
 
 
-def _without_verdict(kind: str, reason: str, config: PmrConfig, window: dict, stamp: float) -> WindowOutcome:
+def without_verdict(kind: str, reason: str, config: PmrConfig, window: dict, stamp: float) -> WindowOutcome:
+    """The outcome of a window without a verdict: every element of ``config.model`` inconclusive for ``reason``.
+
+    Also the live node's own no-verdict statuses (a silence, a conflict, a failed diagnosis) are built here.
+    """
     samples = int(window.get("window_samples", 0))
     diagnosis = Diagnosis.insufficient(
         method=config.pmr.method, models=config.model.element_models(), reason=reason, samples=samples
@@ -299,11 +304,11 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0
     stamp = (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
     stale = aligner.lagging()
     if stale:
-        return _without_verdict(STALE, stale, config, window_info(aligner, window_samples, since=since), stamp)
+        return without_verdict(STALE, stale, config, window_info(aligner, window_samples, since=since), stamp)
     data = useful_data(aligner, config, since=since)
     if data.samples < min_samples:
         reason = data.shortfall(min_samples) + (f" since the model switch at sample {since}" if since else "")
-        return _without_verdict(INSUFFICIENT, reason, config, window_info(aligner, window_samples, since=since), stamp)
+        return without_verdict(INSUFFICIENT, reason, config, window_info(aligner, window_samples, since=since), stamp)
     if not data.stretches:  # one stretch, too short for a Welch segment: the core says why
         diagnosis = diagnose_stretches(
             data.all_stretches,

@@ -4,8 +4,8 @@ It subscribes to the setpoints, inputs (with their modes) and outputs and to not
 model Ghat as parameters (so it can watch any controller), aligns the three signals by their sample stamps, keeps a
 rolling window of the newest unbroken stretch and diagnoses it with :func:`pmr_ros.core.pmr.diagnosis.diagnose` every
 ``diagnostician.update_period_samples`` samples. One DiagnosticStatus per element goes to /diagnostics (OK / WARN /
-ERROR, or STALE / WARN with the reason and no numbers when the data do not support a verdict), again every
-``diagnostician.publish_period_s``; the numbers also go to the estimates topic when there is a verdict.
+ERROR; no numbers but the reason: STALE / WARN when the data do not support a verdict, ERROR when the diagnosis
+raised), again every ``diagnostician.publish_period_s``; the estimates topic has the numbers of every verdict.
 
 The diagnosis runs on a worker thread (:class:`~pmr_ros.ros.worker.SerialWorker`) on a snapshot of the window taken
 when it was due, so the subscriptions are never starved and the verdict is the one the window had then. The node is a
@@ -38,7 +38,8 @@ from rclpy.parameter import Parameter
 from ..config import ConfigError, PmrConfig, flatten_parameters
 from ..config.write import configured_system_tree
 from ..contract.alignment import MANUAL, SIGNALS, SampleAligner
-from ..contract.layout import CONFLICT, read_signal
+from ..contract.failed_window import failed_window, failure_reason
+from ..contract.layout import CONFLICT, FAILED, read_signal
 from ..contract.layout import STALE as STALE_STATUS
 from ..contract.model_topics import read_active_model
 from ..contract.samples import sample_index
@@ -52,6 +53,7 @@ from ..contract.windowing import (
     evaluate_window,
     offer_signal,
     window_info,
+    without_verdict,
 )
 from ..core.results import Diagnosis
 from ..ros.base import ConfiguredNode, run_node
@@ -305,17 +307,10 @@ class PmrDiagnosticianNode(ConfiguredNode):
         return window_info(self.aligner, self.config.diagnostician.window_samples, since=self.model_since)
 
     def _submit_without_verdict(self, reason: str, state: str, *, silence: bool = False) -> None:
-        window = self._window_info()
-        diagnosis = Diagnosis.insufficient(
-            method=self.config.pmr.method,
-            models=self.config.model.element_models(),
-            reason=reason,
-            samples=int(window.get("window_samples", 0)),
-        )
         newest = self.aligner.stretch_last if self.aligner.stretch_last is not None else 0
-        stamp = newest * self.aligner.sample_time_s
+        out = without_verdict(state, reason, self.config, self._window_info(), newest * self.aligner.sample_time_s)
         publish = self._publish_silence if silence else self._publish
-        self.worker.submit(lambda: publish(diagnosis, window, stamp, state))
+        self.worker.submit(lambda: publish(out.diagnosis, out.window, out.stamp_s, state))
 
     def _publish_silence(self, diagnosis: Diagnosis, window: dict[str, int], stamp_s: float, state: str | None) -> None:
         """Publish the STALE statuses of a silence, remembering what they replace (for :meth:`finish_run`)."""
@@ -338,15 +333,20 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._diag_pub.publish(msg)
 
     def _diagnose(self, snapshot: SampleAligner, config: PmrConfig, since: int) -> None:
-        """The worker's job: diagnose the window, close the loop on a verdict, publish it all."""
-        self._publish_outcome(close_window(evaluate_window(snapshot, config, since=since), config), config)
+        """The worker's job: diagnose the window, close the loop on a verdict, publish it all (or why it failed)."""
+        try:
+            closed = close_window(evaluate_window(snapshot, config, since=since), config)
+        except Exception as exc:  # the window says so, not the last verdicts; the next one is diagnosed anew
+            closed = ClosedWindow(failed_window(snapshot, config, exc, since=since))
+            self._job_failed(failure_reason(exc))
+        self._publish_outcome(closed, config)
 
     def _publish_outcome(self, closed: ClosedWindow, config: PmrConfig) -> None:
         outcome = closed.outcome
         if closed.impact_note and closed.impact_note != self._impact_note:
             self._warn(closed.impact_note)  # once per cause, not every window
         self._impact_note = closed.impact_note or self._impact_note
-        state = STALE_STATUS if outcome.kind == STALE else None
+        state = outcome.kind if outcome.kind in (STALE, FAILED) else None
         self._publish(outcome.diagnosis, outcome.window, outcome.stamp_s, state)
         if outcome.kind == VERDICT:
             self._estimates_pub.publish(estimates_message(outcome.diagnosis, outcome.stamp_s, config.model.name))

@@ -22,7 +22,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from ..contract.layout import CONFLICT, STALE
+from ..contract.layout import CONFLICT, FAILED, STALE
 from ..contract.status_names import SUMMARY, status_name
 from ..contract.topics import topic
 from ..core.results import Diagnosis, ElementDiagnosis
@@ -50,9 +50,9 @@ LEVEL_NAMES = {
 }
 
 
-_NO_VERDICT_LEVELS = {STALE: DiagnosticStatus.STALE, CONFLICT: DiagnosticStatus.ERROR}
+_NO_VERDICT_LEVELS = {STALE: DiagnosticStatus.STALE, CONFLICT: DiagnosticStatus.ERROR, FAILED: DiagnosticStatus.ERROR}
 """Levels of the statuses without numbers (else WARN: insufficient data)."""
-_NO_VERDICT_WORDS = {STALE: "stale", CONFLICT: "conflict"}
+_NO_VERDICT_WORDS = {STALE: "stale", CONFLICT: "conflict", FAILED: "diagnosis failed"}
 
 
 def stamp_from_seconds(seconds: float) -> Time:
@@ -136,7 +136,8 @@ def diagnosis_statuses(
         ``window_samples``, ``first_sample``, ``last_sample`` of the diagnosed window.
     state : str, optional
         ``stale`` when the statuses say a signal stopped (level STALE),
-        ``conflict`` when two publishers send on one signal topic (ERROR);
+        ``conflict`` when two publishers send on one signal topic (ERROR),
+        ``failed`` when the window's diagnosis raised (ERROR, the reason naming the exception);
         default: the diagnosis's status (``ok`` or ``insufficient_data``, WARN).
     """
     state = state or diagnosis.status

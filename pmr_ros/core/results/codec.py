@@ -248,7 +248,7 @@ def status_key_values(
     """Every KeyValue of the /diagnostics status of ``element``: the diagnosis-wide ones, then its own.
 
     ``state`` is the ``status`` word (``ok``, ``insufficient_data``, ``stale``,
-    ``conflict``); ``window`` the :data:`WINDOW_KEYS` of the diagnosed window.
+    ``conflict``, ``failed``); ``window`` the :data:`WINDOW_KEYS` of the diagnosed window.
     """
     common: dict[str, Any] = {"status": state, "reason": diagnosis.reason, **window}
     if diagnosis.impact is not None:
