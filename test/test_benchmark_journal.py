@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -15,6 +16,7 @@ import pytest
 from numpy.testing import assert_allclose
 from session_share import shared_folder
 
+from pmr_ros.benchmark import plots
 from pmr_ros.benchmark.journal import Journal, fingerprint
 from pmr_ros.benchmark.scenarios import read_scenarios
 from pmr_ros.cli import main
@@ -25,6 +27,30 @@ SELECTION = ["--units", "wood_berry", "--samples", "2048", "--runs-per-cell", "1
 METHODS = ["--methods", "parametric,classic"]
 WORDS = ["run", "method", "element", "verdict", "detected"]
 NUMBERS = ["evidence", "gain_pct", "gain_lo", "gain_hi", "tau_pct", "delay_samples"]
+
+
+@contextlib.contextmanager
+def _figures_not_drawn():
+    """The report's four figures written as a few bytes, not drawn: the tests here are of the journal.
+
+    A benchmark report's four figures take 3-6 s of CPU, and every benchmark here writes a report; the figures are
+    drawn and checked by test_benchmark_run and here by test_report_only_scores_every_run_the_journal_holds.
+    """
+
+    def not_drawn(*args, **kwargs):
+        return b"not drawn (test_benchmark_journal)"
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plots, "length_figure", not_drawn)
+        patch.setattr(plots, "roc_figure", not_drawn)
+        yield
+
+
+@pytest.fixture
+def figures_not_drawn():
+    """:func:`_figures_not_drawn` around a test: for the tests whose claim is not the report."""
+    with _figures_not_drawn():
+        yield
 
 
 def _rows(run: int, method: str, detected: bool) -> list[dict]:
@@ -65,7 +91,8 @@ def whole(tmp_path_factory):
 
     def benchmark(out):
         out.mkdir()
-        assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out)]) == 0
+        with _figures_not_drawn():
+            assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out)]) == 0
 
     return pd.read_parquet(
         shared_folder(tmp_path_factory, "test_benchmark_journal_whole", benchmark) / "results.parquet"
@@ -77,7 +104,8 @@ def classic(tmp_path_factory):
     """The selection run with the classic PMR alone, once per session (tests copy it before they use it)."""
 
     def benchmark(out):
-        assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 0
+        with _figures_not_drawn():
+            assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 0
 
     return shared_folder(tmp_path_factory, "test_benchmark_journal_classic", benchmark)
 
@@ -88,7 +116,7 @@ def _same_results(got: pd.DataFrame, want: pd.DataFrame) -> None:
     assert_allclose(got[NUMBERS].to_numpy(float), want[NUMBERS].to_numpy(float), rtol=1e-9, atol=1e-12)
 
 
-def test_a_killed_benchmark_resumes_to_the_results_of_one_without_a_stop(whole, tmp_path, capsys):
+def test_a_killed_benchmark_resumes_to_the_results_of_one_without_a_stop(whole, tmp_path, capsys, figures_not_drawn):
     out = tmp_path / "killed"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
     argv = [sys.executable, "-m", "pmr_ros.cli", "benchmark", *SELECTION, *METHODS, "--out", str(out)]
@@ -108,7 +136,7 @@ def test_a_killed_benchmark_resumes_to_the_results_of_one_without_a_stop(whole, 
     _same_results(pd.read_parquet(out / "results.parquet"), whole)
 
 
-def test_resume_with_another_method_runs_only_that_method(whole, classic, tmp_path):
+def test_resume_with_another_method_runs_only_that_method(whole, classic, tmp_path, figures_not_drawn):
     out = shutil.copytree(classic, tmp_path / "more")
     classic_before = Journal(out / "runs").read()
     assert main(["benchmark", *SELECTION, *METHODS, "--out", str(out), "--resume"]) == 0
@@ -121,7 +149,7 @@ def test_resume_with_another_method_runs_only_that_method(whole, classic, tmp_pa
     assert_allclose(classic_after["cpu_s"], classic_before.sort_values(["run", "element"])["cpu_s"], rtol=0)
 
 
-def test_a_journal_with_runs_is_kept_unless_resumed_or_forced(classic, tmp_path, capsys):
+def test_a_journal_with_runs_is_kept_unless_resumed_or_forced(classic, tmp_path, capsys, figures_not_drawn):
     out = shutil.copytree(classic, tmp_path / "kept")
     assert main(["benchmark", *SELECTION, "--methods", "classic", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -166,7 +194,7 @@ def test_the_journal_seeds_one_piece_per_run_and_method(tmp_path):
     pd.testing.assert_frame_equal(kept, rows.sort_values(["run", "method", "element"]).reset_index(drop=True))
 
 
-def test_resume_continues_a_results_file_without_its_journal(whole, classic, tmp_path, capsys):
+def test_resume_continues_a_results_file_without_its_journal(whole, classic, tmp_path, capsys, figures_not_drawn):
     """A committed or downloaded results.parquet (no runs/ beside it) is continued: only the rest runs."""
     out = tmp_path / "shipped"
     out.mkdir()

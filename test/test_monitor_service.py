@@ -5,6 +5,8 @@ The records are our own closed loop (:mod:`drifting`), a day per lockstep run, t
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 from dataclasses import asdict
 
@@ -12,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from drifting import DAY, Change, drifting_data, drifting_signals
+from session_share import shared_folder
 from shipped import system_only_params
 
 from pmr_ros.cli import main
@@ -52,6 +55,27 @@ def _run(capsys, argv):
     return code, captured.out, captured.err
 
 
+@pytest.fixture(scope="module")
+def windows_run(export, tmp_path_factory):
+    """``diagnose plant.csv --window 2d --step 1d --jobs 1 --json --trend --report``, once per session.
+
+    For the tests that read it: ``(code, out, err, folder)``, the folder holding ``r.json``, ``trend.csv``, ``page/``.
+    """
+
+    def run(folder):
+        folder.mkdir()
+        argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
+        argv += ["--step", "1d", "--jobs", "1", "--json", str(folder / "r.json"), "--trend", str(folder / "trend.csv")]
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main([*argv, "--report", str(folder / "page")])
+        (folder / "run.json").write_text(json.dumps([code, out.getvalue(), err.getvalue()]))
+
+    folder = shared_folder(tmp_path_factory, "test_monitor_service_windows_run", run)
+    code, out, err = json.loads((folder / "run.json").read_text())
+    return code, out, err, folder
+
+
 def test_window_stretches_are_slices_of_the_one_record(config):
     data = drifting_data(config, days=2, changes=())
     job = WindowJob(config, data, data.usable)
@@ -63,12 +87,10 @@ def test_window_stretches_are_slices_of_the_one_record(config):
     np.testing.assert_allclose(centred[0].y + stretches[1].y.mean(axis=0), stretches[1].y, atol=1e-12)
 
 
-def test_the_window_command_writes_windows_trend_and_the_last_window_on_top(export, capsys, tmp_path):
-    argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
-    argv += ["--step", "1d", "--jobs", "1", "--json", str(tmp_path / "r.json"), "--trend", str(tmp_path / "trend.csv")]
-    code, out, err = _run(capsys, argv)
+def test_the_window_command_writes_windows_trend_and_the_last_window_on_top(windows_run):
+    code, out, err, folder = windows_run
     assert code == 0, err
-    report = json.loads((tmp_path / "r.json").read_text())
+    report = json.loads((folder / "r.json").read_text())
     windows = report["windows"]
     assert [(w["first"], w["last"]) for w in windows] == [(0, 2 * DAY - 1), (DAY, 3 * DAY - 1), (2 * DAY, 4 * DAY - 1)]
     assert windows[0]["start"].startswith("2025-03-01T00:00") and windows[-1]["end"].startswith("2025-03-05T00:00")
@@ -82,7 +104,7 @@ def test_the_window_command_writes_windows_trend_and_the_last_window_on_top(expo
     gains = [w["elements"]["G11"]["parametric"]["gain_mismatch_pct"] for w in windows]
     np.testing.assert_allclose(gains, [0.0, 7.5, 15.0], atol=2.0)
     assert {w["elements"]["G12"]["verdict"] for w in windows} <= {"ok", "inconclusive"}
-    trend = pd.read_csv(tmp_path / "trend.csv")
+    trend = pd.read_csv(folder / "trend.csv")
     assert len(trend) == 3 * 4 and set(trend["element"]) == {"G11", "G12", "G21", "G22"}
     np.testing.assert_allclose(trend.query("element == 'G11'")["gain_mismatch_pct"], gains, rtol=1e-9)
     assert (trend["delay_mismatch_samples_high"] > trend["delay_mismatch_samples"]).all()  # dD has an interval
@@ -91,13 +113,14 @@ def test_the_window_command_writes_windows_trend_and_the_last_window_on_top(expo
     assert "windows: 3 (3 ok)" in out and "G11" in out
 
 
-def test_windows_run_in_parallel_as_in_one_process(export, capsys, tmp_path):
-    outputs = {}
-    for jobs in ("1", "2"):
-        argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
-        argv += ["--step", "1d", "--jobs", jobs, "--json", str(tmp_path / f"{jobs}.json"), "--quiet"]
-        assert _run(capsys, argv)[0] == 0
-        outputs[jobs] = json.loads((tmp_path / f"{jobs}.json").read_text())["windows"]
+def test_windows_run_in_parallel_as_in_one_process(export, windows_run, capsys, tmp_path):
+    code, _, err, folder = windows_run  # the same windows with --jobs 1
+    assert code == 0, err
+    outputs = {"1": json.loads((folder / "r.json").read_text())["windows"]}
+    argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
+    argv += ["--step", "1d", "--jobs", "2", "--json", str(tmp_path / "2.json"), "--quiet"]
+    assert _run(capsys, argv)[0] == 0
+    outputs["2"] = json.loads((tmp_path / "2.json").read_text())["windows"]
     for serial, parallel in zip(outputs["1"], outputs["2"], strict=True):
         for name, element in serial["elements"].items():
             other = parallel["elements"][name]
@@ -183,13 +206,12 @@ def test_a_drift_and_a_delay_step_are_found_on_their_days(config, tmp_path):
     assert "drift" in page.read_text() and (tmp_path / "figures" / "trend_G11.png").stat().st_size > 20000
 
 
-def test_the_trend_page_renders_in_a_headless_browser(export, capsys, tmp_path):
+def test_the_trend_page_renders_in_a_headless_browser(windows_run, tmp_path):
     from test_report_html import _pixels_near, _screenshot
 
-    argv = ["diagnose", str(export / "plant.csv"), "--config", str(export / "column.yaml"), "--window", "2d"]
-    code, out, err = _run(capsys, [*argv, "--step", "1d", "--jobs", "1", "--report", str(tmp_path / "page")])
+    code, _, err, folder = windows_run
     assert code == 0, err
-    folder = tmp_path / "page"
+    folder = folder / "page"
     assert 'href="trend.html"' in (folder / "index.html").read_text()
     text = (folder / "trend.html").read_text()
     assert text.count("data:image/png;base64,") == 5  # the strip and one figure per element
@@ -271,22 +293,24 @@ def test_start_workers_starts_the_fork_server_only_for_local_windows_on_several_
     import sys
     from pathlib import Path
 
+    # one fresh process tries the three in turn, counting its fork servers after each: one only after the last
     script = (
         "import sys, psutil\n"
         "from pmr_ros.service.monitoring import start_workers\n"
-        "jobs, scheduler = int(sys.argv[1]), (sys.argv[2] or None)\n"
-        "start_workers(jobs=jobs, scheduler=scheduler)\n"
-        "print(sum('forkserver' in ' '.join(p.cmdline()) for p in psutil.Process().children()))\n"
+        "for case in sys.argv[1:]:\n"
+        "    jobs, scheduler = case.split(',')\n"
+        "    start_workers(jobs=int(jobs), scheduler=scheduler or None)\n"
+        "    print(sum('forkserver' in ' '.join(p.cmdline()) for p in psutil.Process().children()))\n"
     )
     root = Path(__file__).resolve().parent.parent
     env = {**__import__("os").environ, "PYTHONPATH": str(root)}
-    servers = {}
-    for jobs, scheduler in ((1, ""), (2, "tcp://127.0.0.1:1"), (2, "")):
-        done = subprocess.run(
-            [sys.executable, "-c", script, str(jobs), scheduler], capture_output=True, text=True, env=env, timeout=120
-        )
-        assert done.returncode == 0, done.stderr
-        servers[jobs, scheduler] = done.stdout.strip()
+    cases = ((1, ""), (2, "tcp://127.0.0.1:1"), (2, ""))
+    done = subprocess.run(
+        [sys.executable, "-c", script, *(f"{jobs},{scheduler}" for jobs, scheduler in cases)],
+        capture_output=True, text=True, env=env, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    servers = dict(zip(cases, done.stdout.split(), strict=True))
     assert servers == {(1, ""): "0", (2, "tcp://127.0.0.1:1"): "0", (2, ""): "1"}
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import re
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from plant_export import DATA_BLOCK, PI_GAIN, PI_RESET_MIN, as_parquet_frame, dirty_frame, pi_loop
+from session_share import shared_folder
 from shipped import system_only_params
 
 from pmr_ros.cli import main
@@ -140,6 +142,26 @@ def _run(capsys, argv):
     return code, captured.out, captured.err
 
 
+@pytest.fixture(scope="module")
+def column_report(export, tmp_path_factory):
+    """``diagnose historian.csv --config column.yaml --json --report``, run once per session for the tests that read it.
+
+    ``(code, out, err, folder)``: the exit code, what it printed, and the folder of ``r.json`` and ``page/``.
+    """
+
+    def run(folder):
+        folder.mkdir()
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main(["diagnose", str(export / "historian.csv"), "--config", str(export / "column.yaml"),
+                         "--json", str(folder / "r.json"), "--report", str(folder / "page")])  # fmt: skip
+        (folder / "run.json").write_text(json.dumps([code, out.getvalue(), err.getvalue()]))
+
+    folder = shared_folder(tmp_path_factory, "test_report_html_column_report", run)
+    code, out, err = json.loads((folder / "run.json").read_text())
+    return code, out, err, folder
+
+
 def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, tmp_path):
     code, out, err = _run(capsys, ["diagnose", str(export / "historian.parquet"), "--config",
                                    str(export / "pi.yaml"), "--json", str(tmp_path / "r.json"),
@@ -163,17 +185,15 @@ def test_diagnose_an_export_with_a_model_and_a_data_block_only(export, capsys, t
     assert f"ISE &times;{first['impact']['ise_ratio']:.2f}" in html
 
 
-def test_an_export_without_a_controller_block_gets_no_impact_and_says_why(export, capsys, tmp_path):
-    code, out, err = _run(capsys, ["diagnose", str(export / "historian.csv"), "--config",
-                                   str(export / "column.yaml"), "--json", str(tmp_path / "r.json"),
-                                   "--report", str(tmp_path / "page")])  # fmt: skip
+def test_an_export_without_a_controller_block_gets_no_impact_and_says_why(column_report):
+    code, out, err, folder = column_report
     assert code == 0, err
-    report = json.loads((tmp_path / "r.json").read_text())
+    report = json.loads((folder / "r.json").read_text())
     assert report["controller"] == "external" and report["impact"] is None
     assert all(e["impact"] is None for e in report["elements"].values())
     notes = [line for line in out.splitlines() if "control impact" in line]
     assert notes == [f"note: {FOREIGN}"]
-    html = (tmp_path / "page" / "index.html").read_text()
+    html = (folder / "page" / "index.html").read_text()
     assert "Which mismatch matters for control" in html and "did not come from pmr-ros&#39;s node set" in html
 
 
@@ -248,18 +268,18 @@ def _screenshot(page, out, tmp_path):
         "--hide-scrollbars", "--window-size=1200,7000", f"--screenshot={out}", page.as_uri(),
     ]  # fmt: skip
     subprocess.run(command, check=True, capture_output=True, timeout=180)
-    return np.asarray(Image.open(out).convert("RGB")).astype(int)
+    return np.asarray(Image.open(out).convert("RGB")).astype(np.int16)  # signed for differences; a quarter of int64
 
 
 def _pixels_near(image, colour, tolerance=12):
-    return int(np.sum(np.all(np.abs(image - np.array(colour)) <= tolerance, axis=-1)))
+    """How many pixels of ``image`` (RGB, 0-255) are within ``tolerance`` of ``colour`` in each channel."""
+    return int(np.sum(np.all(np.abs(image - np.array(colour, dtype=np.int16)) <= tolerance, axis=-1)))
 
 
-def test_the_page_renders_with_its_figures_in_a_headless_browser(export, capsys, tmp_path):
-    code, _, err = _run(capsys, ["diagnose", str(export / "historian.csv"), "--config", str(export / "column.yaml"),
-                                 "--report", str(tmp_path / "report")])  # fmt: skip
+def test_the_page_renders_with_its_figures_in_a_headless_browser(column_report, tmp_path):
+    code, _, err, folder = column_report
     assert code == 0, err
-    page = tmp_path / "report" / "index.html"
+    page = folder / "page" / "index.html"
     text = page.read_text()
     # matrix, time plot, prediction, four PMR plots and four step responses
     assert text.count("data:image/png;base64,") == 11 and 'src="figures/' not in text  # self-contained

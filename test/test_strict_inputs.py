@@ -190,12 +190,17 @@ def test_a_diagnostician_whose_window_cannot_fit_in_memory_refuses_to_start(ros_
     assert "diagnostician.window_samples = 2000000000: a full window needs about 2.06 TB of memory" in err
 
 
-def test_console_script_errors_are_one_line_without_traceback(tmp_path):
+def test_a_config_file_that_is_not_utf8_is_one_line(capsys, tmp_path):
     (tmp_path / "latin1.yaml").write_bytes((config_dir() / "wood_berry.yaml").read_bytes() + b"# 20 \xb0C\n")
+    err = _error(capsys, ["run", "--batch", "--config", str(tmp_path / "latin1.yaml")])
+    assert "not UTF-8 text: byte 0xb0 on line" in err, err
+
+
+def test_console_script_errors_are_one_line_without_traceback(tmp_path):
+    """``diagnose`` and ``replay`` as a process of their own (``run``'s: test_cli)."""
     (tmp_path / "bad_bag").mkdir()
     (tmp_path / "bad_bag" / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
     cases = [
-        (["run", "--batch", "--config", str(tmp_path / "latin1.yaml")], "not UTF-8 text: byte 0xb0 on line"),
         (["diagnose", str(tmp_path / "bad_bag")], "metadata.yaml: not valid YAML: did not find expected node"),
         (["replay", str(REFERENCE), "--max-samples-per-second", "-5"], "-5 must be a finite number >= 0"),
     ]

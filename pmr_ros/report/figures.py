@@ -40,8 +40,20 @@ def _pyplot() -> Any:
     return plt
 
 
+def done_layout(fig: Any) -> None:
+    """Say the figure's layout is done (``tight_layout``): ``savefig`` then draws it once, not twice.
+
+    ``tight_layout()`` leaves a placeholder layout engine behind, and ``savefig`` first draws a figure that has a
+    layout engine without painting it (to lay it out), then draws it again to paint it.  Without an engine it only
+    paints it: the same PNG, byte for byte, for about a third less time.
+    """
+    fig.set_layout_engine(None)  # no engine (``"none"`` would leave the placeholder)
+
+
 def _png(fig: Any) -> bytes:
+    """The figure as PNG, its layout done (``tight_layout``) before."""
     buffer = io.BytesIO()
+    done_layout(fig)
     fig.savefig(buffer, format="png", dpi=100)
     _pyplot().close(fig)
     return buffer.getvalue()

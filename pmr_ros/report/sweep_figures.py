@@ -112,6 +112,7 @@ def _save(fig: Figure, axes: Any, title: str, path: Path) -> Path:
     fig.suptitle(title, fontsize=9)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
+    fig.set_layout_engine(None)  # the layout is done: savefig draws the figure once (figures.done_layout)
     with replacing(path) as tmp:
         fig.savefig(tmp, dpi=90, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
