@@ -10,7 +10,14 @@ import pytest
 
 from pmr_ros.config import load_config
 from pmr_ros.contract.alignment import SampleAligner
-from pmr_ros.contract.windowing import INSUFFICIENT, VERDICT, evaluate_window, useful_data, window_info
+from pmr_ros.contract.windowing import (
+    INSUFFICIENT,
+    VERDICT,
+    evaluate_window,
+    useful_data,
+    window_info,
+    without_verdict,
+)
 from pmr_ros.core.pmr.diagnosis import shortest_useful_stretch, useful_stretches
 from pmr_ros.core.records import Record
 from pmr_ros.core.sim.closed_loop import simulate
@@ -165,3 +172,17 @@ def test_after_a_model_switch_only_the_samples_from_it_count():
     outcome = evaluate_window(aligner, config, since=6000)
     assert outcome.kind == INSUFFICIENT and "since the model switch at sample 6000" in outcome.reason
     assert window_info(aligner, WINDOW, since=6000)["first_sample"] == 6000
+
+
+def test_a_window_without_a_verdict_names_its_window_and_newest_sample():
+    config, record = _config("full"), _record("full")
+    aligner = _aligner(config)
+    _feed(aligner, record, 9000, {})
+    outcome = without_verdict("failed", "diagnosis failed: ValueError: x", aligner, config, since=3000)
+    assert outcome.kind == "failed" and outcome.reason == "diagnosis failed: ValueError: x"
+    assert outcome.window == {"window_samples": 6000, "first_sample": 3000, "last_sample": 8999}
+    assert outcome.stamp_s == 8999 * config.model.sample_time
+    assert outcome.diagnosis.samples == 6000 and outcome.diagnosis.reason == outcome.reason
+    assert {e.verdict for e in outcome.diagnosis.elements.values()} == {"inconclusive"}
+    empty = without_verdict("stale", "no y", _aligner(config), config)
+    assert empty.window == {"window_samples": 0} and empty.stamp_s == 0.0 and empty.diagnosis.samples == 0

@@ -15,7 +15,7 @@ from __future__ import annotations
 from ..config import PmrConfig
 from .alignment import SampleAligner
 from .layout import FAILED
-from .windowing import WindowOutcome, window_info, without_verdict
+from .windowing import WindowOutcome, without_verdict
 
 __all__ = ["failed_window", "failure_reason"]
 
@@ -57,6 +57,4 @@ def failed_window(aligner: SampleAligner, config: PmrConfig, exc: BaseException,
     WindowOutcome
         Kind ``failed``, its reason :func:`failure_reason` of ``exc``.
     """
-    window = window_info(aligner, config.diagnostician.window_samples, since=since)
-    newest = aligner.stretch_last if aligner.stretch_last is not None else 0
-    return without_verdict(FAILED, failure_reason(exc), config, window, newest * aligner.sample_time_s)
+    return without_verdict(FAILED, failure_reason(exc), aligner, config, since=since)

@@ -273,16 +273,39 @@ def useful_data(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) ->
     return UsefulData([pieces[j] for j in keep], [data[j] for j in keep], held, len(pieces), shortest, data)
 
 
-def without_verdict(kind: str, reason: str, config: PmrConfig, window: dict, stamp: float) -> WindowOutcome:
-    """The outcome of a window without a verdict: every element of ``config.model`` inconclusive for ``reason``.
+def _newest_stamp(aligner: SampleAligner) -> float:
+    """The sample time of the newest complete sample (0 before the first) [s]: the statuses' stamp."""
+    return (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
+
+
+def without_verdict(
+    kind: str, reason: str, aligner: SampleAligner, config: PmrConfig, *, since: int = 0
+) -> WindowOutcome:
+    """The outcome of the current window without a verdict: every element of ``config.model`` inconclusive.
 
     Also the live node's own no-verdict statuses (a silence, a conflict, a failed diagnosis) are built here.
+
+    Parameters
+    ----------
+    kind : str
+        The outcome's kind, the statuses' ``status`` (``stale``, ``insufficient_data``, ``conflict``, ``failed``).
+    reason : str
+        Why there is no verdict (one line).
+    aligner : SampleAligner
+        Its window (:func:`window_info`) and newest sample (the stamp) describe the statuses.
+    config : PmrConfig
+        The elements and the method; ``diagnostician.window_samples``.
+    since : int
+        The first sample the controller ran on ``config.model`` (:func:`evaluate_window`).
     """
-    samples = int(window.get("window_samples", 0))
+    window = window_info(aligner, config.diagnostician.window_samples, since=since)
     diagnosis = Diagnosis.insufficient(
-        method=config.pmr.method, models=config.model.element_models(), reason=reason, samples=samples
+        method=config.pmr.method,
+        models=config.model.element_models(),
+        reason=reason,
+        samples=int(window.get("window_samples", 0)),
     )
-    return WindowOutcome(kind, diagnosis, reason, window, stamp)
+    return WindowOutcome(kind, diagnosis, reason, window, _newest_stamp(aligner))
 
 
 def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0) -> WindowOutcome:
@@ -301,14 +324,14 @@ def evaluate_window(aligner: SampleAligner, config: PmrConfig, *, since: int = 0
         switch): earlier samples are left out.
     """
     window_samples, min_samples = config.diagnostician.window_samples, config.diagnostician.min_samples
-    stamp = (aligner.stretch_last if aligner.stretch_last is not None else 0) * aligner.sample_time_s
     stale = aligner.lagging()
     if stale:
-        return without_verdict(STALE, stale, config, window_info(aligner, window_samples, since=since), stamp)
+        return without_verdict(STALE, stale, aligner, config, since=since)
     data = useful_data(aligner, config, since=since)
     if data.samples < min_samples:
         reason = data.shortfall(min_samples) + (f" since the model switch at sample {since}" if since else "")
-        return without_verdict(INSUFFICIENT, reason, config, window_info(aligner, window_samples, since=since), stamp)
+        return without_verdict(INSUFFICIENT, reason, aligner, config, since=since)
+    stamp = _newest_stamp(aligner)
     if not data.stretches:  # one stretch, too short for a Welch segment: the core says why
         diagnosis = diagnose_stretches(
             data.all_stretches,

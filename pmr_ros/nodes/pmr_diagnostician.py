@@ -52,7 +52,6 @@ from ..contract.windowing import (
     check_window_memory,
     evaluate_window,
     offer_signal,
-    window_info,
     without_verdict,
 )
 from ..core.results import Diagnosis
@@ -303,12 +302,8 @@ class PmrDiagnosticianNode(ConfiguredNode):
         self._submit_without_verdict(reason, STALE_STATUS, silence=True)
 
     # -- output --------------------------------------------------------------
-    def _window_info(self) -> dict[str, int]:
-        return window_info(self.aligner, self.config.diagnostician.window_samples, since=self.model_since)
-
     def _submit_without_verdict(self, reason: str, state: str, *, silence: bool = False) -> None:
-        newest = self.aligner.stretch_last if self.aligner.stretch_last is not None else 0
-        out = without_verdict(state, reason, self.config, self._window_info(), newest * self.aligner.sample_time_s)
+        out = without_verdict(state, reason, self.aligner, self.config, since=self.model_since)
         publish = self._publish_silence if silence else self._publish
         self.worker.submit(lambda: publish(out.diagnosis, out.window, out.stamp_s, state))
 
