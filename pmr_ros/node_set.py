@@ -281,6 +281,7 @@ def _watch(plant: PlantNode, diagnostician: Any, listener: _Listener, nodes: lis
         real_time_rate_hz=plant.config.simulation.real_time_rate_hz,
     )
     labels = {s: f"{s} on {listener.resolve_topic_name(topic(key).name)}" for s, key in _WATCHED_TOPICS.items()}
+    labels.update({key: listener.resolve_topic_name(topic(key).name) for key in ("diagnostics", "estimates")})
     others = [n for n in nodes if n not in (plant, diagnostician, listener) and hasattr(n, "done")]
     return RunWatch(plant, diagnostician, listener, limits, labels=labels, others=others)
 

@@ -133,3 +133,17 @@ def test_final_verdicts_without_estimates_and_an_unfinished_node_are_named():
     watch.check(now=STALL_S + 0.2)  # the estimates came: progress
     with pytest.raises(RunStalled, match="waiting for bag_recorder to be done"):
         watch.check(now=2 * STALL_S + 0.3)
+
+
+def test_a_namespaced_run_names_its_own_diagnostics_and_estimates_topics():
+    plant, d, listener = SimpleNamespace(sample=99, finished=True), _diagnostician(), _listener()
+    _took(d, 99)
+    names = {"diagnostics": "/column_a/diagnostics", "estimates": "/column_a/pmr/estimates"}
+    watch = RunWatch(plant, d, listener, RunLimits(100, STALL_S, VERDICT_S, START_S), labels={**LABELS, **names})
+    watch.check(now=0.0)
+    with pytest.raises(RunStalled, match=r"no final verdicts \(for sample 99\) on /column_a/diagnostics;"):
+        watch.check(now=STALL_S + 0.1)
+    listener.final, listener.final_has_verdict = object(), True
+    watch.check(now=STALL_S + 0.2)  # the verdicts came: progress
+    with pytest.raises(RunStalled, match="no estimates for sample 99 on /column_a/pmr/estimates"):
+        watch.check(now=2 * STALL_S + 0.3)

@@ -20,6 +20,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..contract.topics import topic
+
 __all__ = ["REAL_TIME_ALLOWANCE_S", "RunLimits", "RunStalled", "RunWatch"]
 
 REAL_TIME_ALLOWANCE_S = 0.1
@@ -81,7 +83,8 @@ class RunWatch:
         (signal -> samples recorded, empty without recording).
     limits : RunLimits
     labels : mapping, optional
-        Signal -> how a line names it (``y on /pmr/measured_output``).
+        Signal -> how a line names it (``y on /pmr/measured_output``); ``diagnostics`` and ``estimates`` -> their
+        topics' names as resolved in the run's namespace.
     others : sequence, optional
         Further nodes whose ``done`` the run waits for.
     """
@@ -191,11 +194,16 @@ class RunWatch:
         if missing:
             return f"the run's listener has not recorded every sample: {', '.join(missing)}"
         if listener.final is None:
-            return f"no final verdicts (for sample {last}) on /diagnostics; the diagnostician took every sample"
+            verdicts = f"no final verdicts (for sample {last}) on {self._topic('diagnostics')}"
+            return f"{verdicts}; the diagnostician took every sample"
         if listener.final_has_verdict and listener.estimates is None:
-            return f"final verdicts, but no estimates for sample {last} on pmr/estimates"
+            return f"final verdicts, but no estimates for sample {last} on {self._topic('estimates')}"
         waiting = [_name(n) for n in self.others if not n.done]
         return f"waiting for {', '.join(waiting) or 'nothing'} to be done"
+
+    def _topic(self, key: str) -> str:
+        """How a line names the contract topic ``key``: its label, else its name as the contract has it, absolute."""
+        return self.labels.get(key) or "/" + topic(key).name.lstrip("/")
 
     def _held_back(self) -> str:
         """A lockstep plant held back by its consumers: whom it waits for."""
