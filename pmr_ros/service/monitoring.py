@@ -4,11 +4,11 @@ The record (a historian export or a bag, read and cleaned once) is cut into
 the windows of :func:`pmr_ros.core.monitor.window_plan`; each window's
 unbroken stretches are slices of the one record (a window's own deviations
 are the only copy; :mod:`.window_job`, whose names this module also gives).
-Windows run on local processes (the sweep's
-``forkserver`` pool, :func:`pmr_ros.core.sim.workers.worker_context`, the record
-memory-mapped by each worker: :mod:`.shipping`), in this
-process (``jobs=1``) or on a Dask cluster (:mod:`pmr_ros.sweep.cluster`); the
-results are the same, in window order.  Each window's entry carries its
+Windows run on local processes (the sweep's ``forkserver`` pool,
+:func:`pmr_ros.core.sim.workers.worker_context`, the record memory-mapped by
+each worker: :mod:`.shipping`), in this process (``jobs=1``) or on a Dask
+cluster (:mod:`pmr_ros.sweep.cluster`); the results are the same, in window
+order.  Each window's entry carries its
 elements in the result codec's JSON shape (:mod:`pmr_ros.core.results.codec`).
 """
 
