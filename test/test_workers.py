@@ -102,8 +102,9 @@ def test_ctrl_c_of_the_process_group_ends_a_pool_promptly_without_the_workers_tr
     import sys
     import time
 
-    # a task that says when it has begun (a worker's output is the script's), then takes a minute
-    naps = "import time\n\ndef nap(seconds):\n    print('started', flush=True)\n    time.sleep(seconds)\n"
+    # a task that says when it has begun (a worker's output is the script's), then takes a minute; one write
+    # of a whole line, atomic on a pipe: print's text and newline could interleave with the other worker's
+    naps = "import os, time\n\ndef nap(seconds):\n    os.write(1, b'started\\n')\n    time.sleep(seconds)\n"
     script = (
         "import sys\n"
         "import naps\n"
